@@ -1,0 +1,3 @@
+"""datagen: synthetic, annotated, reproducible datasets for robot learning."""
+
+__version__ = "0.1.0"

@@ -1,0 +1,137 @@
+"""Labels from the rendered buffers: instance and semantic maps, boxes, visibility, poses.
+
+Pixel convention: a 2D box is ``[x_min, y_min, x_max, y_max]`` in pixel indices, inclusive,
+taken from the instance mask. Visibility compares the visible mask with the object's amodal
+silhouette, rasterised from its convex parts projected through the same camera.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+import cv2
+import numpy as np
+
+from datagen.engines.render import Frame
+from datagen.geometry import pose_record
+
+_BOX_CORNERS = np.array([[x, y, z] for x in (-0.5, 0.5) for y in (-0.5, 0.5) for z in (-0.5, 0.5)])
+
+
+@dataclass
+class LabelledObject:
+    instance_id: int
+    class_name: str
+    class_id: int
+    entity_id: int  # SAPIEN per-scene id, as in the Segmentation buffer
+    pose_world: np.ndarray  # (4, 4) object -> world
+    parts: list[np.ndarray]  # convex parts' vertices, object frame, (N_i, 3) each
+    obb_transform: np.ndarray  # (4, 4) box frame -> object frame
+    obb_extents: np.ndarray  # (3,) metres
+
+
+def project(
+    points_world: np.ndarray, intrinsics: np.ndarray, extrinsics: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
+    """World points (N, 3) -> pixel coordinates (N, 2) (pixel centres at integers) and depth (N,)."""
+    cam = points_world @ extrinsics[:3, :3].T + extrinsics[:3, 3]
+    uvw = cam @ intrinsics.T
+    with np.errstate(divide="ignore", invalid="ignore"):
+        uv = uvw[:, :2] / uvw[:, 2:3] - 0.5
+    return uv, cam[:, 2]
+
+
+def label_maps(
+    frame: Frame, objects: list[LabelledObject], stuff_class_ids: dict[int, int]
+) -> tuple[np.ndarray, np.ndarray]:
+    """Instance map (uint16, 0 = not an object) and semantic class map (uint8, 0 = background)."""
+    ids = [0, int(frame.entity_ids.max()), *stuff_class_ids, *(o.entity_id for o in objects)]
+    instance_lut = np.zeros(max(ids) + 1, np.uint16)
+    class_lut = np.zeros(max(ids) + 1, np.uint8)
+    for entity_id, class_id in stuff_class_ids.items():
+        class_lut[entity_id] = class_id
+    for obj in objects:
+        instance_lut[obj.entity_id] = obj.instance_id
+        class_lut[obj.entity_id] = obj.class_id
+    return instance_lut[frame.entity_ids], class_lut[frame.entity_ids]
+
+
+def _amodal_pixels(obj: LabelledObject, frame: Frame, near: float) -> tuple[int, int]:
+    """(pixels of the whole silhouette, of which inside the image), ignoring occluders."""
+    height, width = frame.depth.shape
+    hulls = []
+    for part in obj.parts:
+        world = part @ obj.pose_world[:3, :3].T + obj.pose_world[:3, 3]
+        uv, z = project(world, frame.intrinsics, frame.extrinsics)
+        if (z <= near).any():
+            return 0, 0  # crosses the camera plane: no meaningful silhouette
+        hulls.append(cv2.convexHull(uv.astype(np.float32)).reshape(-1, 2))
+    points = np.concatenate(hulls)
+    lo = np.floor(points.min(axis=0)).astype(int) - 1
+    hi = np.ceil(points.max(axis=0)).astype(int) + 1
+    # cap the canvas: an object this large in view is truncated anyway
+    lo = np.maximum(lo, [-4 * width, -4 * height])
+    hi = np.minimum(hi, [5 * width, 5 * height])
+    canvas = np.zeros((hi[1] - lo[1] + 1, hi[0] - lo[0] + 1), np.uint8)
+    for hull in hulls:
+        cv2.fillConvexPoly(
+            canvas, np.rint((hull - lo) * 16).astype(np.int32), 1, cv2.LINE_8, shift=4
+        )
+    x0, y0 = max(0, lo[0]), max(0, lo[1])
+    x1, y1 = min(width, hi[0] + 1), min(height, hi[1] + 1)
+    inside = (
+        int(canvas[y0 - lo[1] : y1 - lo[1], x0 - lo[0] : x1 - lo[0]].sum())
+        if x1 > x0 and y1 > y0
+        else 0
+    )
+    return int(canvas.sum()), inside
+
+
+def object_view_records(
+    frame: Frame, instance_map: np.ndarray, objects: list[LabelledObject], near: float
+) -> list[dict[str, Any]]:
+    """Per object, what this camera sees of it. Objects with no visible pixel have ``bbox: None``."""
+    counts = np.bincount(
+        instance_map.ravel(), minlength=max((o.instance_id for o in objects), default=0) + 1
+    )
+    records = []
+    for obj in objects:
+        visible = int(counts[obj.instance_id])
+        bbox = None
+        if visible:
+            ys, xs = np.nonzero(instance_map == obj.instance_id)
+            bbox = [int(xs.min()), int(ys.min()), int(xs.max()), int(ys.max())]
+        amodal, amodal_inside = _amodal_pixels(obj, frame, near)
+        obb_world = obj.pose_world @ obj.obb_transform
+        corners = (_BOX_CORNERS * obj.obb_extents) @ obb_world[:3, :3].T + obb_world[:3, 3]
+        corners_px, _ = project(corners, frame.intrinsics, frame.extrinsics)
+        records.append(
+            {
+                "instance_id": obj.instance_id,
+                "class": obj.class_name,
+                "class_id": obj.class_id,
+                "visible": visible > 0,
+                "visible_pixels": visible,
+                "bbox_xyxy": bbox,
+                # visible / whole silhouette (occlusion and truncation); 1.0 = fully visible
+                "visible_fraction": round(min(1.0, visible / amodal), 6) if amodal else 0.0,
+                "in_frame_fraction": round(amodal_inside / amodal, 6) if amodal else 0.0,
+                "pose_camera": pose_record(frame.extrinsics @ obj.pose_world),
+                "obb_corners_px": np.round(corners_px, 3).tolist(),
+            }
+        )
+    return records
+
+
+def object_world_record(obj: LabelledObject) -> dict[str, Any]:
+    return {
+        "instance_id": obj.instance_id,
+        "class": obj.class_name,
+        "class_id": obj.class_id,
+        "pose_world": pose_record(obj.pose_world),
+        "obb": {
+            "pose_world": pose_record(obj.pose_world @ obj.obb_transform),
+            "extents": np.round(obj.obb_extents, 7).tolist(),
+        },
+    }

@@ -1,0 +1,149 @@
+"""Sample ``index`` of a build: build the scene, render every camera, annotate, encode.
+
+``render_annotated`` is the simulator-side work (arrays + metadata); ``to_sample`` encodes it
+into the named parts of a :class:`~datagen.sample.Sample`. The benchmark's plain render loop
+calls the first alone.
+"""
+
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass
+from typing import Any
+
+import cv2
+import numpy as np
+import sapien
+
+from datagen.config import BuildConfig
+from datagen.engines.annotate import (
+    LabelledObject,
+    label_maps,
+    object_view_records,
+    object_world_record,
+)
+from datagen.engines.render import DEPTH_SCALE, capture, keep_renderer_alive
+from datagen.geometry import pose_record
+from datagen.sample import Sample, sample_key
+from datagen.scenes.grasp_tabletop import CLASS_ID, CLASSES, GraspScene, build_scene
+
+METADATA_FORMAT = "datagen.sample/1"
+
+
+@dataclass
+class View:
+    rgb: np.ndarray  # (H, W, 3) uint8, RGB
+    depth: np.ndarray  # (H, W) uint16 millimetres
+    instance: np.ndarray  # (H, W) uint16
+    semantic: np.ndarray  # (H, W) uint8
+
+
+@dataclass
+class AnnotatedSample:
+    index: int
+    views: dict[str, View]
+    metadata: dict[str, Any]
+
+
+def _labelled_objects(scene: GraspScene) -> list[LabelledObject]:
+    return [
+        LabelledObject(
+            instance_id=o.instance_id,
+            class_name=o.class_name,
+            class_id=CLASS_ID[o.class_name],
+            entity_id=o.entity.per_scene_id,
+            pose_world=np.asarray(o.entity.pose.to_transformation_matrix(), float),
+            parts=[np.asarray(p.vertices, float) for p in o.geometry.parts],
+            obb_transform=o.geometry.obb_transform,
+            obb_extents=o.geometry.obb_extents,
+        )
+        for o in scene.objects
+    ]
+
+
+def render_annotated(config: BuildConfig, seed: int, index: int) -> AnnotatedSample:
+    keep_renderer_alive()
+    scene = build_scene(config, seed, index)
+    scene.scene.update_render()
+    objects = _labelled_objects(scene)
+    stuff_class_ids = {entity_id: CLASS_ID[name] for entity_id, name in scene.stuff.items()}
+
+    views, view_meta = {}, {}
+    for name, camera in scene.cameras.items():
+        frame = capture(camera)
+        instance, semantic = label_maps(frame, objects, stuff_class_ids)
+        views[name] = View(frame.rgb, frame.depth, instance, semantic)
+        view_meta[name] = {
+            "camera": {
+                "width": int(camera.width),
+                "height": int(camera.height),
+                "fovy_deg": round(float(np.rad2deg(camera.fovy)), 6),
+                "near": round(float(camera.near), 6),
+                "far": round(float(camera.far), 6),
+                "intrinsics": np.round(frame.intrinsics, 6).tolist(),
+                "extrinsics_world_to_camera": np.round(frame.extrinsics, 7).tolist(),
+                "convention": "opencv",
+                "depth_scale": DEPTH_SCALE,
+            },
+            "objects": object_view_records(frame, instance, objects, float(camera.near)),
+        }
+
+    objects_meta = []
+    for obj, record in zip(scene.objects, map(object_world_record, objects), strict=True):
+        spec = obj.spec
+        body = obj.entity.find_component_by_type(sapien.physx.PhysxRigidDynamicComponent)
+        objects_meta.append(
+            record
+            | {
+                "shape": spec["shape"],
+                "density": spec["density"],
+                "mass": round(float(body.mass), 7),
+                "friction": spec["friction"],
+                "restitution": spec["restitution"],
+            }
+        )
+    metadata = {
+        "format": METADATA_FORMAT,
+        "key": sample_key(index),
+        "index": index,
+        "seed": seed,
+        "scene": config.scene,
+        "classes": list(CLASSES),
+        "objects": objects_meta,
+        "views": view_meta,
+        "robot": {
+            "name": "panda",
+            "description": "mani_skill/assets/robots/panda/panda_v2.urdf",
+            "base_pose": pose_record(
+                np.asarray(scene.robot.root_pose.to_transformation_matrix(), float)
+            ),
+            "qpos": np.round(scene.robot.get_qpos(), 6).tolist(),
+        },
+        "randomisation": scene.params,
+    }
+    return AnnotatedSample(index, views, metadata)
+
+
+def _png(image: np.ndarray) -> bytes:
+    ok, encoded = cv2.imencode(".png", image)
+    if not ok:
+        raise RuntimeError(f"PNG encoding failed for an image of shape {image.shape}")
+    return encoded.tobytes()
+
+
+def to_sample(annotated: AnnotatedSample) -> Sample:
+    """Parts: ``rgb.png depth.png seg.png semantic.png`` for the workspace camera, the same
+    names prefixed ``<camera>.`` for any other camera, and ``json`` for the metadata."""
+    parts: dict[str, bytes] = {}
+    for name, view in annotated.views.items():
+        prefix = "" if name == "workspace" else f"{name}."
+        parts[f"{prefix}rgb.png"] = _png(cv2.cvtColor(view.rgb, cv2.COLOR_RGB2BGR))
+        parts[f"{prefix}depth.png"] = _png(view.depth)
+        parts[f"{prefix}seg.png"] = _png(view.instance)
+        parts[f"{prefix}semantic.png"] = _png(view.semantic)
+    parts["json"] = json.dumps(annotated.metadata, sort_keys=True, separators=(",", ":")).encode()
+    return Sample(annotated.index, parts)
+
+
+def produce_sample(config: BuildConfig, seed: int, index: int) -> Sample:
+    return to_sample(render_annotated(config, seed, index))

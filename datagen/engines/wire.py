@@ -1,0 +1,140 @@
+"""Binary wire format for one sample (version 1); the spec is docs/wire-format.md.
+
+Layout, little-endian::
+
+    b"DGS1" | u16 version | u16 flags | u32 header_len | header (UTF-8 JSON)
+    | part payloads, concatenated in header order | u32 CRC32 of everything before it
+
+Nothing here unpickles or evaluates anything: a message from the network is bytes,
+checked field by field, and either becomes a ``Sample`` or raises ``WireError``.
+"""
+
+from __future__ import annotations
+
+import json
+import struct
+import zlib
+
+from datagen.sample import Sample, sample_key, valid_part_name
+
+MAGIC = b"DGS1"
+VERSION = 1
+# magic(4s) version(u16) flags(u16) header_len(u32): 12 bytes
+_PREFIX = struct.Struct("<4sHHI")
+_CRC = struct.Struct("<I")
+MIN_MESSAGE_BYTES = _PREFIX.size + _CRC.size
+# Default upper bound for one encoded sample; broker and clients are configured with it.
+DEFAULT_MAX_MESSAGE_BYTES = 64 * 2**20
+
+
+class WireError(ValueError):
+    """A payload is not a valid version-1 sample message; the text says why."""
+
+
+def encode_sample(build_id: str, sample: Sample) -> bytes:
+    if not isinstance(build_id, str) or not build_id:
+        raise WireError("build_id must be a non-empty string")
+    if not sample.parts:
+        raise WireError(f"sample {sample.key} has no parts")
+    for name, data in sample.parts.items():
+        if not isinstance(name, str) or not valid_part_name(name):
+            raise WireError(f"sample {sample.key}: invalid part name {name!r}")
+        if not isinstance(data, bytes | bytearray | memoryview):
+            raise WireError(
+                f"sample {sample.key}: part {name!r} is {type(data).__name__}, not bytes"
+            )
+    header = {
+        "build_id": build_id,
+        "index": sample.index,
+        "key": sample.key,
+        "parts": [{"name": name, "size": len(data)} for name, data in sample.parts.items()],
+    }
+    header_bytes = json.dumps(header, separators=(",", ":"), ensure_ascii=False).encode("utf-8")
+    body = b"".join(
+        [_PREFIX.pack(MAGIC, VERSION, 0, len(header_bytes)), header_bytes, *sample.parts.values()]
+    )
+    return body + _CRC.pack(zlib.crc32(body))
+
+
+def decode_sample(payload: bytes, max_bytes: int | None = None) -> tuple[str, Sample]:
+    """Checks and decodes one message; returns (build_id, sample) or raises ``WireError``."""
+    payload = bytes(payload)
+    n = len(payload)
+    if max_bytes is not None and n > max_bytes:
+        raise WireError(f"message of {n} bytes exceeds the limit of {max_bytes} bytes")
+    if n < MIN_MESSAGE_BYTES:
+        raise WireError(f"truncated: {n} bytes is shorter than the {MIN_MESSAGE_BYTES}-byte frame")
+    magic, version, flags, header_len = _PREFIX.unpack_from(payload, 0)
+    if magic != MAGIC:
+        raise WireError(f"bad magic {magic!r}, expected {MAGIC!r}")
+    if version != VERSION:
+        raise WireError(f"unknown wire version {version}, this decoder reads version {VERSION}")
+    if flags != 0:
+        raise WireError(f"unknown flags 0x{flags:04x} (version 1 defines none)")
+    header_end = _PREFIX.size + header_len
+    if header_end > n - _CRC.size:
+        raise WireError(
+            f"truncated: header_len {header_len} runs past the end of a {n}-byte message"
+        )
+    (crc,) = _CRC.unpack_from(payload, n - _CRC.size)
+    actual = zlib.crc32(memoryview(payload)[: n - _CRC.size])
+    if crc != actual:
+        raise WireError(f"CRC32 mismatch: message says 0x{crc:08x}, content gives 0x{actual:08x}")
+
+    build_id, index, parts = _parse_header(payload[_PREFIX.size : header_end])
+    body_len = n - _CRC.size - header_end
+    total = sum(size for _, size in parts)
+    if total != body_len:
+        raise WireError(f"part sizes add up to {total} bytes but the body holds {body_len}")
+    data: dict[str, bytes] = {}
+    offset = header_end
+    for name, size in parts:
+        data[name] = payload[offset : offset + size]
+        offset += size
+    return build_id, Sample(index=index, parts=data)
+
+
+def _parse_header(raw: bytes) -> tuple[str, int, list[tuple[str, int]]]:
+    try:
+        header = json.loads(raw.decode("utf-8"))
+    except (UnicodeDecodeError, ValueError) as exc:
+        raise WireError(f"header is not UTF-8 JSON: {exc}") from None
+    if not isinstance(header, dict):
+        raise WireError(f"header is a JSON {type(header).__name__}, expected an object")
+    build_id = header.get("build_id")
+    index = header.get("index")
+    key = header.get("key")
+    parts = header.get("parts")
+    if not isinstance(build_id, str) or not build_id:
+        raise WireError("header.build_id must be a non-empty string")
+    if not _is_int(index):
+        raise WireError("header.index must be an integer")
+    try:
+        expected_key = sample_key(index)
+    except ValueError as exc:
+        raise WireError(f"header.index: {exc}") from None
+    if key != expected_key:
+        raise WireError(
+            f"header.key {key!r} does not match index {index} (expected {expected_key!r})"
+        )
+    if not isinstance(parts, list) or not parts:
+        raise WireError("header.parts must be a non-empty list")
+    out: list[tuple[str, int]] = []
+    seen: set[str] = set()
+    for i, part in enumerate(parts):
+        if not isinstance(part, dict):
+            raise WireError(f"header.parts[{i}] must be an object")
+        name, size = part.get("name"), part.get("size")
+        if not isinstance(name, str) or not valid_part_name(name):
+            raise WireError(f"header.parts[{i}].name {name!r} is not a valid part name")
+        if name in seen:
+            raise WireError(f"header.parts: duplicate part name {name!r}")
+        if not _is_int(size) or size < 0:
+            raise WireError(f"header.parts[{i}].size must be a non-negative integer")
+        seen.add(name)
+        out.append((name, size))
+    return build_id, index, out
+
+
+def _is_int(value: object) -> bool:
+    return isinstance(value, int) and not isinstance(value, bool)

@@ -1,0 +1,46 @@
+"""Small rigid-transform helpers (metres, radians; quaternions are w, x, y, z like SAPIEN)."""
+
+from __future__ import annotations
+
+import numpy as np
+import transforms3d.quaternions as tq
+
+# SAPIEN's camera entity frame is x forward, y left, z up; OpenCV's camera frame is
+# x right, y down, z forward. This maps OpenCV camera coordinates to SAPIEN camera coordinates.
+CV_TO_SAPIEN_CAMERA = np.array([[0, 0, 1, 0], [-1, 0, 0, 0], [0, -1, 0, 0], [0, 0, 0, 1]], float)
+
+
+def random_quaternion(rng: np.random.Generator) -> list[float]:
+    """Uniform on SO(3), w >= 0."""
+    q = rng.normal(size=4)
+    q /= np.linalg.norm(q)
+    return [float(x) for x in (q if q[0] >= 0 else -q)]
+
+
+def look_at(eye, target, up=(0.0, 0.0, 1.0)) -> np.ndarray:
+    """(4, 4) world pose of a SAPIEN camera at ``eye`` looking at ``target``."""
+    eye, target = np.asarray(eye, float), np.asarray(target, float)
+    forward = target - eye
+    forward /= np.linalg.norm(forward)
+    left = np.cross(np.asarray(up, float), forward)
+    if np.linalg.norm(left) < 1e-6:  # looking straight along ``up``
+        left = np.cross([0.0, 1.0, 0.0], forward)
+    left /= np.linalg.norm(left)
+    pose = np.eye(4)
+    pose[:3, :3] = np.stack([forward, left, np.cross(forward, left)], axis=1)
+    pose[:3, 3] = eye
+    return pose
+
+
+def world_to_cv_camera(camera_pose_world: np.ndarray) -> np.ndarray:
+    """(4, 4) extrinsics, OpenCV convention: x_cam = E @ x_world, camera x right, y down, z ahead."""
+    return np.linalg.inv(camera_pose_world @ CV_TO_SAPIEN_CAMERA)
+
+
+def pose_record(transform: np.ndarray) -> dict[str, list]:
+    """A JSON record of a (4, 4) transform: the matrix plus position and quaternion (w, x, y, z)."""
+    return {
+        "matrix": np.round(transform, 7).tolist(),
+        "position": np.round(transform[:3, 3], 7).tolist(),
+        "quat_wxyz": np.round(tq.mat2quat(transform[:3, :3]), 7).tolist(),
+    }

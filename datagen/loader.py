@@ -1,0 +1,174 @@
+"""Reading a datagen dataset: ``load(dir)`` for training code, ``verify(dir)`` for checksums.
+
+``load`` reads the tar headers of the shards listed in ``manifest.json`` once, keeping each
+member's byte offset; items are then read with ``os.pread`` from file handles opened lazily in
+each process, so random access is cheap and the dataset pickles into DataLoader workers.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import json
+import os
+import tarfile
+from collections.abc import Iterator
+from pathlib import Path
+from typing import Any
+
+import cv2
+import numpy as np
+
+from datagen.sinks.webdataset import MANIFEST, file_sha256, keys_sha256, member_key
+
+# part name -> item field, for the parts decoded as images
+_IMAGES = {"rgb.png": "rgb", "depth.png": "depth", "seg.png": "seg", "semantic.png": "semantic"}
+
+
+class DatasetError(ValueError):
+    """The directory is not a (valid) datagen dataset; the text says why."""
+
+
+def read_manifest(root: str | Path) -> dict[str, Any]:
+    path = Path(root) / MANIFEST
+    if not path.is_file():
+        raise DatasetError(f"{root} is not a datagen dataset: no {MANIFEST} (not finalized?)")
+    try:
+        manifest = json.loads(path.read_text(encoding="utf-8"))
+    except ValueError as exc:
+        raise DatasetError(f"{path}: not valid JSON: {exc}") from None
+    if not isinstance(manifest, dict) or not isinstance(manifest.get("shards"), list):
+        raise DatasetError(f"{path}: no 'shards' list; not a datagen manifest")
+    return manifest
+
+
+def decode_parts(parts: dict[str, bytes]) -> dict[str, Any]:
+    """Encoded parts -> arrays: rgb HxWx3 uint8 RGB, depth HxW uint16 mm, seg HxW instance ids,
+    semantic HxW class ids, meta dict; unknown parts stay bytes under their own name."""
+    item: dict[str, Any] = {}
+    for name, data in parts.items():
+        if name == "json":
+            item["meta"] = json.loads(data.decode("utf-8"))
+        elif name in _IMAGES:
+            item[_IMAGES[name]] = _decode_png(name, data)
+        else:
+            item[name] = data
+    return item
+
+
+def _decode_png(name: str, data: bytes) -> np.ndarray:
+    image = cv2.imdecode(np.frombuffer(data, np.uint8), cv2.IMREAD_UNCHANGED)
+    if image is None:
+        raise DatasetError(f"part {name!r} is not a decodable image")
+    if name == "rgb.png" and image.ndim == 3:
+        code = cv2.COLOR_BGRA2RGB if image.shape[2] == 4 else cv2.COLOR_BGR2RGB
+        image = cv2.cvtColor(image, code)
+    return image
+
+
+class ShardDataset:
+    """Map-style dataset over finalized shards; items in key order."""
+
+    def __init__(self, root: str | Path):
+        self.root = Path(root)
+        self.manifest = read_manifest(self.root)
+        self.shards = [str(s["name"]) for s in self.manifest["shards"]]
+        # key -> [(shard number, data offset, size, part name)]
+        members: dict[str, list[tuple[int, int, int, str]]] = {}
+        for i, name in enumerate(self.shards):
+            path = self.root / name
+            if not path.is_file():
+                raise DatasetError(f"{self.root}: shard {name} listed in the manifest is missing")
+            with tarfile.open(path, "r:") as tar:
+                for m in tar:
+                    if not m.isfile():
+                        continue
+                    key = member_key(m.name)
+                    members.setdefault(key, []).append(
+                        (i, m.offset_data, m.size, m.name[len(key) + 1 :])
+                    )
+        self.keys = sorted(members)
+        self._members = [members[k] for k in self.keys]
+        expected = self.manifest.get("samples")
+        if expected is not None and expected != len(self.keys):
+            raise DatasetError(
+                f"{self.root}: manifest says {expected} samples, shards hold {len(self.keys)}"
+            )
+        self._fds: dict[int, int] = {}
+        self._pid = os.getpid()
+
+    def __len__(self) -> int:
+        return len(self.keys)
+
+    def __getitem__(self, i: int) -> dict[str, Any]:
+        item = decode_parts(self.raw(i))
+        item["key"] = self.keys[i]
+        return item
+
+    def __iter__(self) -> Iterator[dict[str, Any]]:
+        for i in range(len(self)):
+            yield self[i]
+
+    def raw(self, i: int) -> dict[str, bytes]:
+        """The encoded parts of item ``i``, as stored."""
+        return {
+            part: self._read(shard, offset, size) for shard, offset, size, part in self._members[i]
+        }
+
+    def shard_paths(self) -> list[str]:
+        return [str(self.root / name) for name in self.shards]
+
+    def close(self) -> None:
+        if self._pid == os.getpid():
+            for fd in self._fds.values():
+                os.close(fd)
+        self._fds = {}
+
+    def __getstate__(self) -> dict[str, Any]:
+        state = self.__dict__.copy()
+        state["_fds"] = {}
+        return state
+
+    def __del__(self) -> None:
+        with contextlib.suppress(OSError, AttributeError):
+            self.close()
+
+    def _read(self, shard: int, offset: int, size: int) -> bytes:
+        if self._pid != os.getpid():  # forked (e.g. a DataLoader worker): own handles
+            self._fds, self._pid = {}, os.getpid()
+        fd = self._fds.get(shard)
+        if fd is None:
+            fd = self._fds[shard] = os.open(self.root / self.shards[shard], os.O_RDONLY)
+        data = os.pread(fd, size, offset)
+        if len(data) != size:
+            raise DatasetError(f"{self.shards[shard]}: truncated member at byte {offset}")
+        return data
+
+
+def load(root: str | Path) -> ShardDataset:
+    return ShardDataset(root)
+
+
+def verify(root: str | Path) -> dict[str, Any]:
+    """Recomputes every shard's sha256 and size and the keys digest; raises DatasetError on
+    any mismatch, else returns the manifest."""
+    root = Path(root)
+    manifest = read_manifest(root)
+    problems = []
+    for shard in manifest["shards"]:
+        path = root / shard["name"]
+        if not path.is_file():
+            problems.append(f"{shard['name']}: missing")
+            continue
+        if path.stat().st_size != shard.get("bytes"):
+            problems.append(
+                f"{shard['name']}: {path.stat().st_size} bytes, manifest says {shard.get('bytes')}"
+            )
+        if file_sha256(path) != shard.get("sha256"):
+            problems.append(f"{shard['name']}: sha256 differs from the manifest")
+    if not problems and "keys_sha256" in manifest:
+        keys = ShardDataset(root).keys
+        if keys_sha256(keys) != manifest["keys_sha256"]:
+            problems.append("keys_sha256 differs from the keys in the shards")
+    if problems:
+        raise DatasetError(f"{root}: " + "; ".join(problems))
+    return manifest

@@ -1,0 +1,82 @@
+"""Preview grids: samples drawn with their annotations (masks, 2D boxes, 3D boxes, labels)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+import cv2
+import numpy as np
+
+# (i, j) corner pairs of the 8 box corners ordered x-major, then y, then z (see annotate.py)
+_BOX_EDGES = [(0, 1), (2, 3), (4, 5), (6, 7), (0, 2), (1, 3), (4, 6), (5, 7), (0, 4), (1, 5), (2, 6), (3, 7)]
+
+
+def instance_colour(instance_id: int) -> tuple[int, int, int]:
+    """A stable, distinct BGR colour per instance id (golden-ratio hue steps)."""
+    hue = int((instance_id * 0.618033988749895 % 1.0) * 179)
+    hsv = np.uint8([[[hue, 200, 255]]])
+    return tuple(int(c) for c in cv2.cvtColor(hsv, cv2.COLOR_HSV2BGR)[0, 0])
+
+
+def draw_annotations(rgb: np.ndarray, instance: np.ndarray, view: dict[str, Any]) -> np.ndarray:
+    """BGR image: masks blended in, 3D oriented boxes, 2D boxes and class labels on top."""
+    image = cv2.cvtColor(rgb, cv2.COLOR_RGB2BGR)
+    overlay = image.copy()
+    for obj in view["objects"]:
+        if obj["visible"]:
+            overlay[instance == obj["instance_id"]] = instance_colour(obj["instance_id"])
+    image = cv2.addWeighted(overlay, 0.45, image, 0.55, 0)
+    for obj in view["objects"]:
+        if not obj["visible"]:
+            continue
+        colour = instance_colour(obj["instance_id"])
+        corners = np.asarray(obj["obb_corners_px"])
+        if np.isfinite(corners).all() and np.abs(corners).max() < 1e5:
+            for i, j in _BOX_EDGES:
+                p, q = np.rint(corners[[i, j]]).astype(int)
+                cv2.line(image, tuple(p), tuple(q), colour, 1, cv2.LINE_AA)
+        x0, y0, x1, y1 = obj["bbox_xyxy"]
+        cv2.rectangle(image, (x0, y0), (x1, y1), (255, 255, 255), 1)
+        label = f"{obj['class']} {obj['visible_fraction']:.2f}"
+        cv2.putText(image, label, (x0, max(10, y0 - 3)), cv2.FONT_HERSHEY_SIMPLEX, 0.38, (0, 0, 0), 3, cv2.LINE_AA)
+        cv2.putText(image, label, (x0, max(10, y0 - 3)), cv2.FONT_HERSHEY_SIMPLEX, 0.38, (255, 255, 255), 1, cv2.LINE_AA)
+    return image
+
+
+def depth_colour(depth_mm: np.ndarray) -> np.ndarray:
+    valid = depth_mm > 0
+    if not valid.any():
+        return np.zeros((*depth_mm.shape, 3), np.uint8)
+    lo, hi = np.percentile(depth_mm[valid], [1, 99])
+    scaled = np.clip((depth_mm.astype(float) - lo) / max(hi - lo, 1.0), 0, 1)
+    image = cv2.applyColorMap((255 * (1 - scaled)).astype(np.uint8), cv2.COLORMAP_TURBO)
+    image[~valid] = 0
+    return image
+
+
+def write_preview(dataset_dir: Path, out_path: Path, count: int = 8, columns: int = 4) -> Path:
+    """A grid of ``count`` samples: annotated colour image above its depth map."""
+    from datagen.loader import load
+
+    dataset = load(dataset_dir)
+    tiles = []
+    for i in range(min(count, len(dataset))):
+        item = dataset[i]
+        view = item["meta"]["views"]["workspace"]
+        annotated = draw_annotations(item["rgb"], item["seg"], view)
+        cv2.putText(annotated, item["key"], (6, 18), cv2.FONT_HERSHEY_SIMPLEX, 0.55, (255, 255, 255), 2, cv2.LINE_AA)
+        tiles.append(np.vstack([annotated, depth_colour(item["depth"])]))
+    if not tiles:
+        raise ValueError(f"{dataset_dir}: the dataset has no samples to preview")
+    blank = np.zeros_like(tiles[0])
+    while len(tiles) % columns and len(tiles) > columns:
+        tiles.append(blank)
+    rows = [np.hstack(tiles[r : r + columns]) for r in range(0, len(tiles), columns)]
+    grid = np.vstack(rows)
+    scale = min(1.0, 2400 / grid.shape[1])
+    if scale < 1.0:
+        grid = cv2.resize(grid, None, fx=scale, fy=scale, interpolation=cv2.INTER_AREA)
+    out_path.parent.mkdir(parents=True, exist_ok=True)
+    cv2.imwrite(str(out_path), grid)
+    return out_path

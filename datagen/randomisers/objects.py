@@ -1,0 +1,120 @@
+"""Object randomiser: count, shape family, dimensions, density, friction, restitution."""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+import sapien
+
+from datagen.config import ObjectsConfig
+from datagen.geometry import random_quaternion
+from datagen.randomisers.materials import render_material
+from datagen.shapes import ObjectGeometry, build_geometry
+
+
+def _uniform(rng: np.random.Generator, bounds: tuple[float, float]) -> float:
+    return float(rng.uniform(bounds[0], bounds[1]))
+
+
+def _convex_points(rng: np.random.Generator, semi_axes: np.ndarray, n: int) -> list[list[float]]:
+    directions = rng.normal(size=(n, 3))
+    directions /= np.linalg.norm(directions, axis=1, keepdims=True)
+    radii = rng.uniform(0.6, 1.0, size=(n, 1))
+    return np.round(directions * radii * semi_axes, 6).tolist()
+
+
+def sample_shape(rng: np.random.Generator, family: str, size: float) -> dict[str, Any]:
+    """Shape parameters (metres) for one object whose largest extent is about ``size``."""
+    half = size / 2
+    if family == "box":
+        parts = [{"kind": "box", "extents": (rng.uniform(0.35, 1.0, 3) * size).round(6).tolist()}]
+    elif family == "cylinder":
+        radius = half * rng.uniform(0.35, 0.8)
+        parts = [
+            {
+                "kind": "cylinder",
+                "radius": round(radius, 6),
+                "height": round(size * rng.uniform(0.5, 1.0), 6),
+            }
+        ]
+    elif family == "sphere":
+        parts = [{"kind": "sphere", "radius": round(half * rng.uniform(0.5, 0.9), 6)}]
+    elif family == "capsule":
+        radius = half * rng.uniform(0.25, 0.45)
+        parts = [
+            {"kind": "capsule", "radius": round(radius, 6), "height": round(size - 2 * radius, 6)}
+        ]
+    elif family == "convex":
+        semi_axes = rng.uniform(0.4, 1.0, 3) * half
+        parts = [
+            {"kind": "convex", "points": _convex_points(rng, semi_axes, int(rng.integers(8, 20)))}
+        ]
+    elif family == "compound":
+        parts = []
+        for _ in range(int(rng.integers(2, 4))):
+            kind = str(rng.choice(["box", "cylinder", "convex"]))
+            sub = sample_shape(rng, kind, size * 0.55)["parts"][0]
+            sub["offset"] = (rng.uniform(-0.5, 0.5, 3) * half * 0.6).round(6).tolist()
+            sub["quat_wxyz"] = random_quaternion(rng)
+            parts.append(sub)
+    else:
+        raise ValueError(f"unknown shape family {family!r}")
+    return {"family": family, "parts": parts}
+
+
+def sample_objects(rng: np.random.Generator, cfg: ObjectsConfig) -> list[dict[str, Any]]:
+    count = int(rng.integers(cfg.count[0], cfg.count[1] + 1))
+    objects = []
+    for _ in range(count):
+        family = str(rng.choice(list(cfg.families)))
+        objects.append(
+            {
+                "shape": sample_shape(rng, family, _uniform(rng, cfg.size)),
+                "density": _uniform(rng, cfg.density),
+                "friction": _uniform(rng, cfg.friction),
+                "restitution": _uniform(rng, cfg.restitution),
+            }
+        )
+    return objects
+
+
+def add_objects(
+    scene: sapien.Scene,
+    objects: list[dict[str, Any]],
+    poses: list[dict[str, Any]],
+    materials: list[dict[str, Any]],
+) -> list[tuple[sapien.Entity, ObjectGeometry]]:
+    """Apply step: one dynamic actor per object, convex collision parts, its own material."""
+    added = []
+    for i, (obj, pose, material) in enumerate(zip(objects, poses, materials, strict=True)):
+        geometry = build_geometry(obj["shape"])
+        physx_material = sapien.physx.PhysxMaterial(
+            obj["friction"], obj["friction"], obj["restitution"]
+        )
+        body = sapien.physx.PhysxRigidDynamicComponent()
+        for part in geometry.parts:
+            shape = sapien.physx.PhysxCollisionShapeConvexMesh(
+                np.asarray(part.vertices, np.float32), np.ones(3, np.float32), physx_material
+            )
+            shape.set_density(obj["density"])
+            body.attach(shape)
+        visual = geometry.visual
+        render_body = sapien.render.RenderBodyComponent()
+        render_body.attach(
+            sapien.render.RenderShapeTriangleMesh(
+                np.asarray(visual.vertices, np.float32),
+                np.asarray(visual.faces, np.uint32),
+                np.asarray(visual.vertex_normals, np.float32),
+                np.zeros((len(visual.vertices), 2), np.float32),
+                render_material(material),
+            )
+        )
+        entity = sapien.Entity()
+        entity.name = f"object_{i + 1}"
+        entity.add_component(body)
+        entity.add_component(render_body)
+        entity.set_pose(sapien.Pose(pose["position"], pose["quat_wxyz"]))
+        scene.add_entity(entity)
+        added.append((entity, geometry))
+    return added

@@ -1,0 +1,1 @@
+"""Dataset writers: the MQTT writer process and the shard formats it writes."""

@@ -1,0 +1,139 @@
+"""Shared fixtures. Transfer/writer/loader fixtures: ``broker``, ``build_id``,
+``make_sample``, ``start_writer`` (real Mosquitto, real writer processes, no mocks)."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+import uuid
+from collections.abc import Callable, Iterator
+from pathlib import Path
+
+import cv2
+import numpy as np
+import pytest
+
+from datagen.engines.broker import ManagedBroker
+from datagen.sample import Sample
+from datagen.sinks.webdataset import ShardWriter, journal_path, keys_sha256, write_manifest
+
+REPO = Path(__file__).resolve().parents[1]
+
+
+@pytest.fixture(scope="session")
+def broker() -> Iterator[ManagedBroker]:
+    """One Mosquitto for the session; tests isolate themselves with a fresh ``build_id``."""
+    with ManagedBroker() as b:
+        yield b
+
+
+@pytest.fixture
+def build_id() -> str:
+    return "test-" + uuid.uuid4().hex[:10]
+
+
+def synthetic_arrays(index: int, height: int = 24, width: int = 32) -> dict:
+    """Random images seeded by ``index``: rgb HxWx3 uint8 (RGB order), depth uint16 mm,
+    seg uint16 instance ids, semantic uint8 class ids, and a metadata dict."""
+    rng = np.random.default_rng(index)
+    return {
+        "rgb": rng.integers(0, 256, (height, width, 3), dtype=np.uint8),
+        "depth": rng.integers(0, 5000, (height, width), dtype=np.uint16),
+        "seg": rng.integers(0, 20, (height, width), dtype=np.uint16),
+        "semantic": rng.integers(0, 8, (height, width), dtype=np.uint8),
+        "meta": {"index": index, "camera": {"fov_deg": 60.0}, "objects": [{"id": 1, "class": "box"}]},
+    }
+
+
+def _png(a: np.ndarray) -> bytes:
+    ok, buf = cv2.imencode(".png", a)
+    assert ok
+    return buf.tobytes()
+
+
+def synthetic_sample(index: int, height: int = 24, width: int = 32) -> Sample:
+    """A sample with real PNG parts (``synthetic_arrays``) and a JSON part."""
+    a = synthetic_arrays(index, height, width)
+    return Sample(
+        index,
+        {
+            "rgb.png": _png(a["rgb"][:, :, ::-1]),  # cv2 writes BGR
+            "depth.png": _png(a["depth"]),
+            "seg.png": _png(a["seg"]),
+            "semantic.png": _png(a["semantic"]),
+            "json": json.dumps(a["meta"]).encode(),
+        },
+    )
+
+
+@pytest.fixture
+def make_sample() -> Callable[..., Sample]:
+    return synthetic_sample
+
+
+@pytest.fixture
+def make_arrays() -> Callable[..., dict]:
+    return synthetic_arrays
+
+
+def write_dataset(out: Path, samples: list[Sample], shard_size: int = 4, writer_id: str = "0") -> Path:
+    """A finalized dataset written directly (no MQTT): shards plus manifest.json."""
+    with ShardWriter(out, writer_id, shard_size) as sink:
+        for s in samples:
+            sink.write(s)
+    doc = {
+        "samples": len(samples),
+        "shards": [s.to_json() for s in sink.shards],
+        "keys_sha256": keys_sha256(s.key for s in samples),
+    }
+    write_manifest(out, doc)
+    journal_path(out, writer_id).unlink()
+    return out
+
+
+@pytest.fixture
+def make_dataset() -> Callable[..., Path]:
+    return write_dataset
+
+
+class WriterProcess:
+    """``python -m datagen.sinks.writer`` as a subprocess, its log in ``log_path``."""
+
+    def __init__(self, url: str, build_id: str, out: Path, writer_id: str, shard_size: int, log_path: Path):
+        self.out, self.writer_id, self.log_path = out, writer_id, log_path
+        cmd = [sys.executable, "-m", "datagen.sinks.writer", "--broker", url, "--build-id", build_id]
+        cmd += ["--out", str(out), "--writer-id", writer_id, "--shard-size", str(shard_size)]
+        with open(log_path, "ab") as log:
+            self.proc = subprocess.Popen(cmd, cwd=REPO, stdout=log, stderr=log, stdin=subprocess.DEVNULL)
+
+    def wait(self, timeout_s: float = 30.0) -> int:
+        try:
+            return self.proc.wait(timeout_s)
+        except subprocess.TimeoutExpired:
+            raise AssertionError(f"writer still running; log:\n{self.log()}") from None
+
+    def log(self) -> str:
+        return self.log_path.read_text(errors="replace")
+
+    def stop(self) -> None:
+        if self.proc.poll() is None:
+            self.proc.kill()
+            self.proc.wait()
+
+
+@pytest.fixture
+def start_writer(broker: ManagedBroker, build_id: str, tmp_path: Path) -> Iterator[Callable[..., WriterProcess]]:
+    """Factory: ``start_writer(out=tmp_path/'ds', writer_id='0', shard_size=16)``; killed at teardown."""
+    started: list[WriterProcess] = []
+
+    def start(out: Path | None = None, writer_id: str = "0", shard_size: int = 16) -> WriterProcess:
+        w = WriterProcess(
+            broker.url, build_id, out or tmp_path / "ds", writer_id, shard_size, tmp_path / f"writer-{writer_id}.log"
+        )
+        started.append(w)
+        return w
+
+    yield start
+    for w in started:
+        w.stop()

@@ -1,0 +1,123 @@
+from __future__ import annotations
+
+import json
+import re
+import struct
+import zlib
+
+from pathlib import Path
+
+import pytest
+
+from datagen.engines.wire import MAGIC, WireError, decode_sample, encode_sample
+from datagen.sample import Sample
+
+
+REPO = Path(__file__).resolve().parents[1]
+
+
+def frame(header: object, body: bytes = b"", *, magic=MAGIC, version=1, flags=0, header_bytes=None) -> bytes:
+    """A message with a valid CRC around arbitrary (possibly wrong) contents."""
+    h = header_bytes if header_bytes is not None else json.dumps(header).encode()
+    msg = struct.pack("<4sHHI", magic, version, flags, len(h)) + h + body
+    return msg + struct.pack("<I", zlib.crc32(msg))
+
+
+def header(**override) -> dict:
+    h = {"build_id": "b1", "index": 3, "key": "000000003", "parts": [{"name": "json", "size": 2}]}
+    h.update(override)
+    return h
+
+
+def test_round_trip(make_sample):
+    sample = make_sample(42)
+    build_id, out = decode_sample(encode_sample("build-1", sample))
+    assert build_id == "build-1"
+    assert out.index == 42 and out.key == "000000042"
+    assert out.parts == sample.parts
+    assert list(out.parts) == list(sample.parts)
+
+
+def test_encoding_is_deterministic_and_empty_parts_allowed():
+    s = Sample(0, {"json": b"{}", "empty.bin": b""})
+    assert encode_sample("b", s) == encode_sample("b", s)
+    assert decode_sample(encode_sample("b", s))[1].parts == s.parts
+
+
+def test_spec_example_matches_encoder():
+    doc = (REPO / "docs" / "wire-format.md").read_text()
+    hex_line = re.search(r"<!-- wire-example -->\n```\n([0-9a-f]+)\n```", doc)[1]
+    expected = encode_sample("demo", Sample(7, {"json": b'{"n":1}', "note.txt": b"hi"}))
+    assert bytes.fromhex(hex_line) == expected
+
+
+def test_valid_frame_helper_decodes():
+    assert decode_sample(frame(header(), b"{}"))[1].parts == {"json": b"{}"}
+
+
+@pytest.mark.parametrize(
+    ("payload", "reason"),
+    [
+        (b"", "truncated"),
+        (b"DGS1\x01\x00", "truncated"),
+        (frame(header(), b"{}", magic=b"XXXX"), "bad magic"),
+        (frame(header(), b"{}", version=2), "unknown wire version 2"),
+        (frame(header(), b"{}", flags=1), "unknown flags"),
+        (frame(header(), b"{}")[:-1], "CRC32 mismatch"),
+        (frame(header(), b"{}")[:-3] + b"\x00\x00\x00", "CRC32 mismatch"),
+        (frame(None, header_bytes=b"\xff\xfe"), "not UTF-8 JSON"),
+        (frame(None, header_bytes=b"{not json"), "not UTF-8 JSON"),
+        (frame([1, 2]), "expected an object"),
+        (frame(header(build_id=7), b"{}"), "build_id"),
+        (frame(header(build_id=""), b"{}"), "build_id"),
+        (frame(header(index="3"), b"{}"), "index must be an integer"),
+        (frame(header(index=True), b"{}"), "index must be an integer"),
+        (frame(header(index=-1, key="x"), b"{}"), "out of range"),
+        (frame(header(key="3"), b"{}"), "does not match index"),
+        (frame(header(parts=[]), b""), "non-empty list"),
+        (frame(header(parts={"json": 2}), b"{}"), "non-empty list"),
+        (frame(header(parts=["json"]), b"{}"), "must be an object"),
+        (frame(header(parts=[{"name": "../etc", "size": 2}]), b"{}"), "not a valid part name"),
+        (frame(header(parts=[{"name": "JSON", "size": 2}]), b"{}"), "not a valid part name"),
+        (frame(header(parts=[{"name": 5, "size": 2}]), b"{}"), "not a valid part name"),
+        (frame(header(parts=[{"name": "json", "size": -2}]), b"{}"), "non-negative integer"),
+        (frame(header(parts=[{"name": "json", "size": 2.0}]), b"{}"), "non-negative integer"),
+        (
+            frame(header(parts=[{"name": "json", "size": 1}, {"name": "json", "size": 1}]), b"{}"),
+            "duplicate part name",
+        ),
+        (frame(header(), b"{}x"), "add up to 2 bytes but the body holds 3"),
+        (frame(header(), b"{"), "add up to 2 bytes but the body holds 1"),
+    ],
+)
+def test_malformed_messages_are_rejected(payload, reason):
+    with pytest.raises(WireError, match=re.escape(reason)):
+        decode_sample(payload)
+
+
+def test_header_len_past_end_is_truncation():
+    msg = bytearray(frame(header(), b"{}"))
+    struct.pack_into("<I", msg, 8, 10**6)
+    with pytest.raises(WireError, match="runs past the end"):
+        decode_sample(bytes(msg))
+
+
+def test_oversize_is_rejected_before_parsing():
+    msg = encode_sample("b", Sample(1, {"json": b"x" * 1000}))
+    assert decode_sample(msg, max_bytes=len(msg))[1].index == 1
+    with pytest.raises(WireError, match="exceeds the limit"):
+        decode_sample(msg, max_bytes=len(msg) - 1)
+
+
+@pytest.mark.parametrize(
+    ("build_id", "sample", "reason"),
+    [
+        ("", Sample(0, {"json": b"{}"}), "build_id"),
+        ("b", Sample(0, {}), "no parts"),
+        ("b", Sample(0, {"Bad Name": b""}), "invalid part name"),
+        ("b", Sample(0, {"json": "text"}), "not bytes"),
+    ],
+)
+def test_encoder_refuses_invalid_samples(build_id, sample, reason):
+    with pytest.raises(WireError, match=reason):
+        encode_sample(build_id, sample)
