@@ -37,7 +37,15 @@ from datagen.scenes.grasp_tabletop import CLASSES
 log = logging.getLogger(__name__)
 MANIFEST = "manifest.json"
 DATASET_FORMAT = "datagen.dataset/1"
-_VERSIONED_PACKAGES = ("datagen", "sapien", "mani-skill", "numpy", "opencv-python-headless", "trimesh", "paho-mqtt")
+_VERSIONED_PACKAGES = (
+    "datagen",
+    "sapien",
+    "mani-skill",
+    "numpy",
+    "opencv-python-headless",
+    "trimesh",
+    "paho-mqtt",
+)
 WRITER_READY_TIMEOUT_S = 60.0
 FINALIZE_TIMEOUT_S = 300.0
 
@@ -122,7 +130,10 @@ def run_build(
         return BuildResult(out_dir, config.num_samples, 0.0, already_complete=True)
     build_id = secrets.token_hex(6)
     max_bytes = int(config.transfer.max_sample_mb * 2**20) + 2**16  # + wire header room
-    with ManagedBroker(max_message_bytes=max_bytes) as broker, AckCollector(broker.url, build_id) as acks:
+    with (
+        ManagedBroker(max_message_bytes=max_bytes) as broker,
+        AckCollector(broker.url, build_id) as acks,
+    ):
         writer = _start_writer(broker.url, build_id, out_dir, config, max_bytes)
         context = mp.get_context("spawn")  # SAPIEN/Vulkan and paho threads are not fork-safe
         tasks, events = context.Queue(), context.Queue()
@@ -146,10 +157,14 @@ def run_build(
                 process.start()
             _drive(config.num_samples, acks, events, processes, writer, on_progress)
             status = acks.finalize(
-                config.num_samples, build_manifest(config, build_id, workers), timeout_s=FINALIZE_TIMEOUT_S
+                config.num_samples,
+                build_manifest(config, build_id, workers),
+                timeout_s=FINALIZE_TIMEOUT_S,
             )
             if status.get("state") != "finalized":
-                raise BuildError(f"the writer could not finalize the dataset: {status.get('reason', status)}")
+                raise BuildError(
+                    f"the writer could not finalize the dataset: {status.get('reason', status)}"
+                )
             writer.wait(timeout=30)
             for process in processes:
                 process.join(timeout=30)
@@ -171,14 +186,17 @@ def _start_writer(
     ]  # fmt: skip
     # the broker URL carries the build's password: pass it in the environment, not on argv
     env = os.environ | {"DATAGEN_BROKER_URL": broker_url}
-    return subprocess.Popen(command, env=env)
+    # its own session: a terminal's Ctrl-C reaches the coordinator, which stops the writer in order
+    return subprocess.Popen(command, env=env, start_new_session=True)
 
 
 def _wait_writer_ready(acks: AckCollector, writer: subprocess.Popen) -> None:
     deadline = time.monotonic() + WRITER_READY_TIMEOUT_S
     while time.monotonic() < deadline:
         if writer.poll() is not None:
-            raise BuildError(f"the dataset writer exited with code {writer.returncode} before it was ready")
+            raise BuildError(
+                f"the dataset writer exited with code {writer.returncode} before it was ready"
+            )
         with contextlib.suppress(TimeoutError):
             acks.wait_status("ready", timeout_s=0.5)
             return
@@ -214,12 +232,18 @@ def _drive(
             if kind == "done":
                 finished.add(worker_id)
         if writer.poll() is not None:
-            raise BuildError(_missing(f"the dataset writer exited with code {writer.returncode}", acks, total))
+            raise BuildError(
+                _missing(f"the dataset writer exited with code {writer.returncode}", acks, total)
+            )
         for w, process in enumerate(processes):
             if not process.is_alive() and w not in finished and process.exitcode not in (None, 0):
-                raise BuildError(_missing(f"worker {w} died (exit code {process.exitcode})", acks, total))
+                raise BuildError(
+                    _missing(f"worker {w} died (exit code {process.exitcode})", acks, total)
+                )
         if len(finished) == len(processes) and not acks.wait_acked(total, timeout_s=60):
-            raise BuildError(_missing("all workers finished but acknowledgements stopped", acks, total))
+            raise BuildError(
+                _missing("all workers finished but acknowledgements stopped", acks, total)
+            )
 
 
 def _missing(reason: str, acks: AckCollector, total: int) -> str:

@@ -48,14 +48,25 @@ def _parser() -> argparse.ArgumentParser:
         description="Render a dataset: scene workers -> MQTT -> dataset writer -> tar shards + manifest.",
     )
     build.add_argument("config", help="YAML build config, e.g. configs/grasp_tabletop.yaml")
-    build.add_argument("--out", required=True, help="output directory for shards, manifest and preview")
-    build.add_argument("--num-samples", type=_positive_int, help="override the config's num_samples")
-    build.add_argument("--workers", type=_positive_int, default=os.cpu_count() or 1, help="scene worker processes (default: number of cores)")
+    build.add_argument(
+        "--out", required=True, help="output directory for shards, manifest and preview"
+    )
+    build.add_argument(
+        "--num-samples", type=_positive_int, help="override the config's num_samples"
+    )
+    build.add_argument(
+        "--workers",
+        type=_positive_int,
+        default=os.cpu_count() or 1,
+        help="scene worker processes (default: number of cores)",
+    )
     build.add_argument("--seed", type=_seed, help="override the config's seed")
     build.add_argument("--overwrite", action="store_true", help="replace whatever is in --out")
     build.add_argument("--no-preview", action="store_true", help="skip writing preview.png")
 
-    preview = commands.add_parser("preview", help="draw annotated samples of a dataset into a PNG grid")
+    preview = commands.add_parser(
+        "preview", help="draw annotated samples of a dataset into a PNG grid"
+    )
     preview.add_argument("dataset", help="dataset directory (with manifest.json)")
     preview.add_argument("--out", help="PNG path (default: DATASET/preview.png)")
     preview.add_argument("--count", type=_positive_int, default=8, help="samples in the grid")
@@ -64,7 +75,10 @@ def _parser() -> argparse.ArgumentParser:
 
 def main(argv: list[str] | None = None) -> int:
     args = _parser().parse_args(argv)
-    logging.basicConfig(level=logging.INFO if args.verbose else logging.WARNING, format="%(levelname)s %(name)s: %(message)s")
+    logging.basicConfig(
+        level=logging.INFO if args.verbose else logging.WARNING,
+        format="%(levelname)s %(name)s: %(message)s",
+    )
     try:
         if args.command == "build":
             return _build(args)
@@ -73,7 +87,10 @@ def main(argv: list[str] | None = None) -> int:
         print(f"datagen: config error: {exc}", file=sys.stderr)
         return EXIT_USER_ERROR
     except KeyboardInterrupt:
-        print("\ndatagen: interrupted; the output directory is incomplete (no manifest).", file=sys.stderr)
+        print(
+            "\ndatagen: interrupted; the output directory is incomplete (no manifest).",
+            file=sys.stderr,
+        )
         return EXIT_INTERRUPTED
 
 
@@ -91,14 +108,20 @@ def _build(args: argparse.Namespace) -> int:
         overrides["seed"] = args.seed
     config = config.replace(**overrides)
     out = Path(args.out)
-    print(f"datagen: building {config.num_samples} samples of '{config.scene}' (seed {config.seed}) with {args.workers} workers into {out}")
-    bar = tqdm(total=config.num_samples, unit="sample", dynamic_ncols=True, desc="durable", smoothing=0.1)
+    print(
+        f"datagen: building {config.num_samples} samples of '{config.scene}' (seed {config.seed}) with {args.workers} workers into {out}"
+    )
+    bar = tqdm(
+        total=config.num_samples, unit="sample", dynamic_ncols=True, desc="durable", smoothing=0.1
+    )
 
     def on_progress(done: int, total: int) -> None:
         bar.update(done - bar.n)
 
     try:
-        result = run_build(config, out, args.workers, overwrite=args.overwrite, on_progress=on_progress)
+        result = run_build(
+            config, out, args.workers, overwrite=args.overwrite, on_progress=on_progress
+        )
     except BuildError as exc:
         bar.close()
         print(f"datagen: build failed: {exc}", file=sys.stderr)
@@ -109,7 +132,9 @@ def _build(args: argparse.Namespace) -> int:
         print(f"datagen: {out} already holds this build ({result.samples} samples); nothing to do.")
     else:
         rate = result.samples / result.seconds if result.seconds else 0.0
-        print(f"datagen: {result.samples} samples in {result.seconds:.1f} s ({rate:.2f} samples/s) -> {out}")
+        print(
+            f"datagen: {result.samples} samples in {result.seconds:.1f} s ({rate:.2f} samples/s) -> {out}"
+        )
     if not args.no_preview:
         path = write_preview(out, out / "preview.png")
         print(f"datagen: preview with annotation overlays: {path}")

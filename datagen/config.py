@@ -202,13 +202,17 @@ def _check_unknown_keys(cls: type, data: dict[str, Any], source: str, prefix: st
     unknown = [f"{prefix}{k}" for k in data if k not in fields]
     if unknown:
         expected = ", ".join(fields)
-        raise ConfigError(f"{source}: unknown key(s) {', '.join(unknown)}; expected keys here: {expected}")
+        raise ConfigError(
+            f"{source}: unknown key(s) {', '.join(unknown)}; expected keys here: {expected}"
+        )
     for name, value in data.items():
         field_type = cls.__annotations__.get(name)
         nested = globals().get(field_type) if isinstance(field_type, str) else None
         if nested is not None and dataclasses.is_dataclass(nested):
             if not isinstance(value, dict):
-                raise ConfigError(f"{source}: {prefix}{name}: expected a mapping of keys, got {value!r}")
+                raise ConfigError(
+                    f"{source}: {prefix}{name}: expected a mapping of keys, got {value!r}"
+                )
             _check_unknown_keys(nested, value, source, prefix=f"{prefix}{name}.")
 
 

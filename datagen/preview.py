@@ -9,7 +9,20 @@ import cv2
 import numpy as np
 
 # (i, j) corner pairs of the 8 box corners ordered x-major, then y, then z (see annotate.py)
-_BOX_EDGES = [(0, 1), (2, 3), (4, 5), (6, 7), (0, 2), (1, 3), (4, 6), (5, 7), (0, 4), (1, 5), (2, 6), (3, 7)]
+_BOX_EDGES = [
+    (0, 1),
+    (2, 3),
+    (4, 5),
+    (6, 7),
+    (0, 2),
+    (1, 3),
+    (4, 6),
+    (5, 7),
+    (0, 4),
+    (1, 5),
+    (2, 6),
+    (3, 7),
+]
 
 
 def instance_colour(instance_id: int) -> tuple[int, int, int]:
@@ -39,8 +52,26 @@ def draw_annotations(rgb: np.ndarray, instance: np.ndarray, view: dict[str, Any]
         x0, y0, x1, y1 = obj["bbox_xyxy"]
         cv2.rectangle(image, (x0, y0), (x1, y1), (255, 255, 255), 1)
         label = f"{obj['class']} {obj['visible_fraction']:.2f}"
-        cv2.putText(image, label, (x0, max(10, y0 - 3)), cv2.FONT_HERSHEY_SIMPLEX, 0.38, (0, 0, 0), 3, cv2.LINE_AA)
-        cv2.putText(image, label, (x0, max(10, y0 - 3)), cv2.FONT_HERSHEY_SIMPLEX, 0.38, (255, 255, 255), 1, cv2.LINE_AA)
+        cv2.putText(
+            image,
+            label,
+            (x0, max(10, y0 - 3)),
+            cv2.FONT_HERSHEY_SIMPLEX,
+            0.38,
+            (0, 0, 0),
+            3,
+            cv2.LINE_AA,
+        )
+        cv2.putText(
+            image,
+            label,
+            (x0, max(10, y0 - 3)),
+            cv2.FONT_HERSHEY_SIMPLEX,
+            0.38,
+            (255, 255, 255),
+            1,
+            cv2.LINE_AA,
+        )
     return image
 
 
@@ -65,7 +96,16 @@ def write_preview(dataset_dir: Path, out_path: Path, count: int = 8, columns: in
         item = dataset[i]
         view = item["meta"]["views"]["workspace"]
         annotated = draw_annotations(item["rgb"], item["seg"], view)
-        cv2.putText(annotated, item["key"], (6, 18), cv2.FONT_HERSHEY_SIMPLEX, 0.55, (255, 255, 255), 2, cv2.LINE_AA)
+        cv2.putText(
+            annotated,
+            item["key"],
+            (6, 18),
+            cv2.FONT_HERSHEY_SIMPLEX,
+            0.55,
+            (255, 255, 255),
+            2,
+            cv2.LINE_AA,
+        )
         tiles.append(np.vstack([annotated, depth_colour(item["depth"])]))
     if not tiles:
         raise ValueError(f"{dataset_dir}: the dataset has no samples to preview")

@@ -4,6 +4,7 @@
 from __future__ import annotations
 
 import json
+import os
 import subprocess
 import sys
 import uuid
@@ -42,7 +43,11 @@ def synthetic_arrays(index: int, height: int = 24, width: int = 32) -> dict:
         "depth": rng.integers(0, 5000, (height, width), dtype=np.uint16),
         "seg": rng.integers(0, 20, (height, width), dtype=np.uint16),
         "semantic": rng.integers(0, 8, (height, width), dtype=np.uint8),
-        "meta": {"index": index, "camera": {"fov_deg": 60.0}, "objects": [{"id": 1, "class": "box"}]},
+        "meta": {
+            "index": index,
+            "camera": {"fov_deg": 60.0},
+            "objects": [{"id": 1, "class": "box"}],
+        },
     }
 
 
@@ -77,7 +82,9 @@ def make_arrays() -> Callable[..., dict]:
     return synthetic_arrays
 
 
-def write_dataset(out: Path, samples: list[Sample], shard_size: int = 4, writer_id: str = "0") -> Path:
+def write_dataset(
+    out: Path, samples: list[Sample], shard_size: int = 4, writer_id: str = "0"
+) -> Path:
     """A finalized dataset written directly (no MQTT): shards plus manifest.json."""
     with ShardWriter(out, writer_id, shard_size) as sink:
         for s in samples:
@@ -100,12 +107,27 @@ def make_dataset() -> Callable[..., Path]:
 class WriterProcess:
     """``python -m datagen.sinks.writer`` as a subprocess, its log in ``log_path``."""
 
-    def __init__(self, url: str, build_id: str, out: Path, writer_id: str, shard_size: int, log_path: Path):
+    def __init__(
+        self, url: str, build_id: str, out: Path, writer_id: str, shard_size: int, log_path: Path
+    ):
         self.out, self.writer_id, self.log_path = out, writer_id, log_path
-        cmd = [sys.executable, "-m", "datagen.sinks.writer", "--broker", url, "--build-id", build_id]
+        cmd = [
+            sys.executable,
+            "-m",
+            "datagen.sinks.writer",
+            "--build-id",
+            build_id,
+        ]
         cmd += ["--out", str(out), "--writer-id", writer_id, "--shard-size", str(shard_size)]
         with open(log_path, "ab") as log:
-            self.proc = subprocess.Popen(cmd, cwd=REPO, stdout=log, stderr=log, stdin=subprocess.DEVNULL)
+            self.proc = subprocess.Popen(
+                cmd,
+                cwd=REPO,
+                env=os.environ | {"DATAGEN_BROKER_URL": url},  # keeps the password off argv
+                stdout=log,
+                stderr=log,
+                stdin=subprocess.DEVNULL,
+            )
 
     def wait(self, timeout_s: float = 30.0) -> int:
         try:
@@ -123,13 +145,26 @@ class WriterProcess:
 
 
 @pytest.fixture
-def start_writer(broker: ManagedBroker, build_id: str, tmp_path: Path) -> Iterator[Callable[..., WriterProcess]]:
-    """Factory: ``start_writer(out=tmp_path/'ds', writer_id='0', shard_size=16)``; killed at teardown."""
+def start_writer(
+    broker: ManagedBroker, build_id: str, tmp_path: Path
+) -> Iterator[Callable[..., WriterProcess]]:
+    """Factory: ``start_writer(out=tmp_path/'ds', writer_id='0', shard_size=16, broker_url=None)``
+    (default: the session ``broker``); writers still running at teardown are killed."""
     started: list[WriterProcess] = []
 
-    def start(out: Path | None = None, writer_id: str = "0", shard_size: int = 16) -> WriterProcess:
+    def start(
+        out: Path | None = None,
+        writer_id: str = "0",
+        shard_size: int = 16,
+        broker_url: str | None = None,
+    ) -> WriterProcess:
         w = WriterProcess(
-            broker.url, build_id, out or tmp_path / "ds", writer_id, shard_size, tmp_path / f"writer-{writer_id}.log"
+            broker_url or broker.url,
+            build_id,
+            out or tmp_path / "ds",
+            writer_id,
+            shard_size,
+            tmp_path / f"writer-{writer_id}.log",
         )
         started.append(w)
         return w

@@ -11,14 +11,24 @@ def frame_looking_down(width=64, height=48, f=50.0):
     intrinsics = np.array([[f, 0, width / 2], [0, f, height / 2], [0, 0, 1.0]])
     extrinsics = world_to_cv_camera(look_at([0, 0, 1.0], [0, 0, 0], up=[1, 0, 0]))
     ids = np.zeros((height, width), np.uint32)
-    return Frame(np.zeros((height, width, 3), np.uint8), np.zeros((height, width), np.uint16), ids, intrinsics, extrinsics)
+    return Frame(
+        np.zeros((height, width, 3), np.uint8),
+        np.zeros((height, width), np.uint16),
+        ids,
+        intrinsics,
+        extrinsics,
+    )
 
 
 def cube(instance_id, entity_id, centre, half=0.05):
     pose = np.eye(4)
     pose[:3, 3] = centre
-    corners = np.array([[x, y, z] for x in (-half, half) for y in (-half, half) for z in (-half, half)])
-    return LabelledObject(instance_id, "box", 5, entity_id, pose, [corners], np.eye(4), np.full(3, 2 * half))
+    corners = np.array(
+        [[x, y, z] for x in (-half, half) for y in (-half, half) for z in (-half, half)]
+    )
+    return LabelledObject(
+        instance_id, "box", 5, entity_id, pose, [corners], np.eye(4), np.full(3, 2 * half)
+    )
 
 
 def test_camera_centre_projects_to_principal_point():
@@ -33,7 +43,12 @@ def test_boxes_come_from_the_mask_and_visibility_from_the_silhouette():
     frame.entity_ids[10:20, 5:15] = 40  # a drawn where it is not: the box must follow the mask
     frame.entity_ids[0, 0] = 7  # a stuff entity (say the table)
     instance, semantic = label_maps(frame, [a, b], {7: 2})
-    assert instance[12, 6] == 1 and semantic[12, 6] == 5 and semantic[0, 0] == 2 and instance[0, 0] == 0
+    assert (
+        instance[12, 6] == 1
+        and semantic[12, 6] == 5
+        and semantic[0, 0] == 2
+        and instance[0, 0] == 0
+    )
     records = {r["instance_id"]: r for r in object_view_records(frame, instance, [a, b], near=0.01)}
     assert records[1]["bbox_xyxy"] == [5, 10, 14, 19]
     assert records[1]["visible_pixels"] == 100

@@ -16,7 +16,13 @@ from datagen.engines.wire import decode_sample, encode_sample
 
 def test_parse_broker_url():
     a = parse_broker_url("mqtt://u%40x:p%2Fw%3A@127.0.0.1:1999")
-    assert (a.host, a.port, a.username, a.password, a.tls) == ("127.0.0.1", 1999, "u@x", "p/w:", False)
+    assert (a.host, a.port, a.username, a.password, a.tls) == (
+        "127.0.0.1",
+        1999,
+        "u@x",
+        "p/w:",
+        False,
+    )
     b = parse_broker_url("mqtts://broker.example")
     assert (b.port, b.username, b.password, b.tls) == (8883, None, None, True)
     assert parse_broker_url("mqtt://h").port == 1883
@@ -68,7 +74,10 @@ def test_config_raises_limits_and_files_belong_to_the_broker_user(broker):
 
 
 def test_missing_executable_is_a_clear_error():
-    with pytest.raises(BrokerError, match="not found on PATH"), ManagedBroker(executable="no-such-mosquitto"):
+    with (
+        pytest.raises(BrokerError, match="not found on PATH"),
+        ManagedBroker(executable="no-such-mosquitto"),
+    ):
         pass
 
 
@@ -78,7 +87,7 @@ def test_failed_start_reports_the_log_tail():
         taken.listen()
         port = taken.getsockname()[1]
         b = ManagedBroker(port=port)
-        with pytest.raises(BrokerError, match="(?s)exited with code.*log tail:.*in use"), b:
+        with pytest.raises(BrokerError, match=r"(?s)exited with code.*log tail:.*in use"), b:
             pass
     assert b.dir is None  # temp dir removed
 
@@ -100,7 +109,9 @@ def test_persistent_session_gets_messages_queued_across_a_broker_restart(make_sa
 
     with ManagedBroker() as b:
         t = topics("restart")
-        sub = MqttConnection(b.url, "test-persistent", subscriptions=[(t.samples, 1)], session_expiry_s=600)
+        sub = MqttConnection(
+            b.url, "test-persistent", subscriptions=[(t.samples, 1)], session_expiry_s=600
+        )
         sub.close()  # away; the broker keeps the session and queues for it
         with SamplePublisher(b.url, "restart", "test-pub") as pub:
             for i in range(3):
@@ -108,7 +119,11 @@ def test_persistent_session_gets_messages_queued_across_a_broker_restart(make_sa
         b.stop()  # SIGTERM: mosquitto writes its persistence file
         b.start()
         sub = MqttConnection(
-            b.url, "test-persistent", subscriptions=[(t.samples, 1)], session_expiry_s=600, on_message=on_message
+            b.url,
+            "test-persistent",
+            subscriptions=[(t.samples, 1)],
+            session_expiry_s=600,
+            on_message=on_message,
         )
         for _ in range(3):
             assert three.acquire(timeout=20)
@@ -124,8 +139,10 @@ def test_mosquitto_sub_hex_capture_decodes_per_spec(broker, build_id, make_sampl
     conn.client.publish(t.samples, payload, qos=1, retain=True).wait_for_publish(10)
     a = parse_broker_url(broker.url)
     out = subprocess.run(
-        ["mosquitto_sub", "-V", "mqttv5", "-h", a.host, "-p", str(a.port), "-u", a.username, "-P", a.password]
-        + ["-t", t.samples, "-C", "1", "-F", "%x"],
+        [
+            *("mosquitto_sub", "-V", "mqttv5", "-h", a.host, "-p", str(a.port)),
+            *("-u", a.username, "-P", a.password, "-t", t.samples, "-C", "1", "-F", "%x"),
+        ],
         capture_output=True,
         text=True,
         timeout=20,

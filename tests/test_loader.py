@@ -43,19 +43,26 @@ def test_shards_are_byte_reproducible_and_normalised(tmp_path, make_sample, make
     with tarfile.open(tmp_path / "a" / "shard-0-000000.tar") as tar:
         members = tar.getmembers()
     assert members[0].name == "000000000.rgb.png"
-    assert {(m.mtime, m.uid, m.gid, m.uname, m.gname, m.mode) for m in members} == {(0, 0, 0, "", "", 0o644)}
+    assert {(m.mtime, m.uid, m.gid, m.uname, m.gname, m.mode) for m in members} == {
+        (0, 0, 0, "", "", 0o644)
+    }
 
 
 def test_webdataset_reads_the_same_keys(tmp_path, make_sample, make_dataset):
     import webdataset as wds
 
     ds = load(make_dataset(tmp_path, [make_sample(i) for i in range(7)], shard_size=3))
-    seen = [(s["__key__"], json.loads(s["json"])["index"]) for s in wds.WebDataset(ds.shard_paths(), shardshuffle=False)]
+    seen = [
+        (s["__key__"], json.loads(s["json"])["index"])
+        for s in wds.WebDataset(ds.shard_paths(), shardshuffle=False)
+    ]
     assert [k for k, _ in seen] == ds.keys
     assert [int(k) for k, _ in seen] == [i for _, i in seen]
 
 
-def test_torch_dataloader_with_two_workers_sees_every_sample_once(tmp_path, make_sample, make_dataset):
+def test_torch_dataloader_with_two_workers_sees_every_sample_once(
+    tmp_path, make_sample, make_dataset
+):
     torch = pytest.importorskip("torch")
     ds = load(make_dataset(tmp_path, [make_sample(i) for i in range(10)], shard_size=3))
     ds[0]  # handles opened in the parent must not leak into the workers
@@ -87,7 +94,7 @@ def test_verify_detects_a_changed_shard(tmp_path, make_sample, make_dataset):
 
 
 def test_not_a_dataset_is_a_clear_error(tmp_path):
-    with pytest.raises(DatasetError, match="not a datagen dataset: no manifest.json"):
+    with pytest.raises(DatasetError, match=r"not a datagen dataset: no manifest\.json"):
         load(tmp_path)
     (tmp_path / "manifest.json").write_text('{"samples": 1}')
     with pytest.raises(DatasetError, match="no 'shards' list"):

@@ -41,9 +41,19 @@ def test_values_are_json_and_within_config_ranges():
         values = sample_scene(config, 1, index, *TRAY)
         json.dumps(values)
         assert config.objects.count[0] <= len(values["objects"]) <= config.objects.count[1]
-        assert len(values["drop_poses"]) == len(values["objects"]) == len(values["materials"]["objects"])
-        assert config.lighting.lights[0] <= len(values["lighting"]["lights"]) <= config.lighting.lights[1]
-        assert config.camera.fovy_deg[0] <= values["camera"]["fovy_deg"] <= config.camera.fovy_deg[1]
+        assert (
+            len(values["drop_poses"])
+            == len(values["objects"])
+            == len(values["materials"]["objects"])
+        )
+        assert (
+            config.lighting.lights[0]
+            <= len(values["lighting"]["lights"])
+            <= config.lighting.lights[1]
+        )
+        assert (
+            config.camera.fovy_deg[0] <= values["camera"]["fovy_deg"] <= config.camera.fovy_deg[1]
+        )
         for obj in values["objects"]:
             assert config.objects.density[0] <= obj["density"] <= config.objects.density[1]
             assert config.objects.friction[0] <= obj["friction"] <= config.objects.friction[1]
@@ -52,7 +62,9 @@ def test_values_are_json_and_within_config_ranges():
 def test_every_family_builds_convex_parts_of_the_requested_size():
     config = ObjectsConfig()
     for family in config.families:
-        objects = sample_objects(sample_rng(0, 0, family), ObjectsConfig(count=(4, 4), families=(family,)))
+        objects = sample_objects(
+            sample_rng(0, 0, family), ObjectsConfig(count=(4, 4), families=(family,))
+        )
         for obj in objects:
             geometry = build_geometry(obj["shape"])
             assert all(part.is_convex for part in geometry.parts)

@@ -4,7 +4,6 @@ import json
 import re
 import struct
 import zlib
-
 from pathlib import Path
 
 import pytest
@@ -12,11 +11,12 @@ import pytest
 from datagen.engines.wire import MAGIC, WireError, decode_sample, encode_sample
 from datagen.sample import Sample
 
-
 REPO = Path(__file__).resolve().parents[1]
 
 
-def frame(header: object, body: bytes = b"", *, magic=MAGIC, version=1, flags=0, header_bytes=None) -> bytes:
+def frame(
+    header: object, body: bytes = b"", *, magic=MAGIC, version=1, flags=0, header_bytes=None
+) -> bytes:
     """A message with a valid CRC around arbitrary (possibly wrong) contents."""
     h = header_bytes if header_bytes is not None else json.dumps(header).encode()
     msg = struct.pack("<4sHHI", magic, version, flags, len(h)) + h + body

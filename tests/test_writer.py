@@ -9,6 +9,7 @@ import zlib
 
 import pytest
 
+from datagen.engines.broker import ManagedBroker
 from datagen.engines.mqtt_client import MqttConnection
 from datagen.engines.transfer import AckCollector, SamplePublisher, SampleTooLarge, topics
 from datagen.engines.wire import encode_sample
@@ -46,7 +47,12 @@ def test_fifty_samples_from_two_publishers(broker, build_id, collector, start_wr
     threads = [
         threading.Thread(
             target=publish_all,
-            args=(broker, build_id, [make_sample(i) for i in range(k, 50, 2)], f"pub-{build_id}-{k}"),
+            args=(
+                broker,
+                build_id,
+                [make_sample(i) for i in range(k, 50, 2)],
+                f"pub-{build_id}-{k}",
+            ),
         )
         for k in range(2)
     ]
@@ -55,6 +61,7 @@ def test_fifty_samples_from_two_publishers(broker, build_id, collector, start_wr
     for t in threads:
         t.join()
     assert collector.wait_acked(range(50), timeout_s=TIMEOUT_S), w.log()
+    assert collector.count == 50
     status = collector.finalize(50, {"config": {"scene": "test"}, "seed": 7})
     assert status["state"] == "finalized" and status["samples"] == 50
     assert w.wait() == 0
@@ -69,7 +76,9 @@ def test_fifty_samples_from_two_publishers(broker, build_id, collector, start_wr
     assert ds[17]["meta"]["index"] == 17
 
 
-def test_duplicates_are_written_once_and_acked_again(broker, build_id, collector, start_writer, make_sample):
+def test_duplicates_are_written_once_and_acked_again(
+    broker, build_id, collector, start_writer, make_sample
+):
     w = start_ready(start_writer, collector)
     samples = [make_sample(i) for i in range(10)]
     publish_all(broker, build_id, samples + samples[:5], "pub-dup")
@@ -103,8 +112,24 @@ def test_malformed_messages_are_rejected_and_the_writer_keeps_going(
         good[:40] + b"X" + good[41:],
         encode_sample("another-build", make_sample(2)),
         encode_sample(build_id, Sample(3, {"json": b"{not json"})),
-        _framed({"build_id": build_id, "index": 4, "key": "000000004", "parts": [{"name": "a/b", "size": 0}]}, b""),
-        _framed({"build_id": build_id, "index": 5, "key": "000000005", "parts": [{"name": "x", "size": 10**9}]}, b""),
+        _framed(
+            {
+                "build_id": build_id,
+                "index": 4,
+                "key": "000000004",
+                "parts": [{"name": "a/b", "size": 0}],
+            },
+            b"",
+        ),
+        _framed(
+            {
+                "build_id": build_id,
+                "index": 5,
+                "key": "000000005",
+                "parts": [{"name": "x", "size": 10**9}],
+            },
+            b"",
+        ),
     ]
     raw = MqttConnection(broker.url, f"hostile-{build_id}")
     for payload in hostile:
@@ -121,11 +146,15 @@ def test_malformed_messages_are_rejected_and_the_writer_keeps_going(
     assert collector.acked == {1, 6}
 
 
-def test_oversize_sample_is_refused_before_publishing(broker, build_id, collector, start_writer, make_sample):
+def test_oversize_sample_is_refused_before_publishing(
+    broker, build_id, collector, start_writer, make_sample
+):
     w = start_ready(start_writer, collector)
     big = Sample(0, {"json": b"{}", "blob.bin": b"\0" * 20000})
     with SamplePublisher(broker.url, build_id, "pub-size", max_message_bytes=16384) as pub:
-        with pytest.raises(SampleTooLarge, match="000000000 encodes to .* over the 16384-byte"):
+        with pytest.raises(
+            SampleTooLarge, match=r"000000000 encodes to \d+ bytes, over the 16384-byte"
+        ):
             pub.publish(big)
         assert pub.published == 0
         pub.publish(make_sample(1))
@@ -136,7 +165,9 @@ def test_oversize_sample_is_refused_before_publishing(broker, build_id, collecto
     assert w.wait() == 0
 
 
-def test_finalize_with_the_wrong_count_is_an_error(broker, build_id, collector, start_writer, make_sample):
+def test_finalize_with_the_wrong_count_is_an_error(
+    broker, build_id, collector, start_writer, make_sample
+):
     w = start_ready(start_writer, collector)
     publish_all(broker, build_id, [make_sample(0)], "pub-count")
     assert collector.wait_acked({0}, timeout_s=TIMEOUT_S)
@@ -146,7 +177,9 @@ def test_finalize_with_the_wrong_count_is_an_error(broker, build_id, collector, 
     assert not (w.out / "manifest.json").exists()
 
 
-def test_killed_writer_resumes_without_losing_or_repeating(broker, build_id, collector, start_writer, make_sample):
+def test_killed_writer_resumes_without_losing_or_repeating(
+    broker, build_id, collector, start_writer, make_sample
+):
     w = start_ready(start_writer, collector, shard_size=8)
     publish_all(broker, build_id, [make_sample(i) for i in range(12)], "pub-a")
     assert collector.wait_acked(range(12), timeout_s=TIMEOUT_S)
@@ -172,3 +205,21 @@ def test_sigterm_is_a_clean_stop(broker, build_id, collector, start_writer, make
     assert w.wait() == 0
     assert collector.wait_status("stopped", after=mark, timeout_s=TIMEOUT_S)["samples"] == 1
     assert (w.out / "shard-0-000000.tar").stat().st_size % 10240 == 0  # terminated tar
+
+
+def test_broker_restart_mid_build_loses_nothing(build_id, start_writer, make_sample):
+    with ManagedBroker() as b, AckCollector(b.url, build_id) as acks:
+        w = start_ready(start_writer, acks, broker_url=b.url)
+        with SamplePublisher(b.url, build_id, "pub-restart", window=4) as pub:
+            for i in range(10):
+                pub.publish(make_sample(i))
+            pub.flush()
+            b.stop()  # SIGTERM: mosquitto saves sessions and queued messages
+            b.start()  # same port and credentials; every client reconnects by itself
+            for i in range(10, 20):
+                pub.publish(make_sample(i))
+        assert acks.wait_acked(range(20), timeout_s=TIMEOUT_S), w.log()
+        status = acks.finalize(20, {})
+        assert status["state"] == "finalized", w.log()
+        assert w.wait() == 0
+    assert load(w.out).keys == [f"{i:09d}" for i in range(20)]

@@ -82,7 +82,9 @@ def _mqtt_str(text: str) -> bytes:
 
 def mqtt_handshake(host: str, port: int, username: str, password: str, timeout_s: float) -> bool:
     """True if an MQTT broker answers a CONNECT on host:port with a CONNACK (any return code)."""
-    body = _mqtt_str("MQTT") + bytes([4, 0xC2, 0, 10])  # v3.1.1, user+password+clean, keepalive 10 s
+    body = _mqtt_str("MQTT") + bytes(
+        [4, 0xC2, 0, 10]
+    )  # v3.1.1, user+password+clean, keepalive 10 s
     body += _mqtt_str("") + _mqtt_str(username) + _mqtt_str(password)
     remaining, n = b"", len(body)
     while True:

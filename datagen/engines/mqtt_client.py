@@ -25,6 +25,16 @@ log = logging.getLogger(__name__)
 KEEPALIVE_S = 30
 
 
+def _drop_not_connected(record: logging.LogRecord) -> bool:
+    # paho 2.2 logs "Client is not connected" at ERROR on every loop pass while (re)connecting
+    # and once after a clean disconnect; the on_connect/on_disconnect logs below say it better.
+    return not str(record.msg).startswith("Client is not connected")
+
+
+_paho_log = logging.getLogger("paho")
+_paho_log.addFilter(_drop_not_connected)
+
+
 class MqttConnectError(ConnectionError):
     """The broker refused us, or could not be reached in time."""
 
@@ -63,7 +73,7 @@ class MqttConnection:
             protocol=mqtt.MQTTv5,
             manual_ack=manual_ack,
         )
-        c.enable_logger(logging.getLogger("paho"))
+        c.enable_logger(_paho_log)
         if addr.username is not None:
             c.username_pw_set(addr.username, addr.password)
         if addr.tls:
@@ -103,9 +113,6 @@ class MqttConnection:
         if end_session:
             props = Properties(PacketTypes.DISCONNECT)
             props.SessionExpiryInterval = 0
-        # paho 2.2 logs a spurious "Client is not connected" ERROR from its loop after a clean
-        # disconnect; nothing else of interest is logged from here on.
-        self.client.disable_logger()
         self.client.disconnect(properties=props)
         self.client.loop_stop()
 

@@ -95,8 +95,11 @@ class SamplePublisher:
     def __enter__(self) -> SamplePublisher:
         return self
 
-    def __exit__(self, *exc) -> None:
-        self.close()
+    def __exit__(self, exc_type, *exc) -> None:
+        if exc_type is None:
+            self.close()
+        else:  # already failing: do not wait for PUBACKs on the way out
+            self._conn.close()
 
     def publish(self, sample: Sample) -> None:
         """Encodes and sends one sample; blocks while the in-flight window is full."""
@@ -168,6 +171,7 @@ class AckCollector:
         on_ack: Callable[[int], None] | None = None,
         on_status: Callable[[dict[str, Any]], None] | None = None,
         connect_timeout_s: float = 10.0,
+        session_expiry_s: int = 24 * 3600,
     ):
         self.topics = topics(build_id)
         self._on_ack = on_ack
@@ -175,11 +179,14 @@ class AckCollector:
         self._cond = threading.Condition()
         self._acked: set[int] = set()
         self._statuses: list[dict[str, Any]] = []
+        # Persistent session: acks sent while we are disconnected (broker restart, coordinator
+        # restart with the same client id) wait for us instead of being lost.
         self._conn = MqttConnection(
             broker_url,
             client_id or f"datagen-{build_id}-acks",
             subscriptions=[(self.topics.acks, 1), (self.topics.status, 1)],
             on_message=self._handle_message,
+            session_expiry_s=session_expiry_s,
             timeout_s=connect_timeout_s,
         )
 
@@ -193,6 +200,12 @@ class AckCollector:
     def acked(self) -> set[int]:
         with self._cond:
             return set(self._acked)
+
+    @property
+    def count(self) -> int:
+        """Number of distinct acknowledged samples (no copy of the set)."""
+        with self._cond:
+            return len(self._acked)
 
     @property
     def statuses(self) -> list[dict[str, Any]]:
@@ -250,8 +263,9 @@ class AckCollector:
         self._conn.publish_json(self.topics.control, cmd, qos=1).wait_for_publish(timeout_s)
         return self.wait_status(("finalized", "error"), after=mark, timeout_s=timeout_s)
 
-    def close(self) -> None:
-        self._conn.close()
+    def close(self, end_session: bool = True) -> None:
+        """``end_session=False`` keeps the broker queueing acks for a later collector."""
+        self._conn.close(end_session=end_session)
 
     def _handle_message(self, message: mqtt.MQTTMessage) -> None:
         try:

@@ -18,10 +18,18 @@ def _direction(rng: np.random.Generator, cfg: LightingConfig) -> np.ndarray:
     """Unit vector the light travels along: downwards from a random azimuth and elevation."""
     azimuth = rng.uniform(0, 2 * np.pi)
     elevation = np.deg2rad(rng.uniform(*cfg.elevation_deg))
-    return -np.array([np.cos(elevation) * np.cos(azimuth), np.cos(elevation) * np.sin(azimuth), np.sin(elevation)])
+    return -np.array(
+        [
+            np.cos(elevation) * np.cos(azimuth),
+            np.cos(elevation) * np.sin(azimuth),
+            np.sin(elevation),
+        ]
+    )
 
 
-def sample_lighting(rng: np.random.Generator, cfg: LightingConfig, target: tuple[float, float, float]) -> dict[str, Any]:
+def sample_lighting(
+    rng: np.random.Generator, cfg: LightingConfig, target: tuple[float, float, float]
+) -> dict[str, Any]:
     lights = []
     for i in range(int(rng.integers(cfg.lights[0], cfg.lights[1] + 1))):
         direction = _direction(rng, cfg)
@@ -49,15 +57,27 @@ def apply_lighting(scene: sapien.Scene, values: dict[str, Any], shadow_map_size:
         if light["type"] == "directional":
             # the shadow volume (metres around the table) must cover the tray and the robot
             scene.add_directional_light(
-                light["direction"], colour.tolist(), shadow=light["shadow"], position=[0, 0, 1],
-                shadow_scale=1.5, shadow_near=-3.0, shadow_far=3.0, shadow_map_size=shadow_map_size,
+                light["direction"],
+                colour.tolist(),
+                shadow=light["shadow"],
+                position=[0, 0, 1],
+                shadow_scale=1.5,
+                shadow_near=-3.0,
+                shadow_far=3.0,
+                shadow_map_size=shadow_map_size,
             )
         else:
             # spot radiance falls off with the squared distance: scale so intensity means the same at the target
             distance_sq = float(np.sum((np.asarray(light["position"]) - values["target"]) ** 2))
             outer = np.deg2rad(light["outer_fov_deg"])
             scene.add_spot_light(
-                light["position"], light["direction"], inner_fov=outer * 0.6, outer_fov=outer,
-                color=(colour * distance_sq).tolist(), shadow=light["shadow"], shadow_near=0.1,
-                shadow_far=5.0, shadow_map_size=shadow_map_size,
+                light["position"],
+                light["direction"],
+                inner_fov=outer * 0.6,
+                outer_fov=outer,
+                color=(colour * distance_sq).tolist(),
+                shadow=light["shadow"],
+                shadow_near=0.1,
+                shadow_far=5.0,
+                shadow_map_size=shadow_map_size,
             )

@@ -24,8 +24,8 @@ from typing import Any
 
 import paho.mqtt.client as mqtt
 
-from datagen.engines.mqtt_client import MqttConnection
-from datagen.engines.transfer import topics
+from datagen.engines.mqtt_client import MqttConnectError, MqttConnection
+from datagen.engines.transfer import topics, valid_build_id
 from datagen.engines.wire import DEFAULT_MAX_MESSAGE_BYTES, WireError, decode_sample
 from datagen.sample import Sample
 from datagen.sinks.webdataset import (
@@ -34,6 +34,7 @@ from datagen.sinks.webdataset import (
     journal_path,
     keys_sha256,
     recover,
+    valid_writer_id,
     write_manifest,
 )
 
@@ -248,6 +249,10 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--max-message-bytes", type=int, default=DEFAULT_MAX_MESSAGE_BYTES)
     p.add_argument("--log-level", default="INFO")
     args = p.parse_args(argv)
+    if not valid_build_id(args.build_id):
+        p.error(f"invalid --build-id {args.build_id!r}: use 1-64 of [A-Za-z0-9_.-]")
+    if not valid_writer_id(args.writer_id):
+        p.error(f"invalid --writer-id {args.writer_id!r}: use 1-32 of [A-Za-z0-9_-]")
     if not args.broker:
         p.error("--broker URL (or $DATAGEN_BROKER_URL) is required")
     logging.basicConfig(
@@ -265,7 +270,11 @@ def main(argv: list[str] | None = None) -> int:
     )
     for sig in (signal.SIGTERM, signal.SIGINT):
         signal.signal(sig, lambda *_: writer.stop())
-    return writer.run()
+    try:
+        return writer.run()
+    except MqttConnectError as exc:
+        log.error("%s", exc)
+        return EXIT_FAILED
 
 
 if __name__ == "__main__":

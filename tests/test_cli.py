@@ -1,0 +1,100 @@
+"""The command line as a user meets it: help, clear errors without tracebacks, clean Ctrl-C."""
+
+from __future__ import annotations
+
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+REPO = Path(__file__).resolve().parents[1]
+
+
+def datagen(*args, **kwargs):
+    return subprocess.run(
+        [sys.executable, "-m", "datagen.cli", *args],
+        capture_output=True,
+        text=True,
+        cwd=REPO,
+        timeout=300,
+        **kwargs,
+    )
+
+
+def test_help_lists_every_command():
+    result = datagen("--help")
+    assert result.returncode == 0
+    for command in ("build", "preview"):
+        assert command in result.stdout
+    assert "--workers" in datagen("build", "--help").stdout
+
+
+def test_bad_config_is_a_clear_error_without_traceback(tmp_path):
+    config = tmp_path / "bad.yaml"
+    config.write_text("objects:\n  count: [1, 2]\n  colour: red\n")
+    result = datagen("build", str(config), "--out", str(tmp_path / "out"))
+    assert result.returncode == 2
+    assert f"{config}: unknown key(s) objects.colour" in result.stderr
+    assert "Traceback" not in result.stderr + result.stdout
+
+
+def test_bad_arguments_are_clear_errors(tmp_path):
+    result = datagen(
+        "build", "configs/grasp_tabletop.yaml", "--out", str(tmp_path), "--workers", "0"
+    )
+    assert result.returncode == 2 and "expected a number >= 1" in result.stderr
+    result = datagen("build", "configs/nope.yaml", "--out", str(tmp_path))
+    assert result.returncode == 2 and "no such config file" in result.stderr
+
+
+def test_non_empty_output_directory_is_refused(tmp_path):
+    (tmp_path / "something.txt").write_text("mine")
+    result = datagen(
+        "build", "configs/grasp_tabletop.yaml", "--out", str(tmp_path), "--num-samples", "2"
+    )
+    assert result.returncode == 1
+    assert "is not empty" in result.stderr and "Traceback" not in result.stderr
+    assert (tmp_path / "something.txt").read_text() == "mine"
+
+
+def _children_named(name: str) -> list[str]:
+    out = subprocess.run(["pgrep", "-f", name], capture_output=True, text=True).stdout
+    return out.split()
+
+
+def test_ctrl_c_stops_the_build_cleanly(tmp_path):
+    brokers_before = set(_children_named("mosquitto -c"))
+    process = subprocess.Popen(
+        [
+            sys.executable,
+            "-m",
+            "datagen.cli",
+            "build",
+            "configs/grasp_tabletop.yaml",
+            "--out",
+            str(tmp_path / "out"),
+            "--num-samples",
+            "500",
+            "--workers",
+            "2",
+        ],
+        cwd=REPO,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+        start_new_session=True,
+    )
+    deadline = time.monotonic() + 120
+    while time.monotonic() < deadline and not list((tmp_path / "out").glob("*.tar")):
+        time.sleep(0.5)
+    time.sleep(2)
+    os.killpg(process.pid, signal.SIGINT)  # as a terminal's Ctrl-C: the whole process group
+    _, stderr = process.communicate(timeout=60)
+    assert process.returncode == 130, stderr
+    assert "interrupted" in stderr and "Traceback" not in stderr
+    assert not (tmp_path / "out" / "manifest.json").exists()
+    time.sleep(1)
+    assert set(_children_named("mosquitto -c")) - brokers_before == set()
+    assert _children_named(str(tmp_path / "out")) == []  # the writer is gone too
