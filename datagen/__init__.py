@@ -1,3 +1,13 @@
-"""datagen: synthetic, annotated, reproducible datasets for robot learning."""
+"""datagen: synthetic, annotated, reproducible datasets for robot learning.
+
+Loading a dataset needs neither the simulator nor a broker::
+
+    import datagen
+    dataset = datagen.load("datasets/grasp_tabletop")
+"""
+
+from datagen.config import BuildConfig, ConfigError, load_config
+from datagen.loader import DatasetError, load, verify
 
 __version__ = "0.1.0"
+__all__ = ["BuildConfig", "ConfigError", "DatasetError", "load", "load_config", "verify"]

@@ -103,7 +103,7 @@ def prepare_out_dir(out_dir: Path, config: BuildConfig, overwrite: bool) -> bool
 
 def build_manifest(config: BuildConfig, build_id: str, workers: int) -> dict[str, Any]:
     return {
-        "format": DATASET_FORMAT,
+        "dataset_format": DATASET_FORMAT,
         "build_id": build_id,
         "created_utc": datetime.now(UTC).isoformat(timespec="seconds"),
         "scene": config.scene,

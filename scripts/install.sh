@@ -63,6 +63,17 @@ say "system packages: mosquitto, mosquitto-clients, Vulkan loader"
 apt_install mosquitto mosquitto-clients libvulkan1 ca-certificates
 if ! "$PYTHON" -m venv --help >/dev/null 2>&1; then apt_install python3-venv; fi
 
+pip_install() {  # quiet on success; on failure shows pip's output and stops
+    local log
+    log="$(mktemp)"
+    if ! "$VENV/bin/python" -m pip install -q "$@" >"$log" 2>&1; then
+        grep -v "is ignored: it is neither a file nor a directory" "$log" >&2 || true
+        rm -f "$log"
+        die "pip install $* failed (pip's output above)"
+    fi
+    rm -f "$log"
+}
+
 # --- python environment -------------------------------------------------------------------------
 WANT="$(cat "$ROOT/pyproject.toml" "$ROOT/scripts/install.sh" | sha256sum | cut -d' ' -f1)"
 if [ ! -x "$VENV/bin/python" ]; then
@@ -71,14 +82,14 @@ if [ ! -x "$VENV/bin/python" ]; then
 fi
 if [ "$(cat "$STAMP" 2>/dev/null)" != "$WANT" ]; then
     say "installing datagen and its dependencies into $VENV (first time: a few minutes)"
-    "$VENV/bin/python" -m pip install -q --upgrade pip
+    pip_install --upgrade pip
     # torch first: the project machines carry the CPU build of 2.13.0 in pip's find-links;
     # resolving it through mani-skill instead would pull several GB of CUDA wheels
-    "$VENV/bin/python" -m pip install -q "torch==2.13.0"
-    "$VENV/bin/python" -m pip install -q -e "$ROOT[dev]"
+    pip_install "torch==2.13.0"
+    pip_install -e "$ROOT[dev]"
     # sapien requires opencv-python (GUI build, needs libGL); we use opencv-python-headless.
     # Both unpack into site-packages/cv2: reinstalling headless last makes its files the ones on disk.
-    "$VENV/bin/python" -m pip install -q --force-reinstall --no-deps "opencv-python-headless==4.10.0.84"
+    pip_install --force-reinstall --no-deps "opencv-python-headless==4.10.0.84"
     echo "$WANT" > "$STAMP"
 else
     say "python environment up to date ($VENV)"

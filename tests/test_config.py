@@ -54,3 +54,21 @@ def test_config_round_trips_through_dict():
 
     config = BuildConfig().replace(num_samples=7, seed=3)
     assert config_from_dict(config.to_dict()) == config
+
+
+def test_reference_documents_every_key():
+    import dataclasses
+    from pathlib import Path
+
+    reference = (Path(__file__).resolve().parents[1] / "configs" / "README.md").read_text()
+
+    def keys(cls, prefix=""):
+        for f in dataclasses.fields(cls):
+            value = f.default
+            if dataclasses.is_dataclass(value):
+                yield from keys(type(value), f"{prefix}{f.name}.")
+            else:
+                yield f"{prefix}{f.name}"
+
+    missing = [k for k in keys(BuildConfig) if f"`{k}`" not in reference]
+    assert missing == [], missing
