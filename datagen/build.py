@@ -215,10 +215,11 @@ def _drive(
     finished: set[int] = set()
     last = -1
     while True:
-        acks.wait_acked(total, timeout_s=0.2)
-        done = len(acks.acked)
-        if done != last and on_progress:
-            on_progress(done, total)
+        acks.wait_acked(min(total, last + 1), timeout_s=0.2)  # wakes at each new ack
+        done = acks.count
+        if done != last:
+            if on_progress:
+                on_progress(done, total)
             last = done
         if done >= total:
             return
@@ -253,10 +254,11 @@ def _missing(reason: str, acks: AckCollector, total: int) -> str:
 
 
 def _stop(processes: list[mp.Process], writer: subprocess.Popen) -> None:
-    for process in processes:
+    started = [p for p in processes if p.pid is not None]  # a failed start leaves some unstarted
+    for process in started:
         if process.is_alive():
             process.terminate()
-    for process in processes:
+    for process in started:
         process.join(timeout=10)
         if process.is_alive():
             process.kill()

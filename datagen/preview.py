@@ -32,6 +32,14 @@ def instance_colour(instance_id: int) -> tuple[int, int, int]:
     return tuple(int(c) for c in cv2.cvtColor(hsv, cv2.COLOR_HSV2BGR)[0, 0])
 
 
+def put_label(image: np.ndarray, text: str, origin: tuple[int, int], scale: float) -> None:
+    """White text with a dark outline, readable on any background."""
+    for colour, thickness in (((0, 0, 0), 3), ((255, 255, 255), 1)):
+        cv2.putText(
+            image, text, origin, cv2.FONT_HERSHEY_SIMPLEX, scale, colour, thickness, cv2.LINE_AA
+        )
+
+
 def draw_annotations(rgb: np.ndarray, instance: np.ndarray, view: dict[str, Any]) -> np.ndarray:
     """BGR image: masks blended in, 3D oriented boxes, 2D boxes and class labels on top."""
     image = cv2.cvtColor(rgb, cv2.COLOR_RGB2BGR)
@@ -52,26 +60,7 @@ def draw_annotations(rgb: np.ndarray, instance: np.ndarray, view: dict[str, Any]
         x0, y0, x1, y1 = obj["bbox_xyxy"]
         cv2.rectangle(image, (x0, y0), (x1, y1), (255, 255, 255), 1)
         label = f"{obj['class']} {obj['visible_fraction']:.2f}"
-        cv2.putText(
-            image,
-            label,
-            (x0, max(10, y0 - 3)),
-            cv2.FONT_HERSHEY_SIMPLEX,
-            0.38,
-            (0, 0, 0),
-            3,
-            cv2.LINE_AA,
-        )
-        cv2.putText(
-            image,
-            label,
-            (x0, max(10, y0 - 3)),
-            cv2.FONT_HERSHEY_SIMPLEX,
-            0.38,
-            (255, 255, 255),
-            1,
-            cv2.LINE_AA,
-        )
+        put_label(image, label, (x0, max(10, y0 - 3)), 0.38)
     return image
 
 
@@ -96,16 +85,7 @@ def write_preview(dataset_dir: Path, out_path: Path, count: int = 8, columns: in
         item = dataset[i]
         view = item["meta"]["views"]["workspace"]
         annotated = draw_annotations(item["rgb"], item["seg"], view)
-        cv2.putText(
-            annotated,
-            item["key"],
-            (6, 18),
-            cv2.FONT_HERSHEY_SIMPLEX,
-            0.55,
-            (255, 255, 255),
-            2,
-            cv2.LINE_AA,
-        )
+        put_label(annotated, item["key"], (6, 18), 0.55)
         tiles.append(np.vstack([annotated, depth_colour(item["depth"])]))
     if not tiles:
         raise ValueError(f"{dataset_dir}: the dataset has no samples to preview")

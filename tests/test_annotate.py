@@ -57,3 +57,12 @@ def test_boxes_come_from_the_mask_and_visibility_from_the_silhouette():
     assert records[1]["in_frame_fraction"] == 1.0
     assert 0 < records[1]["visible_fraction"] <= 1.0
     assert np.allclose(records[1]["pose_camera"]["position"], [0, 0, 1.0], atol=1e-6)
+
+
+def test_an_object_far_outside_the_image_is_not_visible_and_not_in_frame():
+    frame = frame_looking_down()
+    far = cube(1, 40, [10.0, 10.0, 0.0])  # ~500 px off the 64x48 image, beyond the amodal canvas
+    instance, _ = label_maps(frame, [far], {})
+    (record,) = object_view_records(frame, instance, [far], near=0.01)
+    assert record["visible"] is False and record["bbox_xyxy"] is None
+    assert record["visible_fraction"] == 0.0 and record["in_frame_fraction"] == 0.0

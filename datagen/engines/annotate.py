@@ -73,6 +73,8 @@ def _amodal_pixels(obj: LabelledObject, frame: Frame, near: float) -> tuple[int,
     # cap the canvas: an object this large in view is truncated anyway
     lo = np.maximum(lo, [-4 * width, -4 * height])
     hi = np.minimum(hi, [5 * width, 5 * height])
+    if (hi < lo).any():
+        return 0, 0  # wholly beyond the capped canvas: far outside the image
     canvas = np.zeros((hi[1] - lo[1] + 1, hi[0] - lo[0] + 1), np.uint8)
     for hull in hulls:
         cv2.fillConvexPoly(
