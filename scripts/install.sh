@@ -60,7 +60,7 @@ apt_install() {  # installs only the packages that are missing
 
 # --- system packages ----------------------------------------------------------------------------
 say "system packages: mosquitto, mosquitto-clients, Vulkan loader"
-apt_install mosquitto mosquitto-clients libvulkan1 ca-certificates
+apt_install mosquitto mosquitto-clients libvulkan1 ca-certificates procps
 if ! "$PYTHON" -m venv --help >/dev/null 2>&1; then apt_install python3-venv; fi
 
 pip_install() {  # quiet on success; on failure shows pip's output and stops
