@@ -1,9 +1,15 @@
-"""The build coordinator: broker, writer and workers for one dataset build, until exactly N
+"""The build coordinator: broker, writers and workers for one dataset build, until exactly N
 samples are durable, then the manifest.
 
-    coordinator ──indices──► workers ──MQTT samples──► broker ──► writer ──► shards
-         ▲                                                          │
-         └──────────────── MQTT acks (sample durable) ◄─────────────┘
+    coordinator ──indices (a pipe per worker)──► workers ──MQTT samples──► broker ──► writer(s)
+         ▲                                                                              │
+         └──────────────────────── MQTT acks (sample durable in a shard) ◄──────────────┘
+
+The coordinator supervises what it started: a dead worker is replaced and its samples issued
+again, a dead writer or broker is restarted, and a sample not acknowledged in time is issued
+again (writers deduplicate by key). ``DIR/build.json`` names the build, so an interrupted build
+(Ctrl-C, or the coordinator killed) continues with ``resume=True``: the writers re-announce what
+is already durable and only the rest is rendered.
 """
 
 from __future__ import annotations
@@ -14,16 +20,17 @@ import logging
 import multiprocessing as mp
 import os
 import platform
-import queue
 import secrets
 import shutil
 import subprocess
 import sys
 import time
-from collections.abc import Callable
-from dataclasses import dataclass
+from collections import deque
+from collections.abc import Callable, Iterator
+from dataclasses import dataclass, field
 from datetime import UTC, datetime
 from importlib import metadata
+from multiprocessing.connection import wait as wait_connections
 from pathlib import Path
 from typing import Any
 
@@ -31,12 +38,15 @@ from datagen.config import BuildConfig
 from datagen.engines.broker import ManagedBroker
 from datagen.engines.transfer import AckCollector
 from datagen.engines.wire import VERSION as WIRE_VERSION
-from datagen.engines.worker import worker_main
+from datagen.engines.worker import die_with_parent, worker_main
 from datagen.scenes.grasp_tabletop import CLASSES
+from datagen.schedule import Schedule
 
 log = logging.getLogger(__name__)
 MANIFEST = "manifest.json"
+BUILD_STATE = "build.json"
 DATASET_FORMAT = "datagen.dataset/1"
+LOCAL_WRITER_ID = "0"
 _VERSIONED_PACKAGES = (
     "datagen",
     "sapien",
@@ -48,6 +58,8 @@ _VERSIONED_PACKAGES = (
 )
 WRITER_READY_TIMEOUT_S = 60.0
 FINALIZE_TIMEOUT_S = 300.0
+MAX_RESTARTS = 10  # of each kind (worker, writer, broker) before the build gives up
+POLL_S = 0.1
 
 
 class BuildError(RuntimeError):
@@ -60,9 +72,14 @@ class BuildResult:
     samples: int
     seconds: float
     already_complete: bool = False
+    resumed_from: int = 0  # samples already durable when the build (re)started
+    reissued: int = 0
+    restarts: dict[str, int] = field(default_factory=dict)
 
 
 ProgressCallback = Callable[[int, int], None]  # (samples durable, samples requested)
+# (event, details): "broker" {url, pid}, "writer" {id, pid}, "worker" {id, pid}, "restart" {...}
+Observer = Callable[[str, dict[str, Any]], None]
 
 
 def _versions() -> dict[str, str]:
@@ -73,39 +90,76 @@ def _versions() -> dict[str, str]:
     return versions
 
 
-def _complete_manifest(out_dir: Path, config: BuildConfig) -> dict[str, Any] | None:
-    path = out_dir / MANIFEST
-    if not path.is_file():
-        return None
+def _read_json(path: Path) -> dict[str, Any] | None:
     try:
-        manifest = json.loads(path.read_text())
-    except ValueError:
+        return json.loads(path.read_text())
+    except (OSError, ValueError):
         return None
-    if manifest.get("config") == config.to_dict() and manifest.get("samples") == config.num_samples:
-        return manifest
-    return None
 
 
-def prepare_out_dir(out_dir: Path, config: BuildConfig, overwrite: bool) -> bool:
-    """Returns True when ``out_dir`` already holds this exact build (nothing to do)."""
-    if _complete_manifest(out_dir, config) is not None and not overwrite:
-        return True
+def _write_json_atomic(path: Path, doc: dict[str, Any]) -> None:
+    tmp = path.with_suffix(".tmp")
+    with open(tmp, "w") as f:
+        json.dump(doc, f, indent=2, sort_keys=True)
+        f.flush()
+        os.fsync(f.fileno())
+    os.replace(tmp, path)
+
+
+def prepare_out_dir(
+    out_dir: Path, config: BuildConfig, overwrite: bool, resume: bool, build_id: str | None
+) -> tuple[str, bool]:
+    """Returns (build id, already complete). Refuses to mix builds in one directory."""
+    manifest = _read_json(out_dir / MANIFEST)
+    if (
+        not overwrite
+        and manifest
+        and manifest.get("config") == config.to_dict()
+        and manifest.get("samples") == config.num_samples
+    ):
+        return manifest.get("build_id", ""), True
+    state = _read_json(out_dir / BUILD_STATE)
+    if resume and not overwrite:
+        if state is None:
+            raise BuildError(
+                f"{out_dir}: nothing to resume (no {BUILD_STATE}); start it without --resume"
+            )
+        if state.get("config") != config.to_dict():
+            differing = sorted(
+                k for k in config.to_dict() if state.get("config", {}).get(k) != config.to_dict()[k]
+            )
+            raise BuildError(
+                f"{out_dir} was started with another config (differs in: {', '.join(differing)}); "
+                "resume with the same config, seed and sample count"
+            )
+        return state["build_id"], False
     if out_dir.exists() and any(out_dir.iterdir()):
         if not overwrite:
+            hint = " or pass --resume to finish it" if state else ""
             raise BuildError(
                 f"{out_dir} is not empty and does not hold a complete build of this config "
-                f"(same config, seed and sample count); choose another --out or pass --overwrite"
+                f"(same config, seed and sample count); choose another --out{hint}, "
+                f"or pass --overwrite to replace it"
             )
         shutil.rmtree(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
-    return False
+    build_id = build_id or secrets.token_hex(6)
+    _write_json_atomic(
+        out_dir / BUILD_STATE,
+        {"build_id": build_id, "config": config.to_dict(), "started_utc": _now()},
+    )
+    return build_id, False
+
+
+def _now() -> str:
+    return datetime.now(UTC).isoformat(timespec="seconds")
 
 
 def build_manifest(config: BuildConfig, build_id: str, workers: int) -> dict[str, Any]:
     return {
         "dataset_format": DATASET_FORMAT,
         "build_id": build_id,
-        "created_utc": datetime.now(UTC).isoformat(timespec="seconds"),
+        "created_utc": _now(),
         "scene": config.scene,
         "seed": config.seed,
         "num_samples": config.num_samples,
@@ -123,148 +177,303 @@ def run_build(
     workers: int,
     overwrite: bool = False,
     on_progress: ProgressCallback | None = None,
+    *,
+    resume: bool = False,
+    broker_url: str | None = None,
+    writers: list[str] | None = None,
+    build_id: str | None = None,
+    observer: Observer | None = None,
 ) -> BuildResult:
+    """Builds ``config.num_samples`` samples into ``out_dir``.
+
+    ``broker_url``: an MQTT v5 broker to use instead of starting Mosquitto. ``writers``: ids of
+    writers started elsewhere (``datagen writer``) instead of one local writer.
+    """
     out_dir = Path(out_dir)
     start = time.monotonic()
-    if prepare_out_dir(out_dir, config, overwrite):
+    build_id, complete = prepare_out_dir(out_dir, config, overwrite, resume, build_id)
+    if complete:
         return BuildResult(out_dir, config.num_samples, 0.0, already_complete=True)
-    build_id = secrets.token_hex(6)
+    coordinator = _Coordinator(config, out_dir, build_id, workers, writers, observer, on_progress)
+    with _broker(config, broker_url, observer) as (url, broker):
+        coordinator.run(url, broker)
+    result = coordinator.result
+    result.seconds = time.monotonic() - start
+    return result
+
+
+@contextlib.contextmanager
+def _broker(
+    config: BuildConfig, broker_url: str | None, observer: Observer | None
+) -> Iterator[tuple[str, ManagedBroker | None]]:
+    if broker_url:
+        yield broker_url, None
+        return
     max_bytes = int(config.transfer.max_sample_mb * 2**20) + 2**16  # + wire header room
-    with (
-        ManagedBroker(max_message_bytes=max_bytes) as broker,
-        AckCollector(broker.url, build_id) as acks,
+    with ManagedBroker(max_message_bytes=max_bytes, preexec_fn=die_with_parent) as broker:
+        if observer:
+            observer("broker", {"url": broker.url, "pid": broker.pid})
+        yield broker.url, broker
+
+
+@dataclass
+class _Worker:
+    id: int
+    process: mp.Process
+    conn: Any  # multiprocessing.connection.Connection
+    finished: bool = False
+
+
+class _Coordinator:
+    def __init__(
+        self,
+        config: BuildConfig,
+        out_dir: Path,
+        build_id: str,
+        workers: int,
+        writers: list[str] | None,
+        observer: Observer | None,
+        on_progress: ProgressCallback | None,
     ):
-        writer = _start_writer(broker.url, build_id, out_dir, config, max_bytes)
-        context = mp.get_context("spawn")  # SAPIEN/Vulkan and paho threads are not fork-safe
-        tasks, events = context.Queue(), context.Queue()
-        processes: list[mp.Process] = []
-        try:
-            _wait_writer_ready(acks, writer)
-            for index in range(config.num_samples):
-                tasks.put(index)
-            for _ in range(workers):
-                tasks.put(None)
-            processes = [
-                context.Process(
-                    target=worker_main,
-                    args=(w, config.to_dict(), broker.url, build_id, tasks, events),
-                    name=f"datagen-worker-{w}",
-                    daemon=True,
-                )
-                for w in range(workers)
-            ]
-            for process in processes:
-                process.start()
-            _drive(config.num_samples, acks, events, processes, writer, on_progress)
-            status = acks.finalize(
-                config.num_samples,
-                build_manifest(config, build_id, workers),
-                timeout_s=FINALIZE_TIMEOUT_S,
-            )
-            if status.get("state") != "finalized":
-                raise BuildError(
-                    f"the writer could not finalize the dataset: {status.get('reason', status)}"
-                )
-            writer.wait(timeout=30)
-            for process in processes:
-                process.join(timeout=30)
-        finally:
-            _stop(processes, writer)
-    return BuildResult(out_dir, config.num_samples, time.monotonic() - start)
+        self.config = config
+        self.out_dir = out_dir
+        self.build_id = build_id
+        self.num_workers = workers
+        self.external_writers = writers
+        self.writer_ids = list(writers) if writers else [LOCAL_WRITER_ID]
+        self.observer = observer or (lambda event, details: None)
+        self.on_progress = on_progress
+        self.context = mp.get_context("spawn")  # SAPIEN/Vulkan and paho threads are not fork-safe
+        self.workers: dict[int, _Worker] = {}
+        self.next_worker_id = 0
+        self.writer: subprocess.Popen | None = None
+        self.restarts = {"worker": 0, "writer": 0, "broker": 0}
+        self.acks: deque[int] = deque()
+        self.result = BuildResult(out_dir, 0, 0.0)
 
-
-def _start_writer(
-    broker_url: str, build_id: str, out_dir: Path, config: BuildConfig, max_message_bytes: int
-) -> subprocess.Popen:
-    command = [
-        sys.executable, "-m", "datagen.sinks.writer",
-        "--build-id", build_id,
-        "--out", str(out_dir),
-        "--shard-size", str(config.output.shard_size),
-        "--max-message-bytes", str(max_message_bytes),
-        "--log-level", os.environ.get("DATAGEN_LOG_LEVEL", "WARNING"),
-    ]  # fmt: skip
-    # the broker URL carries the build's password: pass it in the environment, not on argv
-    env = os.environ | {"DATAGEN_BROKER_URL": broker_url}
-    # its own session: a terminal's Ctrl-C reaches the coordinator, which stops the writer in order
-    return subprocess.Popen(command, env=env, start_new_session=True)
-
-
-def _wait_writer_ready(acks: AckCollector, writer: subprocess.Popen) -> None:
-    deadline = time.monotonic() + WRITER_READY_TIMEOUT_S
-    while time.monotonic() < deadline:
-        if writer.poll() is not None:
-            raise BuildError(
-                f"the dataset writer exited with code {writer.returncode} before it was ready"
-            )
-        with contextlib.suppress(TimeoutError):
-            acks.wait_status("ready", timeout_s=0.5)
-            return
-    raise BuildError(f"the dataset writer was not ready within {WRITER_READY_TIMEOUT_S:.0f} s")
-
-
-def _drive(
-    total: int,
-    acks: AckCollector,
-    events: mp.Queue,
-    processes: list[mp.Process],
-    writer: subprocess.Popen,
-    on_progress: ProgressCallback | None,
-) -> None:
-    """Waits until ``total`` samples are durable; raises BuildError on any failure."""
-    finished: set[int] = set()
-    last = -1
-    while True:
-        acks.wait_acked(min(total, last + 1), timeout_s=0.2)  # wakes at each new ack
-        done = acks.count
-        if done != last:
-            if on_progress:
-                on_progress(done, total)
-            last = done
-        if done >= total:
-            return
-        while True:
+    # --- the run -------------------------------------------------------------------------------
+    def run(self, url: str, broker: ManagedBroker | None) -> None:
+        self.url, self.broker = url, broker
+        total = self.config.num_samples
+        with AckCollector(url, self.build_id, on_ack=self.acks.append) as collector:
+            self.collector = collector
             try:
-                kind, worker_id, payload = events.get_nowait()
-            except queue.Empty:
-                break
-            if kind == "error":
-                raise BuildError(payload)
-            if kind == "done":
-                finished.add(worker_id)
-        if writer.poll() is not None:
-            raise BuildError(
-                _missing(f"the dataset writer exited with code {writer.returncode}", acks, total)
-            )
-        for w, process in enumerate(processes):
-            if not process.is_alive() and w not in finished and process.exitcode not in (None, 0):
-                raise BuildError(
-                    _missing(f"worker {w} died (exit code {process.exitcode})", acks, total)
+                if self.external_writers is None:
+                    self._start_writer()
+                self._wait_writers_ready()
+                if self.external_writers is not None:
+                    # writers started earlier re-announce what is durable; ours did before "ready"
+                    collector.announce(self.writer_ids, timeout_s=WRITER_READY_TIMEOUT_S)
+                durable = {i for i in collector.acked if 0 <= i < total}
+                self.result.resumed_from = len(durable)
+                self.schedule = Schedule(
+                    set(range(total)) - durable, self.config.transfer.ack_timeout_s
                 )
-        if len(finished) == len(processes) and not acks.wait_acked(total, timeout_s=60):
+                self.acks.clear()
+                self._report(total - len(self.schedule.remaining))
+                for _ in range(self.num_workers if not self.schedule.done else 0):
+                    self._start_worker()
+                self._drive()
+                manifest = build_manifest(self.config, self.build_id, self.num_workers)
+                status = collector.finalize(
+                    total, manifest, writers=self.writer_ids, timeout_s=FINALIZE_TIMEOUT_S
+                )
+                if status.get("state") != "finalized":
+                    raise BuildError(
+                        f"the writers could not finalize the dataset: {status.get('reason', status)}"
+                    )
+                self._stop_workers(graceful=True)
+                if self.writer is not None:
+                    self.writer.wait(timeout=30)
+            finally:
+                self._stop_workers(graceful=False)
+                self._stop_writer()
+        self.result.samples = total
+        self.result.reissued = self.schedule.reissued
+        self.result.restarts = dict(self.restarts)
+
+    def _drive(self) -> None:
+        total = self.config.num_samples
+        while True:
+            while self.acks:
+                index = self.acks.popleft()
+                if 0 <= index < total:
+                    self.schedule.on_acked(index)
+            self._report(total - len(self.schedule.remaining))
+            if self.schedule.done:
+                return
+            self._supervise_broker()
+            self._supervise_writer()
+            self._handle_worker_messages()
+            now = time.monotonic()
+            overdue = self.schedule.reissue_overdue(now)
+            if overdue:
+                log.warning(
+                    "%d samples not durable %.0f s after publishing; issuing them again: %s",
+                    len(overdue),
+                    self.config.transfer.ack_timeout_s,
+                    overdue[:10],
+                )
+            for worker in list(self.workers.values()):
+                self._feed(worker)
+
+    def _report(self, done: int) -> None:
+        if self.on_progress:
+            self.on_progress(done, self.config.num_samples)
+
+    # --- workers -------------------------------------------------------------------------------
+    def _start_worker(self) -> None:
+        worker_id = self.next_worker_id
+        self.next_worker_id += 1
+        ours, theirs = self.context.Pipe(duplex=True)
+        process = self.context.Process(
+            target=worker_main,
+            args=(worker_id, self.config.to_dict(), self.url, self.build_id, theirs),
+            name=f"datagen-worker-{worker_id}",
+            daemon=True,
+        )
+        process.start()
+        theirs.close()
+        self.workers[worker_id] = _Worker(worker_id, process, ours)
+        self.schedule.add_worker(worker_id)
+        self.observer("worker", {"id": worker_id, "pid": process.pid})
+        self._feed(self.workers[worker_id])
+
+    def _feed(self, worker: _Worker) -> None:
+        for index in self.schedule.next_for(worker.id):
+            try:
+                worker.conn.send(index)
+            except (BrokenPipeError, OSError):
+                return  # it died; _handle_worker_messages sees the closed pipe
+
+    def _handle_worker_messages(self) -> None:
+        by_conn = {w.conn: w for w in self.workers.values()}
+        for conn in wait_connections(list(by_conn), timeout=POLL_S):
+            worker = by_conn[conn]
+            try:
+                kind, payload = conn.recv()
+            except (EOFError, OSError):
+                self._lose_worker(worker)
+                continue
+            if kind == "published":
+                self.schedule.on_published(worker.id, payload, time.monotonic())
+            elif kind == "error":
+                raise BuildError(payload)
+            elif kind == "done":
+                worker.finished = True
+        if not by_conn:
+            time.sleep(POLL_S)
+
+    def _lose_worker(self, worker: _Worker) -> None:
+        worker.process.join(timeout=5)
+        del self.workers[worker.id]
+        lost = self.schedule.on_worker_lost(worker.id)
+        self.restarts["worker"] += 1
+        log.warning(
+            "worker %d died (exit code %s); issuing its %d unfinished samples again and starting a new worker",
+            worker.id,
+            worker.process.exitcode,
+            len(lost),
+        )
+        self.observer("restart", {"what": "worker", "id": worker.id, "reissued": lost})
+        if self.restarts["worker"] > MAX_RESTARTS * max(1, self.num_workers):
+            raise BuildError(self._missing("workers keep dying"))
+        self._start_worker()
+
+    def _stop_workers(self, graceful: bool) -> None:
+        for worker in self.workers.values():
+            if graceful:
+                with contextlib.suppress(BrokenPipeError, OSError):
+                    worker.conn.send(None)
+        deadline = time.monotonic() + (30 if graceful else 0)
+        for worker in self.workers.values():
+            worker.process.join(timeout=max(0.0, deadline - time.monotonic()))
+            if worker.process.is_alive():
+                worker.process.terminate()
+                worker.process.join(timeout=10)
+            if worker.process.is_alive():
+                worker.process.kill()
+            worker.conn.close()
+        self.workers.clear()
+
+    # --- writer (local) and broker (managed) ------------------------------------------------------
+    def _start_writer(self) -> None:
+        max_bytes = int(self.config.transfer.max_sample_mb * 2**20) + 2**16
+        command = [
+            sys.executable, "-m", "datagen.sinks.writer",
+            "--build-id", self.build_id,
+            "--out", str(self.out_dir),
+            "--writer-id", LOCAL_WRITER_ID,
+            "--shard-size", str(self.config.output.shard_size),
+            "--max-message-bytes", str(max_bytes),
+            # a dead writer's session holds its share only until re-issue would cover it anyway
+            "--session-expiry", str(round(self.config.transfer.ack_timeout_s)),
+            "--log-level", os.environ.get("DATAGEN_LOG_LEVEL", "WARNING"),
+        ]  # fmt: skip
+        # the broker URL carries the build's password: the environment, not argv, carries it;
+        # own session: a terminal's Ctrl-C reaches only the coordinator, which stops the writer
+        self.writer = subprocess.Popen(
+            command,
+            env=os.environ | {"DATAGEN_BROKER_URL": self.url},
+            start_new_session=True,
+            preexec_fn=die_with_parent,
+        )
+        self.observer("writer", {"id": LOCAL_WRITER_ID, "pid": self.writer.pid})
+
+    def _wait_writers_ready(self) -> None:
+        for writer_id in self.writer_ids:
+            deadline = time.monotonic() + WRITER_READY_TIMEOUT_S
+            while True:
+                if self.writer is not None and self.writer.poll() is not None:
+                    raise BuildError(
+                        f"the dataset writer exited with code {self.writer.returncode} before it was ready"
+                    )
+                with contextlib.suppress(TimeoutError):
+                    self.collector.wait_status("ready", writer=writer_id, timeout_s=0.5)
+                    break
+                if time.monotonic() > deadline:
+                    raise BuildError(
+                        f"writer {writer_id!r} is not ready on the broker after "
+                        f"{WRITER_READY_TIMEOUT_S:.0f} s; start it with: datagen writer --broker URL "
+                        f"--build-id {self.build_id} --writer-id {writer_id} --out DIR"
+                    )
+
+    def _supervise_writer(self) -> None:
+        if self.writer is None or self.writer.poll() is None:
+            return
+        self.restarts["writer"] += 1
+        if self.restarts["writer"] > MAX_RESTARTS:
             raise BuildError(
-                _missing("all workers finished but acknowledgements stopped", acks, total)
+                self._missing(f"the writer keeps dying (exit code {self.writer.returncode})")
             )
+        log.warning(
+            "the dataset writer exited with code %s; starting it again", self.writer.returncode
+        )
+        self.observer("restart", {"what": "writer", "exit_code": self.writer.returncode})
+        self._start_writer()
 
+    def _supervise_broker(self) -> None:
+        if self.broker is None or self.broker.running:
+            return
+        self.restarts["broker"] += 1
+        if self.restarts["broker"] > MAX_RESTARTS:
+            raise BuildError(self._missing("the broker keeps dying"))
+        log.warning("the broker stopped; starting it again on the same port with its saved state")
+        self.observer("restart", {"what": "broker"})
+        self.broker.start()
+        self.observer("broker", {"url": self.broker.url, "pid": self.broker.pid})
 
-def _missing(reason: str, acks: AckCollector, total: int) -> str:
-    missing = sorted(set(range(total)) - acks.acked)
-    shown = ", ".join(map(str, missing[:20])) + (" ..." if len(missing) > 20 else "")
-    return f"{reason}; {len(missing)} of {total} samples are not durable: {shown}"
-
-
-def _stop(processes: list[mp.Process], writer: subprocess.Popen) -> None:
-    started = [p for p in processes if p.pid is not None]  # a failed start leaves some unstarted
-    for process in started:
-        if process.is_alive():
-            process.terminate()
-    for process in started:
-        process.join(timeout=10)
-        if process.is_alive():
-            process.kill()
-    if writer.poll() is None:
-        writer.terminate()
+    def _stop_writer(self) -> None:
+        if self.writer is None or self.writer.poll() is not None:
+            return
+        self.writer.terminate()
         try:
-            writer.wait(timeout=10)
+            self.writer.wait(timeout=10)
         except subprocess.TimeoutExpired:
-            writer.kill()
+            self.writer.kill()
+
+    def _missing(self, reason: str) -> str:
+        missing = sorted(self.schedule.remaining)
+        total = self.config.num_samples
+        shown = ", ".join(map(str, missing[:20])) + (" ..." if len(missing) > 20 else "")
+        return f"{reason}; {len(missing)} of {total} samples are not durable: {shown}"

@@ -62,7 +62,47 @@ def _parser() -> argparse.ArgumentParser:
     )
     build.add_argument("--seed", type=_seed, help="override the config's seed")
     build.add_argument("--overwrite", action="store_true", help="replace whatever is in --out")
+    build.add_argument(
+        "--resume",
+        action="store_true",
+        help="finish an interrupted build in --out (same config): only missing samples are made",
+    )
+    build.add_argument(
+        "--broker",
+        metavar="URL",
+        help="use this MQTT v5 broker (mqtt://[user:pass@]host:port or mqtts://...) instead of "
+        "starting Mosquitto; default: $DATAGEN_BROKER_URL, else a private Mosquitto",
+    )
+    build.add_argument(
+        "--writers",
+        metavar="IDS",
+        help="comma-separated ids of writers started elsewhere ('datagen writer') to use instead "
+        "of starting one; they must write into the same directory (shared file system)",
+    )
+    build.add_argument(
+        "--build-id",
+        help="topic namespace of the build (default: random); external writers need it",
+    )
+    build.add_argument("--ca-file", help="CA certificate to verify an mqtts:// broker")
     build.add_argument("--no-preview", action="store_true", help="skip writing preview.png")
+
+    writer = commands.add_parser(
+        "writer",
+        help="run a dataset writer for a build on an external broker (e.g. on the storage machine)",
+        add_help=False,
+    )
+    writer.add_argument("args", nargs=argparse.REMAINDER)
+    broker = commands.add_parser(
+        "broker", help="run Mosquitto with the settings datagen needs and print how to connect"
+    )
+    broker.add_argument("--host", default="127.0.0.1", help="address to listen on (0.0.0.0: all)")
+    broker.add_argument("--port", type=_positive_int, default=1883)
+    broker.add_argument("--data-dir", help="persistence directory (default: a temporary one)")
+    broker.add_argument("--username", help="default: generated")
+    broker.add_argument("--password", help="default: generated; prefer $DATAGEN_BROKER_PASSWORD")
+    broker.add_argument("--tls-cert", help="server certificate (PEM): listen with TLS (mqtts://)")
+    broker.add_argument("--tls-key", help="the certificate's private key (PEM)")
+    broker.add_argument("--advertise-host", help="host name to print in the URL clients use")
 
     preview = commands.add_parser(
         "preview", help="draw annotated samples of a dataset into a PNG grid"
@@ -79,16 +119,33 @@ def main(argv: list[str] | None = None) -> int:
         level=logging.INFO if args.verbose else logging.WARNING,
         format="%(levelname)s %(name)s: %(message)s",
     )
+    from datagen.build import BuildError
+    from datagen.engines.broker import BrokerError
+    from datagen.engines.mqtt_client import MqttConnectError
+    from datagen.loader import DatasetError
+
     try:
         if args.command == "build":
             return _build(args)
+        if args.command == "writer":
+            from datagen.sinks.writer import main as writer_main
+
+            return writer_main(args.args)
+        if args.command == "broker":
+            return _broker(args)
         return _preview(args)
     except ConfigError as exc:
         print(f"datagen: config error: {exc}", file=sys.stderr)
         return EXIT_USER_ERROR
+    except (BuildError, BrokerError, MqttConnectError, DatasetError) as exc:
+        print(f"datagen: {args.command} failed: {exc}", file=sys.stderr)
+        return 1
     except KeyboardInterrupt:
+        hint = ""
+        if args.command == "build":
+            hint = f" Finish it with: datagen build {args.config} --out {args.out} --resume"
         print(
-            "\ndatagen: interrupted; the output directory is incomplete (no manifest).",
+            f"\ndatagen: interrupted; the output is incomplete (no manifest).{hint}",
             file=sys.stderr,
         )
         return EXIT_INTERRUPTED
@@ -97,7 +154,7 @@ def main(argv: list[str] | None = None) -> int:
 def _build(args: argparse.Namespace) -> int:
     from tqdm import tqdm
 
-    from datagen.build import BuildError, run_build
+    from datagen.build import run_build
     from datagen.preview import write_preview
 
     config = load_config(args.config)
@@ -108,37 +165,73 @@ def _build(args: argparse.Namespace) -> int:
         overrides["seed"] = args.seed
     config = config.replace(**overrides)
     out = Path(args.out)
+    if args.ca_file:  # read by every MQTT client of the build, workers and writer included
+        os.environ["DATAGEN_MQTT_CA_FILE"] = args.ca_file
+    writers = [w.strip() for w in args.writers.split(",") if w.strip()] if args.writers else None
     print(
-        f"datagen: building {config.num_samples} samples of '{config.scene}' (seed {config.seed}) with {args.workers} workers into {out}"
+        f"datagen: building {config.num_samples} samples of '{config.scene}' "
+        f"(seed {config.seed}) with {args.workers} workers into {out}"
     )
-    bar = tqdm(
+    with tqdm(
         total=config.num_samples, unit="sample", dynamic_ncols=True, desc="durable", smoothing=0.1
-    )
+    ) as bar:
 
-    def on_progress(done: int, total: int) -> None:
-        bar.update(done - bar.n)
+        def on_progress(done: int, total: int) -> None:
+            bar.update(done - bar.n)
 
-    try:
         result = run_build(
-            config, out, args.workers, overwrite=args.overwrite, on_progress=on_progress
+            config,
+            out,
+            args.workers,
+            overwrite=args.overwrite,
+            on_progress=on_progress,
+            resume=args.resume,
+            broker_url=args.broker or os.environ.get("DATAGEN_BROKER_URL"),
+            writers=writers,
+            build_id=args.build_id,
         )
-    except BuildError as exc:
-        bar.close()
-        print(f"datagen: build failed: {exc}", file=sys.stderr)
-        return 1
-    finally:
-        bar.close()
     if result.already_complete:
         print(f"datagen: {out} already holds this build ({result.samples} samples); nothing to do.")
     else:
-        rate = result.samples / result.seconds if result.seconds else 0.0
+        made = result.samples - result.resumed_from
+        rate = made / result.seconds if result.seconds else 0.0
+        resumed = f"; {result.resumed_from} were already durable" if result.resumed_from else ""
         print(
-            f"datagen: {result.samples} samples in {result.seconds:.1f} s ({rate:.2f} samples/s) -> {out}"
+            f"datagen: {made} samples in {result.seconds:.1f} s ({rate:.2f} samples/s){resumed} -> {out}"
         )
+        recovered = {k: v for k, v in result.restarts.items() if v}
+        if recovered or result.reissued:
+            print(
+                f"datagen: recovered from faults: restarts {recovered or 'none'}, "
+                f"samples issued again {result.reissued}"
+            )
     if not args.no_preview:
         path = write_preview(out, out / "preview.png")
         print(f"datagen: preview with annotation overlays: {path}")
     return 0
+
+
+def _broker(args: argparse.Namespace) -> int:
+    from datagen.engines.broker import run_broker_forever
+
+    password = args.password or os.environ.get("DATAGEN_BROKER_PASSWORD")
+
+    def ready(broker) -> None:
+        print("datagen: broker ready; connect builds and writers with:", flush=True)
+        print(f"  {broker.public_url}", flush=True)
+        print("datagen: Ctrl-C stops it.", flush=True)
+
+    return run_broker_forever(
+        host=args.host,
+        port=args.port,
+        data_dir=args.data_dir,
+        username=args.username,
+        password=password,
+        tls_cert=args.tls_cert,
+        tls_key=args.tls_key,
+        advertise_host=args.advertise_host,
+        on_ready=ready,
+    )
 
 
 def _preview(args: argparse.Namespace) -> int:

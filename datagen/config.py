@@ -125,6 +125,10 @@ class OutputConfig:
 class TransferConfig:
     window: int = field(default=8, metadata=_range(1, 256, "in-flight samples per worker"))
     max_sample_mb: float = field(default=32.0, metadata=_range(0.1, 256.0, "MiB per sample"))
+    ack_timeout_s: float = field(
+        default=60.0,
+        metadata=_range(1.0, 86400.0, "seconds from publish to the writer's ack before re-issue"),
+    )
 
 
 @dataclass(frozen=True)

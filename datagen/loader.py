@@ -1,6 +1,7 @@
 """Reading a datagen dataset: ``load(dir)`` for training code, ``verify(dir)`` for checksums.
 
-``load`` reads the tar headers of the shards listed in ``manifest.json`` once, keeping each
+``load`` reads the tar headers of the shards listed in ``manifest.json`` once (``scan_members``:
+about 1.5 s per 10^5 samples of 5 parts), keeping each
 member's byte offset; items are then read with ``os.pread`` from file handles opened lazily in
 each process, so random access is cheap and the dataset pickles into DataLoader workers.
 """
@@ -10,7 +11,6 @@ from __future__ import annotations
 import contextlib
 import json
 import os
-import tarfile
 from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
@@ -18,7 +18,13 @@ from typing import Any
 import cv2
 import numpy as np
 
-from datagen.sinks.webdataset import MANIFEST, file_sha256, keys_sha256, member_key
+from datagen.sinks.webdataset import (
+    MANIFEST,
+    file_sha256,
+    keys_sha256,
+    member_key,
+    scan_members,
+)
 
 # part name -> item field, for the parts decoded as images
 _IMAGES = {"rgb.png": "rgb", "depth.png": "depth", "seg.png": "seg", "semantic.png": "semantic"}
@@ -78,14 +84,11 @@ class ShardDataset:
             path = self.root / name
             if not path.is_file():
                 raise DatasetError(f"{self.root}: shard {name} listed in the manifest is missing")
-            with tarfile.open(path, "r:") as tar:
-                for m in tar:
-                    if not m.isfile():
-                        continue
-                    key = member_key(m.name)
-                    members.setdefault(key, []).append(
-                        (i, m.offset_data, m.size, m.name[len(key) + 1 :])
-                    )
+            for m in scan_members(path):
+                key = member_key(m.name)
+                members.setdefault(key, []).append(
+                    (i, m.offset_data, m.size, m.name[len(key) + 1 :])
+                )
         self.keys = sorted(members)
         self._members = [members[k] for k in self.keys]
         expected = self.manifest.get("samples")

@@ -8,7 +8,7 @@ import os
 import subprocess
 import sys
 import uuid
-from collections.abc import Callable, Iterator
+from collections.abc import Callable, Iterator, Sequence
 from pathlib import Path
 
 import cv2
@@ -108,20 +108,21 @@ class WriterProcess:
     """``python -m datagen.sinks.writer`` as a subprocess, its log in ``log_path``."""
 
     def __init__(
-        self, url: str, build_id: str, out: Path, writer_id: str, shard_size: int, log_path: Path
+        self,
+        url: str,
+        build_id: str,
+        out: Path,
+        writer_id: str,
+        shard_size: int,
+        log_path: Path,
+        args: Sequence[str] = (),
     ):
         self.out, self.writer_id, self.log_path = out, writer_id, log_path
-        cmd = [
-            sys.executable,
-            "-m",
-            "datagen.sinks.writer",
-            "--build-id",
-            build_id,
-        ]
+        cmd = [sys.executable, "-m", "datagen.sinks.writer", "--build-id", build_id]
         cmd += ["--out", str(out), "--writer-id", writer_id, "--shard-size", str(shard_size)]
         with open(log_path, "ab") as log:
             self.proc = subprocess.Popen(
-                cmd,
+                [*cmd, *args],
                 cwd=REPO,
                 env=os.environ | {"DATAGEN_BROKER_URL": url},  # keeps the password off argv
                 stdout=log,
@@ -139,6 +140,7 @@ class WriterProcess:
         return self.log_path.read_text(errors="replace")
 
     def stop(self) -> None:
+        """SIGKILL, as in a crash."""
         if self.proc.poll() is None:
             self.proc.kill()
             self.proc.wait()
@@ -148,8 +150,9 @@ class WriterProcess:
 def start_writer(
     broker: ManagedBroker, build_id: str, tmp_path: Path
 ) -> Iterator[Callable[..., WriterProcess]]:
-    """Factory: ``start_writer(out=tmp_path/'ds', writer_id='0', shard_size=16, broker_url=None)``
-    (default: the session ``broker``); writers still running at teardown are killed."""
+    """Factory: ``start_writer(out=tmp_path/'ds', writer_id='0', shard_size=16, broker_url=None,
+    args=())`` (default: the session ``broker``; ``args``: more writer options); writers still
+    running at teardown are killed."""
     started: list[WriterProcess] = []
 
     def start(
@@ -157,6 +160,7 @@ def start_writer(
         writer_id: str = "0",
         shard_size: int = 16,
         broker_url: str | None = None,
+        args: Sequence[str] = (),
     ) -> WriterProcess:
         w = WriterProcess(
             broker_url or broker.url,
@@ -165,6 +169,7 @@ def start_writer(
             writer_id,
             shard_size,
             tmp_path / f"writer-{writer_id}.log",
+            args,
         )
         started.append(w)
         return w

@@ -2,15 +2,26 @@ from __future__ import annotations
 
 import os
 import pwd
+import shutil
+import signal
 import socket
 import subprocess
+import sys
 import threading
+import time
+from pathlib import Path
 
 import pytest
 
 from datagen.engines.broker import BrokerError, ManagedBroker, parse_broker_url
 from datagen.engines.mqtt_client import MqttConnectError, MqttConnection
-from datagen.engines.transfer import SamplePublisher, topics
+from datagen.engines.transfer import (
+    AckCollector,
+    PublishRefused,
+    PublishTimeout,
+    SamplePublisher,
+    topics,
+)
 from datagen.engines.wire import decode_sample, encode_sample
 
 
@@ -152,3 +163,202 @@ def test_mosquitto_sub_hex_capture_decodes_per_spec(broker, build_id, make_sampl
     conn.close()
     assert bytes.fromhex(out.strip()) == payload
     assert decode_sample(bytes.fromhex(out.strip()))[1].key == "000000005"
+
+
+# --- TLS ---------------------------------------------------------------------------------------
+
+
+def _openssl(*args, cwd):
+    subprocess.run(["openssl", *args], cwd=cwd, check=True, capture_output=True, timeout=60)
+
+
+@pytest.fixture(scope="module")
+def tls_files(tmp_path_factory):
+    """A throwaway CA, a server certificate for DNS name ``localhost`` signed by it, and a
+    second, unrelated CA."""
+    d = tmp_path_factory.mktemp("tls")
+    ec = ("-newkey", "ec", "-pkeyopt", "ec_paramgen_curve:prime256v1", "-nodes")
+    for ca in ("ca", "other-ca"):
+        _openssl("req", "-x509", *ec, "-keyout", f"{ca}.key", "-out", f"{ca}.crt",
+                 "-days", "2", "-subj", f"/CN=datagen test {ca}", cwd=d)  # fmt: skip
+    _openssl("req", *ec, "-keyout", "server.key", "-out", "server.csr", "-subj", "/CN=localhost",
+             cwd=d)  # fmt: skip
+    (d / "san.ext").write_text("subjectAltName=DNS:localhost\n")
+    _openssl("x509", "-req", "-in", "server.csr", "-CA", "ca.crt", "-CAkey", "ca.key",
+             "-CAcreateserial", "-out", "server.crt", "-days", "2", "-extfile", "san.ext",
+             cwd=d)  # fmt: skip
+    return d
+
+
+@pytest.fixture(scope="module")
+def tls_broker(tls_files):
+    with ManagedBroker(
+        tls_cert=tls_files / "server.crt",
+        tls_key=tls_files / "server.key",
+        advertise_host="localhost",
+    ) as b:
+        yield b
+
+
+def test_tls_publish_and_receive_and_a_writer_over_mqtts(
+    tls_broker, tls_files, build_id, start_writer, make_sample
+):
+    url, ca = tls_broker.tls_url, str(tls_files / "ca.crt")
+    assert url.startswith("mqtts://") and f"@localhost:{tls_broker.tls_port}" in url
+    got = threading.Semaphore(0)
+    sub = MqttConnection(
+        url, "tls-sub", subscriptions=[("tls/test", 1)], on_message=lambda m: got.release(),
+        ca_file=ca,
+    )  # fmt: skip
+    sub.client.publish("tls/test", b"hello", qos=1).wait_for_publish(10)
+    assert got.acquire(timeout=20)
+    sub.close()
+
+    with AckCollector(url, build_id, ca_file=ca) as acks:
+        w = start_writer(broker_url=url, args=["--ca-file", ca])
+        acks.wait_status("ready", writer="0", timeout_s=30)
+        with SamplePublisher(url, build_id, "tls-pub", ca_file=ca) as pub:
+            for i in range(3):
+                pub.publish(make_sample(i))
+        assert acks.wait_acked(range(3), timeout_s=30), w.log()
+        assert acks.finalize(3, {}, writers=["0"])["state"] == "finalized"
+    assert w.wait() == 0
+
+
+def test_the_ca_file_can_come_from_the_environment(tls_broker, tls_files, monkeypatch):
+    monkeypatch.setenv("DATAGEN_MQTT_CA_FILE", str(tls_files / "ca.crt"))
+    MqttConnection(tls_broker.tls_url, "tls-env").close()
+
+
+def test_tls_errors_say_what_went_wrong(tls_broker, tls_files):
+    a = parse_broker_url(tls_broker.tls_url)
+    ca, other = str(tls_files / "ca.crt"), str(tls_files / "other-ca.crt")
+    where = f"localhost:{a.port}"
+    with pytest.raises(MqttConnectError, match=f"TLS verification failed for {where}: .*issuer"):
+        MqttConnection(tls_broker.tls_url, "tls-wrong-ca", ca_file=other)
+    # the certificate names localhost, not 127.0.0.1: host names are checked
+    by_ip = f"mqtts://{a.username}:{a.password}@127.0.0.1:{a.port}"
+    with pytest.raises(MqttConnectError, match=r"TLS verification failed for 127\.0\.0\.1:.*"):
+        MqttConnection(by_ip, "tls-wrong-host", ca_file=ca)
+    bad_password = f"mqtts://{a.username}:nope@localhost:{a.port}"
+    with pytest.raises(MqttConnectError, match="broker refused the credentials"):
+        MqttConnection(bad_password, "tls-bad-password", ca_file=ca)
+    with pytest.raises(MqttConnectError, match=r"cannot reach .*is that port a TLS listener"):
+        MqttConnection(
+            f"mqtts://u:p@127.0.0.1:{tls_broker.port}", "tls-on-plain", ca_file=ca, timeout_s=2
+        )
+    with pytest.raises(MqttConnectError, match="does not exist"):
+        MqttConnection(tls_broker.tls_url, "tls-no-ca", ca_file=str(tls_files / "missing.crt"))
+
+
+def test_an_unreachable_broker_is_a_clear_error():
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        port = s.getsockname()[1]  # nothing listens there
+    with pytest.raises(MqttConnectError, match=f"cannot reach broker 127.0.0.1:{port} within"):
+        MqttConnection(f"mqtt://u:p@127.0.0.1:{port}", "nobody-home", timeout_s=1)
+
+
+def test_a_wrong_password_is_refused_clearly(broker):
+    a = parse_broker_url(broker.url)
+    with pytest.raises(MqttConnectError, match=f"broker refused the credentials .*{a.username}"):
+        MqttConnection(f"mqtt://{a.username}:wrong@{a.host}:{a.port}", "bad-password")
+
+
+# --- a long-running broker (datagen broker) ----------------------------------------------------
+
+
+def _run_broker_process(port, data_dir):
+    code = (
+        "from datagen.engines.broker import run_broker_forever\n"
+        f"raise SystemExit(run_broker_forever(port={port}, data_dir={str(data_dir)!r}, "
+        "on_ready=lambda b: print(b.public_url, flush=True)))"
+    )
+    proc = subprocess.Popen(
+        [sys.executable, "-c", code], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True
+    )
+    url = proc.stdout.readline().strip()
+    assert url.startswith("mqtt://"), proc.stderr.read()
+    return proc, url
+
+
+def test_run_broker_forever_keeps_state_and_credentials_in_its_data_dir(tmp_path):
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        port = s.getsockname()[1]
+    proc, url = _run_broker_process(port, tmp_path / "broker")
+    try:
+        assert url.endswith(f"@127.0.0.1:{port}")
+        conn = MqttConnection(url, "forever-pub")
+        conn.client.publish("keep/me", b"42", qos=1, retain=True).wait_for_publish(10)
+        conn.close()
+        proc.send_signal(signal.SIGTERM)
+        assert proc.wait(30) == 0
+        assert (tmp_path / "broker" / "data" / "mosquitto.db").is_file()
+        assert (tmp_path / "broker" / "credentials.json").stat().st_mode & 0o077 == 0
+
+        proc, url2 = _run_broker_process(port, tmp_path / "broker")
+        assert url2 == url  # same generated credentials
+        got = []
+        conn = MqttConnection(
+            url, "forever-sub", subscriptions=[("keep/me", 1)], on_message=got.append
+        )
+        deadline = time.monotonic() + 20
+        while not got and time.monotonic() < deadline:
+            time.sleep(0.05)
+        conn.close()
+        assert [m.payload for m in got] == [b"42"]  # the retained message survived
+    finally:
+        proc.send_signal(signal.SIGTERM)
+        proc.wait(30)
+
+
+def test_an_acl_confines_a_user_to_its_build_and_refusals_are_errors(tmp_path, make_sample):
+    acl = tmp_path / "acl"
+    acl.write_text("pattern readwrite datagen/%u/#\n")  # user "b1" may use build b1 only
+    with ManagedBroker(username="b1", password="secret-1", acl_file=acl) as b:
+        with SamplePublisher(b.url, "b1", "acl-own") as pub:
+            pub.publish(make_sample(0))  # allowed (no subscriber: published again a few times)
+            pub.publish_timeout_s = 0.5
+            with pytest.raises(PublishTimeout, match="no writer subscribed"):
+                pub.flush()
+        with SamplePublisher(b.url, "b2", "acl-other") as pub:
+            pub.publish(make_sample(0))
+            with pytest.raises(PublishRefused, match=r"refused sample 000000000 .*Not authorized"):
+                pub.flush()
+
+
+def test_a_parent_death_signal_survives_mosquitto_dropping_root():
+    """The coordinator passes a preexec_fn asking for SIGKILL when it dies (PR_SET_PDEATHSIG);
+    a process that changes its user loses that, so as root ManagedBroker starts mosquitto as
+    user mosquitto itself. Here the parent is SIGKILLed and mosquitto must go with it."""
+    code = (
+        "import ctypes, signal, time\n"
+        "from datagen.engines.broker import ManagedBroker\n"
+        "def die(): ctypes.CDLL('libc.so.6').prctl(1, signal.SIGKILL)\n"  # PR_SET_PDEATHSIG
+        "b = ManagedBroker(preexec_fn=die)\n"
+        "b.start()\n"
+        "print(b.pid, b.dir, flush=True)\n"
+        "time.sleep(120)\n"
+    )
+    parent = subprocess.Popen([sys.executable, "-c", code], stdout=subprocess.PIPE, text=True)
+    pid, broker_dir = parent.stdout.readline().split()
+    pid = int(pid)
+    parent.kill()
+    parent.wait()
+
+    def alive() -> bool:
+        try:
+            state = Path(f"/proc/{pid}/stat").read_text().split(") ", 1)[1][0]
+        except (FileNotFoundError, ProcessLookupError):
+            return False
+        return state != "Z"  # a zombie is dead, waiting for init to reap it
+
+    deadline = time.monotonic() + 20
+    while alive() and time.monotonic() < deadline:
+        time.sleep(0.05)
+    survived = alive()
+    if survived:
+        os.kill(pid, signal.SIGKILL)
+    shutil.rmtree(broker_dir, ignore_errors=True)
+    assert not survived, "mosquitto outlived its parent"

@@ -11,7 +11,25 @@ import pytest
 
 from datagen.loader import DatasetError, load, verify
 from datagen.sample import Sample
-from datagen.sinks.webdataset import ShardWriter, journal_path, recover
+from datagen.sinks.finalize import (
+    FinalizeError,
+    combine,
+    drop_copies_held_by_smaller,
+    write_part,
+)
+from datagen.sinks.webdataset import (
+    ShardWriter,
+    WriterLock,
+    WriterLocked,
+    durable_keys,
+    file_sha256,
+    journal_path,
+    keys_sha256,
+    read_keys,
+    recover,
+    remove_keys,
+    scan_members,
+)
 
 
 def test_items_are_decoded_arrays(tmp_path, make_sample, make_arrays, make_dataset):
@@ -134,3 +152,103 @@ def test_recover_drops_a_shard_with_nothing_durable_and_keeps_finished_ones(tmp_
     assert not (tmp_path / "shard-w-000001.tar").exists()
     assert rec.keys == {"000000000"} and rec.other_keys == {"000000009"}
     assert rec.next_shard == 2
+
+
+def test_scan_members_matches_tarfile_and_stops_at_a_damaged_header(tmp_path, make_sample):
+    with ShardWriter(tmp_path, "w", max_count=10) as sink:
+        for i in range(4):
+            sink.write(make_sample(i))
+    shard = tmp_path / "shard-w-000000.tar"
+    with tarfile.open(shard) as tar:
+        expected = [(m.name, m.offset, m.offset_data, m.size) for m in tar]
+    members = scan_members(shard)
+    assert [(m.name, m.offset, m.offset_data, m.size) for m in members] == expected
+    assert read_keys(shard) == [f"{i:09d}" for i in range(4)]
+    damaged = bytearray(shard.read_bytes())
+    damaged[members[5].offset + 3] ^= 0x20  # a bit flip in the 6th header
+    shard.write_bytes(bytes(damaged))
+    assert read_keys(shard) == ["000000000"]  # the first sample's 5 members only
+
+
+def test_remove_keys_leaves_the_tar_a_fresh_writer_would_have_made(tmp_path, make_sample):
+    samples = [make_sample(i) for i in range(5)]
+    with ShardWriter(tmp_path / "a", "w", max_count=10) as sink:
+        for s in samples:
+            sink.write(s)
+    with ShardWriter(tmp_path / "b", "w", max_count=10) as sink:
+        for s in samples:
+            if s.index not in (1, 3):
+                sink.write(s)
+    info = remove_keys(tmp_path / "a" / "shard-w-000000.tar", {"000000001", "000000003"})
+    rewritten = (tmp_path / "a" / "shard-w-000000.tar").read_bytes()
+    assert rewritten == (tmp_path / "b" / "shard-w-000000.tar").read_bytes()
+    assert (info.samples, info.bytes) == (3, len(rewritten))
+    assert info.sha256 == file_sha256(tmp_path / "a" / "shard-w-000000.tar")
+    assert (
+        remove_keys(tmp_path / "b" / "shard-w-000000.tar", {f"{i:09d}" for i in range(5)}) is None
+    )
+    assert not (tmp_path / "b" / "shard-w-000000.tar").exists()
+
+
+def test_durable_keys_of_a_shard_being_written_stop_at_its_journal(tmp_path, make_sample):
+    sink = ShardWriter(tmp_path, "x", max_count=100)
+    for i in range(3):
+        sink.write(make_sample(i))
+    sink.flush_durable()
+    sink.write(make_sample(3))
+    sink._open.file.f.flush()  # on disk, not yet durable: it may be cut on recovery
+    assert read_keys(tmp_path / "shard-x-000000.tar")[-1] == "000000003"
+    assert durable_keys(tmp_path, "x") == {"000000000", "000000001", "000000002"}
+    assert recover(tmp_path, "y").other_keys == {"000000000", "000000001", "000000002"}
+    sink.close()
+    assert len(durable_keys(tmp_path, "x")) == 4
+
+
+def test_a_writer_lock_is_exclusive(tmp_path):
+    lock = WriterLock(tmp_path, "A")
+    with pytest.raises(WriterLocked, match=r"writer 'A' is already running on .*pid \d+"):
+        WriterLock(tmp_path, "A")
+    WriterLock(tmp_path, "B").release()
+    lock.release(remove=True)
+    assert not (tmp_path / ".writer-A.lock").exists()
+    WriterLock(tmp_path, "A").release()
+
+
+def _part(out, writer_id, shards, round_id="r1"):
+    write_part(out, writer_id, round_id, shards=[s.to_json() for s in shards], samples=0)
+
+
+def test_combine_checks_the_directory_against_the_writers_reports(tmp_path):
+    def shard(writer_id, indices):
+        with ShardWriter(tmp_path, writer_id, max_count=100) as sink:
+            for i in indices:
+                sink.write(Sample(i, {"json": b"{}"}))
+        return sink.shards
+
+    a, b = shard("A", range(0, 4)), shard("B", range(4, 7))
+    _part(tmp_path, "A", a)
+    with pytest.raises(FinalizeError, match=r"writers not in the finalize list.*shard-B-000000"):
+        combine(tmp_path, ["A"], "r1", 4)
+    with pytest.raises(FinalizeError, match=r"cannot read writer-B\.json"):
+        combine(tmp_path, ["A", "B"], "r1", 7)
+    _part(tmp_path, "B", b, round_id="r0")
+    with pytest.raises(FinalizeError, match="from another finalize"):
+        combine(tmp_path, ["A", "B"], "r1", 7)
+    _part(tmp_path, "B", b)
+    with pytest.raises(FinalizeError, match="expected 8 samples, have 7") as err:
+        combine(tmp_path, ["A", "B"], "r1", 8)
+    assert err.value.fields == {"samples": 7, "expected": 8}
+    doc = combine(tmp_path, ["B", "A"], "r1", 7)
+    assert doc["samples"] == 7 and doc["writers"] == ["A", "B"]
+    assert [s["name"] for s in doc["shards"]] == ["shard-A-000000.tar", "shard-B-000000.tar"]
+
+    c = shard("C", [3, 9])  # sample 3 twice: C must drop it, A keeps it
+    _part(tmp_path, "C", c)
+    with pytest.raises(FinalizeError, match="sample 000000003 is in both"):
+        combine(tmp_path, ["A", "B", "C"], "r1", 8)
+    kept, removed = drop_copies_held_by_smaller(tmp_path, "C", c)
+    assert removed == {"000000003"} and kept[0].samples == 1
+    _part(tmp_path, "C", kept)
+    assert combine(tmp_path, ["A", "B", "C"], "r1", 8)["keys_sha256"] == keys_sha256(
+        f"{i:09d}" for i in [*range(7), 9]
+    )

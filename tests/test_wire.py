@@ -8,6 +8,7 @@ from pathlib import Path
 
 import pytest
 
+from datagen.engines.transfer import ack_indices, topics
 from datagen.engines.wire import MAGIC, WireError, decode_sample, encode_sample
 from datagen.sample import Sample
 
@@ -121,3 +122,33 @@ def test_oversize_is_rejected_before_parsing():
 def test_encoder_refuses_invalid_samples(build_id, sample, reason):
     with pytest.raises(WireError, match=reason):
         encode_sample(build_id, sample)
+
+
+@pytest.mark.parametrize(
+    ("ack", "indices"),
+    [
+        ({"key": "000000007", "index": 7, "writer": "0"}, [7]),
+        ({"indices": [1, 2, 900], "writer": "A"}, [1, 2, 900]),
+        ({"indices": [], "writer": "A"}, []),
+        ({"key": "000000008", "index": 7}, None),  # key does not match
+        ({"index": True, "key": "000000001"}, None),  # booleans are not integers
+        ({"indices": [1, -2]}, None),
+        ({"indices": [10**9]}, None),
+        ({"indices": "1,2"}, None),
+        ({"index": 10**9, "key": "1000000000"}, None),
+        ([7], None),
+    ],
+)
+def test_ack_messages_in_both_forms(ack, indices):
+    assert ack_indices(ack) == indices
+
+
+def test_topics_of_a_build():
+    t = topics("b1")
+    assert (t.samples, t.acks, t.control) == (
+        "datagen/b1/samples",
+        "datagen/b1/acks",
+        "datagen/b1/control",
+    )
+    assert t.status("A") == "datagen/b1/status/A" and t.status_all == "datagen/b1/status/+"
+    assert t.shared_samples == "$share/datagen-b1/datagen/b1/samples"

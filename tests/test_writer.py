@@ -3,8 +3,11 @@
 from __future__ import annotations
 
 import json
+import os
+import signal
 import struct
 import threading
+import time
 import zlib
 
 import pytest
@@ -15,7 +18,7 @@ from datagen.engines.transfer import AckCollector, SamplePublisher, SampleTooLar
 from datagen.engines.wire import encode_sample
 from datagen.loader import load, verify
 from datagen.sample import Sample
-from datagen.sinks.webdataset import journal_path
+from datagen.sinks.webdataset import durable_keys, journal_path, read_keys
 
 TIMEOUT_S = 60
 
@@ -223,3 +226,158 @@ def test_broker_restart_mid_build_loses_nothing(build_id, start_writer, make_sam
         assert status["state"] == "finalized", w.log()
         assert w.wait() == 0
     assert load(w.out).keys == [f"{i:09d}" for i in range(20)]
+
+
+# --- several writers sharing one build and one directory ---------------------------------------
+
+
+def assert_clean_finish(out, n):
+    """Exactly ``n`` samples, every checksum verified, no writer bookkeeping left behind."""
+    manifest = verify(out)
+    assert manifest["samples"] == n
+    assert load(out).keys == [f"{i:09d}" for i in range(n)]
+    leftovers = [p.name for p in out.iterdir() if p.name.startswith((".writer-", "writer-"))]
+    assert leftovers == []
+    return manifest
+
+
+def shard_keys(out, writer_id):
+    return {k for p in out.glob(f"shard-{writer_id}-*.tar") for k in read_keys(p)}
+
+
+def test_two_writers_receive_disjoint_shares_and_one_manifest_covers_all(
+    broker, build_id, collector, start_writer, make_sample
+):
+    a = start_ready(start_writer, collector, writer_id="A", shard_size=8)
+    b = start_ready(start_writer, collector, writer_id="B", shard_size=8)
+    assert collector.writers_ready() == {"A", "B"}
+    samples = [make_sample(i) for i in range(40)]
+    publish_all(broker, build_id, samples + samples[:6], "pub-two")  # and 6 duplicates
+    assert collector.wait_acked(range(40), timeout_s=TIMEOUT_S), a.log() + b.log()
+    held_a, held_b = shard_keys(a.out, "A"), shard_keys(a.out, "B")
+    assert held_a and held_b  # both got a share
+    status = collector.finalize(40, {"seed": 3}, writers=["A", "B"])
+    assert status["state"] == "finalized" and status["writer"] == "A", a.log() + b.log()
+    assert status["samples"] == 40
+    assert a.wait() == 0 and b.wait() == 0
+    manifest = assert_clean_finish(a.out, 40)
+    assert manifest["writers"] == ["A", "B"] and manifest["seed"] == 3
+    assert {s["name"].split("-")[1] for s in manifest["shards"]} == {"A", "B"}
+    # a duplicate copy may have reached both writers; finalize kept one
+    assert len(shard_keys(a.out, "A") | shard_keys(a.out, "B")) == 40
+    assert not shard_keys(a.out, "A") & shard_keys(a.out, "B")
+    assert collector.latest_status()["B"]["state"] == "finalized"
+
+
+def wait_until(condition, what, timeout_s=TIMEOUT_S):
+    deadline = time.monotonic() + timeout_s
+    while not condition():
+        assert time.monotonic() < deadline, f"timed out waiting for {what}"
+        time.sleep(0.05)
+
+
+def test_a_sample_written_by_two_writers_is_kept_once_by_the_smaller_id(
+    broker, build_id, collector, start_writer, make_sample
+):
+    a = start_ready(start_writer, collector, writer_id="A")
+    b = start_ready(start_writer, collector, writer_id="B")
+    publish_all(broker, build_id, [make_sample(i) for i in range(6)], "pub-pre")
+    assert collector.wait_acked(range(6), timeout_s=TIMEOUT_S)
+    # B paused: of two consecutive copies of sample 6 the shared subscription gives one to each
+    # writer. A writes its copy and acks it; B, resumed, reads its copy before A's ack (the
+    # broker sent them in that order) and writes it too.
+    os.kill(b.proc.pid, signal.SIGSTOP)
+    try:
+        publish_all(broker, build_id, [make_sample(6), make_sample(6)], "pub-twice")
+        assert collector.wait_acked({6}, timeout_s=TIMEOUT_S)
+    finally:
+        os.kill(b.proc.pid, signal.SIGCONT)
+    wait_until(lambda: "000000006" in durable_keys(a.out, "B"), "B to write its copy")
+    assert "000000006" in shard_keys(a.out, "A")
+    status = collector.finalize(7, {}, writers=["A", "B"])
+    assert status["state"] == "finalized", a.log() + b.log()
+    assert a.wait() == 0 and b.wait() == 0
+    manifest = assert_clean_finish(a.out, 7)
+    assert manifest["duplicate_copies_removed"] == 1
+    assert "000000006" in shard_keys(a.out, "A") and "000000006" not in shard_keys(a.out, "B")
+
+
+def test_a_writer_killed_mid_stream_and_restarted_ends_with_exactly_n(
+    broker, build_id, collector, start_writer, make_sample
+):
+    a = start_ready(start_writer, collector, writer_id="A", shard_size=8)
+    b = start_ready(start_writer, collector, writer_id="B", shard_size=8)
+    n = 80
+    publisher = threading.Thread(
+        target=publish_all,
+        args=(broker, build_id, [make_sample(i) for i in range(40)], "pub-kill-1"),
+    )
+    publisher.start()
+    assert collector.wait_acked(12, timeout_s=TIMEOUT_S)
+    a.stop()  # SIGKILL mid-stream: its open shard is cut back, its share waits in its session
+    publisher.join()
+    publish_all(broker, build_id, [make_sample(i) for i in range(40, n)], "pub-kill-2")
+    a2 = start_ready(start_writer, collector, writer_id="A", shard_size=8)
+    assert collector.wait_acked(range(n), timeout_s=TIMEOUT_S), a2.log()
+    assert "session present: True" in a2.log()
+    status = collector.finalize(n, {}, writers=["A", "B"])
+    assert status["state"] == "finalized", a2.log() + b.log()
+    assert a2.wait() == 0 and b.wait() == 0
+    assert_clean_finish(a2.out, n)
+    assert len(shard_keys(a2.out, "A")) >= 20  # its share, including what was held for it
+
+
+def test_a_stale_session_stops_swallowing_samples_once_it_expires(
+    broker, build_id, collector, start_writer, make_sample
+):
+    dead = start_ready(start_writer, collector, writer_id="A", args=["--session-expiry", "2"])
+    b = start_ready(start_writer, collector, writer_id="B")
+    dead.stop()  # never comes back; the broker holds its share until the session expires
+    publish_all(broker, build_id, [make_sample(i) for i in range(10)], "pub-stale-1")
+    client_id = f"datagen-{build_id}-writer-A"
+    wait_until(
+        lambda: f"Expiring client {client_id} " in broker.log_path.read_text(errors="replace"),
+        "the broker to expire the dead writer's session",
+    )
+    # From now on every sample reaches B ...
+    publish_all(broker, build_id, [make_sample(i) for i in range(10, 30)], "pub-stale-2")
+    assert collector.wait_acked(range(10, 30), timeout_s=TIMEOUT_S), b.log()
+    # ... and what the dead session held (expired with it) is issued again by the coordinator
+    missing = sorted(set(range(10)) - collector.acked)
+    assert missing  # the dead writer's share, lost with its session
+    publish_all(broker, build_id, [make_sample(i) for i in missing], "pub-stale-3")
+    assert collector.wait_acked(range(30), timeout_s=TIMEOUT_S), b.log()
+    status = collector.finalize(30, {}, writers=["B"])
+    assert status["state"] == "finalized", b.log()
+    assert b.wait() == 0
+    assert verify(b.out)["samples"] == 30
+
+
+def test_a_second_writer_with_the_same_id_is_refused(collector, start_writer, tmp_path):
+    first = start_ready(start_writer, collector, writer_id="A")
+    second = start_writer(writer_id="A")
+    assert second.wait() == 4
+    assert "writer 'A' is already running on" in second.log()
+    assert first.proc.poll() is None  # untouched
+
+
+def test_a_starting_writer_acks_every_sample_already_in_the_directory(
+    broker, build_id, collector, start_writer, make_sample
+):
+    a = start_ready(start_writer, collector, writer_id="A", shard_size=4)
+    publish_all(broker, build_id, [make_sample(i) for i in range(10)], "pub-announce")
+    assert collector.wait_acked(range(10), timeout_s=TIMEOUT_S)
+    a.proc.terminate()  # clean stop: its session ends
+    assert a.wait() == 0
+    with AckCollector(broker.url, build_id, client_id=f"late-{build_id}") as late:
+        mark = len(late.statuses)
+        b = start_writer(writer_id="B")  # another writer, same directory
+        late.wait_status("ready", writer="B", after=mark, timeout_s=TIMEOUT_S)
+        assert late.acked == set(range(10))  # A's samples, announced by B before "ready"
+        assert late.wait_status("ready", writer="B", after=mark)["durable"] == 10
+    with AckCollector(broker.url, build_id, client_id=f"later-{build_id}") as later:
+        assert later.announce(["B"], timeout_s=TIMEOUT_S) == 10
+    status = collector.finalize(10, {}, writers=["A", "B"], timeout_s=3)
+    assert status["state"] == "error" and "did not reach" in status["reason"]  # A is not running
+    assert b.wait() == 3
+    assert not (b.out / "manifest.json").exists()

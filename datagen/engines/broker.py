@@ -1,14 +1,18 @@
-"""A private Mosquitto broker for one build, and broker URL parsing.
+"""Mosquitto for datagen, and broker URL parsing.
 
-``ManagedBroker`` runs ``mosquitto -c <generated conf>`` on a free loopback port with a
-generated username/password, persistence on, and the queue/size limits raised (see
-/work/shared/notes/mqtt.md, pitfalls 1, 4 and 9).
+``ManagedBroker`` runs ``mosquitto -c <generated conf>`` with a username/password (generated
+unless given), persistence on, and the queue/size limits raised (see
+/work/shared/notes/mqtt.md, pitfalls 1, 4 and 9): by default a private broker for one build on
+a free loopback port in a temp dir; with ``data_dir`` a long-lived one whose state survives
+restarts; with ``tls_cert``/``tls_key`` an extra TLS listener. ``run_broker_forever`` runs one
+in the foreground until SIGINT/SIGTERM (``datagen broker``). Deployment: docs/deployment.md.
 """
 
 from __future__ import annotations
 
 import base64
 import hashlib
+import json
 import logging
 import os
 import pwd
@@ -16,9 +20,12 @@ import secrets
 import shutil
 import signal
 import socket
+import stat
 import subprocess
 import tempfile
+import threading
 import time
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 from urllib.parse import quote, unquote, urlsplit
@@ -108,8 +115,40 @@ def _free_port(host: str) -> int:
         return s.getsockname()[1]
 
 
+_WILDCARD_HOSTS = ("0.0.0.0", "", "::")
+_LOOPBACK_HOSTS = ("127.0.0.1", "localhost", "::1")
+CREDENTIALS_FILE = "credentials.json"
+
+
+def _traversable(directory: Path, uid: int, gid: int) -> bool:
+    """Whether user ``uid`` (group ``gid``) may pass through ``directory`` and its parents."""
+    for d in [directory, *directory.parents]:
+        st = d.stat()
+        bit = (
+            stat.S_IXUSR if st.st_uid == uid else stat.S_IXGRP if st.st_gid == gid else stat.S_IXOTH
+        )
+        if not st.st_mode & bit:
+            return False
+    return True
+
+
+def _url(scheme: str, username: str, password: str, host: str, port: int) -> str:
+    host = f"[{host}]" if ":" in host else host
+    return f"{scheme}://{quote(username, safe='')}:{quote(password, safe='')}@{host}:{port}"
+
+
 class ManagedBroker:
-    """Context manager: a running, authenticated Mosquitto in a private temp dir."""
+    """Context manager: a running, authenticated Mosquitto.
+
+    Without ``data_dir`` everything (config, password file, persistence, log) lives in a temp
+    dir removed by ``close()``; with it, in ``data_dir``, kept, and generated credentials are
+    saved there (``credentials.json``, mode 0600) so a restarted broker keeps its URL.
+
+    With ``tls_cert``/``tls_key`` (PEM files, copied into the broker's dir) a TLS listener
+    serves ``host:tls_port`` (``tls_url``); the plain listener then binds to loopback only when
+    ``host`` is not a loopback address, so passwords never cross the network in clear.
+    ``acl_file``: a Mosquitto ACL file (copied), e.g. to confine users to their builds' topics.
+    """
 
     def __init__(
         self,
@@ -123,7 +162,18 @@ class ManagedBroker:
         autosave_interval_s: int = 2,
         startup_timeout_s: float = 10.0,
         executable: str = "mosquitto",
+        data_dir: str | os.PathLike | None = None,
+        username: str | None = None,
+        password: str | None = None,
+        tls_cert: str | os.PathLike | None = None,
+        tls_key: str | os.PathLike | None = None,
+        tls_port: int | None = None,
+        advertise_host: str | None = None,
+        acl_file: str | os.PathLike | None = None,
+        preexec_fn: Callable[[], None] | None = None,
     ):
+        if (tls_cert is None) != (tls_key is None):
+            raise ValueError("tls_cert and tls_key go together")
         self.host = host
         self.port = port
         self.max_message_bytes = max_message_bytes
@@ -133,18 +183,57 @@ class ManagedBroker:
         self.autosave_interval_s = autosave_interval_s
         self.startup_timeout_s = startup_timeout_s
         self.executable = executable
-        self.username = "datagen-" + secrets.token_hex(4)
-        self.password = secrets.token_urlsafe(18)
+        self.tls_cert = Path(tls_cert) if tls_cert is not None else None
+        self.tls_key = Path(tls_key) if tls_key is not None else None
+        self.tls_port = tls_port
+        self.acl_file = Path(acl_file) if acl_file is not None else None
+        self.preexec_fn = preexec_fn
+        self._data_dir = Path(data_dir) if data_dir is not None else None
         self.dir: Path | None = None
+        self.username, self.password = self._credentials(username, password)
+        if host in _WILDCARD_HOSTS:
+            self.advertise_host = advertise_host or socket.getfqdn()
+        else:
+            self.advertise_host = advertise_host or host
         self._proc: subprocess.Popen | None = None
 
     @property
+    def tls(self) -> bool:
+        return self.tls_cert is not None
+
+    @property
+    def plain_host(self) -> str:
+        """Where the plain (non-TLS) listener binds."""
+        if self.tls and self.host not in _LOOPBACK_HOSTS:
+            return "127.0.0.1"
+        return self.host
+
+    @property
     def url(self) -> str:
+        """Plain ``mqtt://`` URL with credentials, for clients on this machine."""
         if self.port is None:
             raise BrokerError("broker not started")
-        return (
-            f"mqtt://{quote(self.username)}:{quote(self.password, safe='')}@{self.host}:{self.port}"
-        )
+        host = "127.0.0.1" if self.plain_host in _WILDCARD_HOSTS else self.plain_host
+        return _url("mqtt", self.username, self.password, host, self.port)
+
+    @property
+    def tls_url(self) -> str:
+        if not self.tls or self.tls_port is None:
+            raise BrokerError("no TLS listener (pass tls_cert and tls_key) or not started")
+        return _url("mqtts", self.username, self.password, self.advertise_host, self.tls_port)
+
+    @property
+    def public_url(self) -> str:
+        """The URL other machines use: TLS when configured, else plain on ``advertise_host``."""
+        if self.tls:
+            return self.tls_url
+        if self.port is None:
+            raise BrokerError("broker not started")
+        return _url("mqtt", self.username, self.password, self.advertise_host, self.port)
+
+    @property
+    def pid(self) -> int | None:
+        return self._proc.pid if self._proc is not None else None
 
     @property
     def log_path(self) -> Path:
@@ -163,25 +252,37 @@ class ManagedBroker:
         self.close()
 
     def close(self) -> None:
-        """Stops the broker and deletes its temp dir (config, password file, persistence)."""
+        """Stops the broker; deletes its temp dir (never a ``data_dir``)."""
         self.stop()
-        if self.dir is not None:
+        if self.dir is not None and self._data_dir is None:
             shutil.rmtree(self.dir, ignore_errors=True)
-            self.dir = None
+        self.dir = None
 
     def start(self) -> None:
-        """Starts (or restarts, keeping port, credentials and persisted state) the broker."""
+        """Starts (or restarts, keeping ports, credentials and persisted state) the broker."""
         exe = shutil.which(self.executable)
         if exe is None:
             raise BrokerError(
                 f"{self.executable!r} not found on PATH (Debian: apt-get install mosquitto)"
             )
         if self.dir is None:
-            self.dir = Path(tempfile.mkdtemp(prefix="datagen-mosquitto-"))
-            self._write_config()
+            if self._data_dir is not None:
+                self._data_dir.mkdir(parents=True, exist_ok=True)
+                self.dir = self._data_dir
+            else:
+                self.dir = Path(tempfile.mkdtemp(prefix="datagen-mosquitto-"))
         if self.port is None:
-            self.port = _free_port(self.host)
-            self._write_config()
+            self.port = _free_port(self.plain_host)
+        if self.tls and self.tls_port is None:
+            self.tls_port = _free_port(self.host if self.host not in _WILDCARD_HOSTS else "0.0.0.0")
+        self._run_as: pwd.struct_passwd | None = None
+        self._write_config()
+        # As root, start mosquitto as user "mosquitto" ourselves rather than letting it switch:
+        # a process that changes its user loses its parent-death signal (prctl(2)), so a
+        # ``preexec_fn`` setting one would not outlive mosquitto's own switch.
+        creds: dict = {}
+        if self._run_as is not None:
+            creds = {"user": self._run_as.pw_uid, "group": self._run_as.pw_gid, "extra_groups": []}
         with open(self.log_path, "ab") as log_file:
             self._proc = subprocess.Popen(
                 [exe, "-c", str(self.dir / "mosquitto.conf")],
@@ -189,9 +290,11 @@ class ManagedBroker:
                 stderr=subprocess.STDOUT,
                 stdin=subprocess.DEVNULL,
                 start_new_session=True,
+                preexec_fn=self.preexec_fn,
+                **creds,
             )
         self._wait_listening()
-        log.info("mosquitto pid %d listening on %s:%d", self._proc.pid, self.host, self.port)
+        log.info("mosquitto pid %d listening on %s:%d", self._proc.pid, self.plain_host, self.port)
 
     def stop(self, timeout_s: float = 10.0) -> None:
         """SIGTERM (mosquitto saves its persistence file), then SIGKILL after ``timeout_s``."""
@@ -224,6 +327,26 @@ class ManagedBroker:
             return "(no log)"
         return "\n".join(text.splitlines()[-lines:])
 
+    def _credentials(self, username: str | None, password: str | None) -> tuple[str, str]:
+        if username is not None and password is not None:
+            return username, password
+        saved_path = self._data_dir / CREDENTIALS_FILE if self._data_dir is not None else None
+        saved = None
+        if saved_path is not None and saved_path.is_file():
+            saved = json.loads(saved_path.read_text(encoding="utf-8"))
+        if password is None and saved and username in (None, saved["username"]):
+            return saved["username"], saved["password"]
+        username = username or (saved or {}).get("username") or "datagen-" + secrets.token_hex(4)
+        if password is not None:
+            return username, password
+        password = secrets.token_urlsafe(18)
+        if saved_path is not None:
+            saved_path.parent.mkdir(parents=True, exist_ok=True)
+            fd = os.open(saved_path, os.O_WRONLY | os.O_CREAT | os.O_TRUNC, 0o600)
+            with os.fdopen(fd, "w", encoding="utf-8") as f:
+                json.dump({"username": username, "password": password}, f)
+        return username, password
+
     def _write_config(self) -> None:
         assert self.dir is not None
         d = self.dir
@@ -233,7 +356,30 @@ class ManagedBroker:
         )
         os.chmod(d / "passwd", 0o600)
         lines = [
-            f"listener {self.port or 1883} {self.host}",
+            # password_file and allow_anonymous are global (per_listener_settings false):
+            # every listener requires the credentials
+            f"listener {self.port} {self.plain_host}",
+        ]
+        owned = [d, d / "data", d / "passwd"]
+        if self.tls:
+            assert self.tls_cert is not None and self.tls_key is not None
+            tls_dir = d / "tls"
+            tls_dir.mkdir(exist_ok=True)
+            # copies: mosquitto may run as user "mosquitto", which cannot read the originals
+            shutil.copyfile(self.tls_cert, tls_dir / "server.crt")
+            shutil.copyfile(self.tls_key, tls_dir / "server.key")
+            os.chmod(tls_dir / "server.key", 0o600)
+            owned += [tls_dir, tls_dir / "server.crt", tls_dir / "server.key"]
+            lines += [
+                f"listener {self.tls_port} {self.host}",
+                f"certfile {tls_dir / 'server.crt'}",
+                f"keyfile {tls_dir / 'server.key'}",
+            ]
+        if self.acl_file is not None:
+            shutil.copyfile(self.acl_file, d / "acl")
+            owned.append(d / "acl")
+            lines.append(f"acl_file {d / 'acl'}")
+        lines += [
             "allow_anonymous false",
             f"password_file {d / 'passwd'}",
             "persistence true",
@@ -253,22 +399,33 @@ class ManagedBroker:
             "log_timestamp_format %Y-%m-%dT%H:%M:%S",
         ]
         if os.geteuid() == 0:
-            lines.append(self._root_user_line())
+            lines.append(self._root_user_line(owned))
         (d / "mosquitto.conf").write_text("\n".join(lines) + "\n", encoding="utf-8")
 
-    def _root_user_line(self) -> str:
-        # Mosquitto started as root drops to user "mosquitto": its files must be that user's.
+    def _root_user_line(self, paths: list[Path]) -> str:
+        # Mosquitto started as root drops to user "mosquitto": its files must be that user's,
+        # and it must be able to reach them.
         assert self.dir is not None
         try:
             entry = pwd.getpwnam("mosquitto")
         except KeyError:
             return "user root"
-        for path in [self.dir, self.dir / "data", self.dir / "passwd"]:
+        if not _traversable(self.dir.resolve().parent, entry.pw_uid, entry.pw_gid):
+            log.warning(
+                "user mosquitto cannot reach %s (a parent directory is closed to it); "
+                "running mosquitto as root",
+                self.dir,
+            )
+            return "user root"
+        for path in paths:
             os.chown(path, entry.pw_uid, entry.pw_gid)
+        if min(p for p in (self.port, self.tls_port) if p is not None) >= 1024:
+            self._run_as = entry  # no privileged port to bind first: start it as that user
         return "user mosquitto"
 
     def _wait_listening(self) -> None:
         assert self._proc is not None and self.port is not None
+        host = "127.0.0.1" if self.plain_host in _WILDCARD_HOSTS else self.plain_host
         deadline = time.monotonic() + self.startup_timeout_s
         while True:
             if self._proc.poll() is not None:
@@ -277,13 +434,68 @@ class ManagedBroker:
                 raise BrokerError(
                     f"mosquitto exited with code {code} during startup; log tail:\n{self.log_tail()}"
                 )
-            # A CONNACK, not just an open port: something else may hold the port.
-            if mqtt_handshake(self.host, self.port, self.username, self.password, 0.5):
+            # A CONNACK, not just an open port: something else may hold the port. Mosquitto
+            # opens every listener before it accepts anything, so the TLS one is up too.
+            if mqtt_handshake(host, self.port, self.username, self.password, 0.5):
                 return
             if time.monotonic() > deadline:
                 self.kill()
                 raise BrokerError(
-                    f"mosquitto did not accept connections on {self.host}:{self.port} within "
+                    f"mosquitto did not accept connections on {host}:{self.port} within "
                     f"{self.startup_timeout_s} s; log tail:\n{self.log_tail()}"
                 )
             time.sleep(0.05)
+
+
+def run_broker_forever(
+    *,
+    host: str = "127.0.0.1",
+    port: int = 1883,
+    data_dir: str | os.PathLike | None = None,
+    username: str | None = None,
+    password: str | None = None,
+    tls_cert: str | os.PathLike | None = None,
+    tls_key: str | os.PathLike | None = None,
+    advertise_host: str | None = None,
+    max_message_bytes: int = DEFAULT_MAX_MESSAGE_BYTES,
+    autosave_interval_s: int = 30,
+    on_ready: Callable[[ManagedBroker], None] | None = None,
+    stop: threading.Event | None = None,
+) -> int:
+    """Runs Mosquitto until SIGINT/SIGTERM (or ``stop`` is set), then stops it cleanly (it
+    saves its state); returns 0. Raises BrokerError if Mosquitto fails to start or dies.
+
+    ``port`` is the TLS port when ``tls_cert``/``tls_key`` are given (the plain listener then
+    takes a free loopback port). ``on_ready(broker)`` runs once it accepts connections:
+    ``broker.public_url`` is what clients use. Prints nothing; logs via ``logging``.
+    """
+    stop = stop or threading.Event()
+    tls = tls_cert is not None
+    broker = ManagedBroker(
+        host=host,
+        port=None if tls else port,
+        tls_port=port if tls else None,
+        data_dir=data_dir,
+        username=username,
+        password=password,
+        tls_cert=tls_cert,
+        tls_key=tls_key,
+        advertise_host=advertise_host,
+        max_message_bytes=max_message_bytes,
+        autosave_interval_s=autosave_interval_s,
+    )
+    previous = {}
+    if threading.current_thread() is threading.main_thread():
+        for sig in (signal.SIGINT, signal.SIGTERM):
+            previous[sig] = signal.signal(sig, lambda *_: stop.set())
+    try:
+        with broker:
+            if on_ready is not None:
+                on_ready(broker)
+            while not stop.wait(0.5):
+                if not broker.running:
+                    raise BrokerError(f"mosquitto died; log tail:\n{broker.log_tail()}")
+    finally:
+        for sig, handler in previous.items():
+            signal.signal(sig, handler)
+    return 0

@@ -1,15 +1,24 @@
 """The one way datagen opens an MQTT v5 connection (publishers, ack collector, writers).
 
-``MqttConnection`` connects with username/password from the broker URL, runs paho's network
-thread, (re)subscribes on every connect, and returns only once connected and subscribed.
+``MqttConnection`` connects with username/password from the broker URL (TLS for ``mqtts://``,
+verifying the broker's certificate and host name), runs paho's network thread, (re)subscribes
+on every connect, and returns only once connected and subscribed. Failures say what went wrong:
+``cannot reach broker host:port``, ``TLS verification failed for host:port``, ``broker refused
+the credentials``.
+
+The CA file for ``mqtts://`` is the ``ca_file`` argument, else ``$DATAGEN_MQTT_CA_FILE``, else
+the system's trust store. This is the only place datagen reads that variable, so every process
+(workers included) finds the same CA without passing it through every layer.
 """
 
 from __future__ import annotations
 
 import json
 import logging
+import os
 import ssl
 import threading
+import time
 from collections.abc import Callable, Sequence
 from typing import Any
 
@@ -23,6 +32,9 @@ from datagen.engines.broker import parse_broker_url
 log = logging.getLogger(__name__)
 
 KEEPALIVE_S = 30
+CA_FILE_ENV = "DATAGEN_MQTT_CA_FILE"
+# CONNACK reason codes that mean "who you are" was rejected
+_CREDENTIAL_CODES = {134, 135}  # Bad user name or password, Not authorized
 
 
 def _drop_not_connected(record: logging.LogRecord) -> bool:
@@ -34,6 +46,8 @@ def _drop_not_connected(record: logging.LogRecord) -> bool:
 _paho_log = logging.getLogger("paho")
 _paho_log.addFilter(_drop_not_connected)
 
+Subscription = tuple[str, int | SubscribeOptions]
+
 
 class MqttConnectError(ConnectionError):
     """The broker refused us, or could not be reached in time."""
@@ -43,7 +57,9 @@ class MqttConnection:
     """A connected paho client (MQTT v5, network loop in a background thread).
 
     ``session_expiry_s > 0`` makes the session persistent (clean_start=False): the broker keeps
-    subscriptions and queued QoS 1 messages while we are away (pitfall 5).
+    subscriptions and queued QoS 1 messages while we are away, for that long (pitfall 5).
+    ``subscriptions`` are ``(topic, qos)`` or ``(topic, SubscribeOptions)``.
+    ``on_connected()`` runs on paho's thread after every (re)connect, once subscribed.
     """
 
     def __init__(
@@ -51,21 +67,28 @@ class MqttConnection:
         broker_url: str,
         client_id: str,
         *,
-        subscriptions: Sequence[tuple[str, int]] = (),
+        subscriptions: Sequence[Subscription] = (),
         on_message: Callable[[mqtt.MQTTMessage], None] | None = None,
         manual_ack: bool = False,
         session_expiry_s: int = 0,
         receive_maximum: int | None = None,
         will: tuple[str, bytes, int, bool] | None = None,
         timeout_s: float = 10.0,
+        ca_file: str | os.PathLike | None = None,
+        on_connected: Callable[[], None] | None = None,
     ):
         addr = parse_broker_url(broker_url)
         self.client_id = client_id
+        self.address = f"{addr.host}:{addr.port}"
+        self._username = addr.username
         self._subscriptions = list(subscriptions)
         self._on_message = on_message
+        self._on_connected = on_connected
         self._ready = threading.Event()
         self._failure: str | None = None
         self._pending_sub_mid: int | None = None
+        self._unsubacks: set[int] = set()
+        self._unsub_cond = threading.Condition()
 
         c = mqtt.Client(
             mqtt.CallbackAPIVersion.VERSION2,
@@ -76,14 +99,21 @@ class MqttConnection:
         c.enable_logger(_paho_log)
         if addr.username is not None:
             c.username_pw_set(addr.username, addr.password)
+        ca = None
         if addr.tls:
-            c.tls_set(cert_reqs=ssl.CERT_REQUIRED)
+            ca = os.fspath(ca_file) if ca_file is not None else os.environ.get(CA_FILE_ENV) or None
+            if ca is not None and not os.path.isfile(ca):
+                raise MqttConnectError(f"CA file {ca} for {self.address} does not exist")
+            # PROTOCOL_TLS_CLIENT: certificate required and host name checked
+            c.tls_set(ca_certs=ca)
         if will is not None:
             topic, payload, qos, retain = will
             c.will_set(topic, payload, qos=qos, retain=retain)
         c.reconnect_delay_set(min_delay=1, max_delay=5)
+        c.connect_timeout = max(0.5, min(5.0, timeout_s))
         c.on_connect = self._handle_connect
         c.on_subscribe = self._handle_subscribe
+        c.on_unsubscribe = self._handle_unsubscribe
         c.on_disconnect = self._handle_disconnect
         c.on_message = self._handle_message
         props = Properties(PacketTypes.CONNECT)
@@ -92,20 +122,60 @@ class MqttConnection:
             props.ReceiveMaximum = receive_maximum
         self.client = c
 
-        c.connect_async(
-            addr.host, addr.port, KEEPALIVE_S, clean_start=session_expiry_s == 0, properties=props
-        )
+        # The first connection is made here, not in paho's thread, to see why it fails; paho's
+        # thread reconnects after that.
+        deadline = time.monotonic() + timeout_s
+        while True:
+            try:
+                c.connect(
+                    addr.host,
+                    addr.port,
+                    KEEPALIVE_S,
+                    clean_start=session_expiry_s == 0,
+                    properties=props,
+                )
+                break
+            except ssl.SSLCertVerificationError as exc:
+                raise MqttConnectError(
+                    f"TLS verification failed for {self.address}: "
+                    f"{exc.verify_message or exc} (CA file: {ca or 'the system trust store'})"
+                ) from None
+            except ssl.SSLError as exc:
+                raise MqttConnectError(
+                    f"TLS handshake with {self.address} failed ({exc.reason or exc}); "
+                    f"is that port a TLS listener?"
+                ) from None
+            except OSError as exc:
+                if time.monotonic() >= deadline:
+                    hint = ""
+                    if addr.tls and isinstance(exc, ConnectionResetError):
+                        hint = " (is that port a TLS listener?)"
+                    raise MqttConnectError(
+                        f"cannot reach broker {self.address} within {timeout_s} s: {exc}{hint}"
+                    ) from None
+                time.sleep(min(0.5, max(0.0, deadline - time.monotonic())))
         c.loop_start()
-        if not self._ready.wait(timeout_s) or self._failure is not None:
+        if not self._ready.wait(max(0.0, deadline - time.monotonic()) + 1.0) or self._failure:
+            c.disconnect()
             c.loop_stop()
-            why = self._failure or f"no connection within {timeout_s} s"
-            raise MqttConnectError(f"MQTT {client_id!r} -> {addr.host}:{addr.port}: {why}")
+            why = self._failure or f"no CONNACK within {timeout_s} s"
+            raise MqttConnectError(f"MQTT {client_id!r} -> {self.address}: {why}")
 
     def publish_json(
         self, topic: str, obj: Any, qos: int = 1, retain: bool = False
     ) -> mqtt.MQTTMessageInfo:
         payload = json.dumps(obj, separators=(",", ":")).encode("utf-8")
         return self.client.publish(topic, payload, qos=qos, retain=retain)
+
+    def unsubscribe(self, topic: str, timeout_s: float = 10.0) -> bool:
+        """Drops ``topic`` (also from the re-subscriptions after a reconnect); True once the
+        broker confirmed it."""
+        self._subscriptions = [s for s in self._subscriptions if s[0] != topic]
+        rc, mid = self.client.unsubscribe(topic)
+        if rc != mqtt.MQTT_ERR_SUCCESS or mid is None:
+            return False
+        with self._unsub_cond:
+            return self._unsub_cond.wait_for(lambda: mid in self._unsubacks, timeout_s)
 
     def close(self, end_session: bool = False) -> None:
         """Disconnects cleanly (no will); ``end_session`` tells the broker to drop our session."""
@@ -116,18 +186,27 @@ class MqttConnection:
         self.client.disconnect(properties=props)
         self.client.loop_stop()
 
+    def _refusal(self, reason_code) -> str:
+        if reason_code.value in _CREDENTIAL_CODES:
+            who = f"user {self._username!r}" if self._username else "no username given"
+            return f"broker refused the credentials ({who}) at {self.address}: {reason_code}"
+        return f"broker {self.address} refused the connection: {reason_code}"
+
     def _handle_connect(self, client, userdata, flags, reason_code, properties) -> None:
         if reason_code.is_failure:
-            self._failure = f"connection refused: {reason_code}"
+            self._failure = self._refusal(reason_code)
             log.error("MQTT %s: %s", self.client_id, self._failure)
             client.disconnect()
             self._ready.set()
             return
         log.info("MQTT %s connected (session present: %s)", self.client_id, flags.session_present)
         if not self._subscriptions:
-            self._ready.set()
+            self._connected()
             return
-        subs = [(topic, SubscribeOptions(qos=qos)) for topic, qos in self._subscriptions]
+        subs = [
+            (topic, opts if isinstance(opts, SubscribeOptions) else SubscribeOptions(qos=opts))
+            for topic, opts in self._subscriptions
+        ]
         _, self._pending_sub_mid = client.subscribe(subs)
 
     def _handle_subscribe(self, client, userdata, mid, reason_codes, properties) -> None:
@@ -141,7 +220,19 @@ class MqttConnection:
         if failed:
             self._failure = "subscription refused: " + "; ".join(failed)
             log.error("MQTT %s: %s", self.client_id, self._failure)
+            self._ready.set()
+            return
+        self._connected()
+
+    def _connected(self) -> None:
         self._ready.set()
+        if self._on_connected is not None:
+            self._on_connected()
+
+    def _handle_unsubscribe(self, client, userdata, mid, reason_codes, properties) -> None:
+        with self._unsub_cond:
+            self._unsubacks.add(mid)
+            self._unsub_cond.notify_all()
 
     def _handle_disconnect(self, client, userdata, flags, reason_code, properties) -> None:
         if reason_code.is_failure:

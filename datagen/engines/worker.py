@@ -1,31 +1,49 @@
-"""A scene worker process: takes sample indices from a queue, renders them, publishes them."""
+"""A scene worker process: sample indices in over its pipe, rendered samples out over MQTT.
+
+Each worker has its own duplex pipe to the coordinator (not a queue shared by all workers: a
+worker killed while reading a shared queue would leave its lock held and stall the others).
+Messages to the worker: an index, or ``None`` to finish. From the worker:
+``("published", index)`` once the broker has the sample, ``("done", None)``, ``("error", text)``.
+"""
 
 from __future__ import annotations
 
+import ctypes
 import logging
 import os
 import signal
 import traceback
+from multiprocessing.connection import Connection
 from typing import Any
 
 from datagen.config import config_from_dict
 from datagen.engines.produce import produce_sample
-from datagen.engines.transfer import SamplePublisher
+from datagen.engines.transfer import SamplePublisher, SampleTooLarge
 
 log = logging.getLogger(__name__)
+_PR_SET_PDEATHSIG = 1
+
+
+def die_with_parent(sig: int = signal.SIGKILL) -> None:
+    """Linux: have the kernel send ``sig`` to this process when its parent dies, so nothing
+    of a build outlives a coordinator that was killed (its resume starts them afresh)."""
+    try:
+        ctypes.CDLL("libc.so.6", use_errno=True).prctl(_PR_SET_PDEATHSIG, sig)
+    except OSError:
+        log.debug("prctl unavailable: this process will not follow its parent's death")
 
 
 def worker_main(
-    worker_id: int, config_dict: dict[str, Any], broker_url: str, build_id: str, tasks, events
+    worker_id: int, config_dict: dict[str, Any], broker_url: str, build_id: str, conn: Connection
 ) -> None:
-    """Runs in a spawned process. ``tasks`` yields indices then ``None``; ``events`` receives
-    ``("published", worker_id, index)``, ``("done", worker_id, None)`` or ``("error", worker_id, text)``."""
+    """Runs in a spawned process until the coordinator sends ``None`` or the pipe closes."""
+    die_with_parent()
+    # Ctrl-C is the coordinator's to handle: it stops the workers itself, in order
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
     logging.basicConfig(
         level=os.environ.get("DATAGEN_LOG_LEVEL", "WARNING"),
         format=f"[worker {worker_id}] %(levelname)s %(message)s",
     )
-    # Ctrl-C is the coordinator's to handle: it stops the workers itself, in order
-    signal.signal(signal.SIGINT, signal.SIG_IGN)
     index = None
     try:
         config = config_from_dict(config_dict)
@@ -36,13 +54,16 @@ def worker_main(
             window=config.transfer.window,
             max_message_bytes=int(config.transfer.max_sample_mb * 2**20),
         ) as publisher:
-            while (index := tasks.get()) is not None:
+            while (index := conn.recv()) is not None:
                 publisher.publish(produce_sample(config, config.seed, index))
-                events.put(("published", worker_id, index))
-        events.put(("done", worker_id, None))
+                conn.send(("published", index))
+        conn.send(("done", None))
+    except (EOFError, BrokenPipeError):
+        pass  # the coordinator is gone
+    except SampleTooLarge as exc:
+        conn.send(("error", f"{exc} (raise transfer.max_sample_mb in the config to allow it)"))
+        raise SystemExit(1) from None
     except Exception:
         where = f"sample {index}" if index is not None else "start-up"
-        events.put(
-            ("error", worker_id, f"worker {worker_id} failed at {where}:\n{traceback.format_exc()}")
-        )
+        conn.send(("error", f"worker {worker_id} failed at {where}:\n{traceback.format_exc()}"))
         raise SystemExit(1) from None

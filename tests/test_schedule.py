@@ -1,0 +1,59 @@
+"""Scheduling bookkeeping: nothing lost, nothing issued twice without a reason."""
+
+from datagen.schedule import Schedule
+
+
+def test_each_worker_gets_at_most_per_worker_unpublished():
+    s = Schedule(range(10), ack_timeout_s=5, per_worker=2)
+    s.add_worker(0)
+    s.add_worker(1)
+    assert s.next_for(0) == [0, 1] and s.next_for(1) == [2, 3] and s.next_for(0) == []
+    s.on_published(0, 0, now=0.0)
+    assert s.next_for(0) == [4]
+
+
+def test_acked_samples_finish_the_schedule():
+    s = Schedule(range(3), ack_timeout_s=5)
+    s.add_worker(0)
+    for index in [*s.next_for(0), 2]:
+        s.on_published(0, index, now=0.0)
+        s.next_for(0)
+        s.on_acked(index)
+    assert s.done and s.reissued == 0
+
+
+def test_a_dead_workers_samples_are_issued_again():
+    s = Schedule(range(6), ack_timeout_s=5)
+    s.add_worker(0)
+    s.add_worker(1)
+    first = s.next_for(0)
+    s.on_published(0, first[0], now=0.0)
+    s.on_acked(first[0])  # durable before the worker died: not issued again
+    s.next_for(1)
+    assert s.on_worker_lost(0) == [first[1]]
+    s.add_worker(2)
+    assert s.next_for(2)[0] == first[1]
+
+
+def test_unacknowledged_samples_are_issued_again_after_the_deadline():
+    s = Schedule(range(4), ack_timeout_s=5)
+    s.add_worker(0)
+    for index in s.next_for(0):
+        s.on_published(0, index, now=10.0)
+    s.on_acked(0)
+    assert s.reissue_overdue(now=14.0) == []
+    assert s.reissue_overdue(now=15.5) == [1]
+    assert s.next_for(0)[0] == 1
+    # a late ack for the original delivery ends it; the re-issued copy is harmless
+    s.on_acked(1)
+    assert 1 not in s.remaining
+
+
+def test_an_ack_while_queued_again_skips_the_sample():
+    s = Schedule(range(2), ack_timeout_s=1)
+    s.add_worker(0)
+    s.next_for(0)
+    s.on_published(0, 0, now=0.0)
+    s.reissue_overdue(now=5.0)
+    s.on_acked(0)
+    assert 0 not in s.next_for(0)
