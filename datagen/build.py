@@ -37,6 +37,7 @@ from typing import Any
 from datagen.config import BuildConfig
 from datagen.engines.broker import ManagedBroker
 from datagen.engines.transfer import AckCollector
+from datagen.engines.wire import SECRET_ENV, parse_secret
 from datagen.engines.wire import VERSION as WIRE_VERSION
 from datagen.engines.worker import die_with_parent, worker_main
 from datagen.scenes.grasp_tabletop import CLASSES
@@ -97,19 +98,25 @@ def _read_json(path: Path) -> dict[str, Any] | None:
         return None
 
 
-def _write_json_atomic(path: Path, doc: dict[str, Any]) -> None:
+def _write_json_atomic(path: Path, doc: dict[str, Any], mode: int = 0o644) -> None:
     tmp = path.with_suffix(".tmp")
-    with open(tmp, "w") as f:
+    with open(os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_TRUNC, mode), "w") as f:
         json.dump(doc, f, indent=2, sort_keys=True)
         f.flush()
         os.fsync(f.fileno())
     os.replace(tmp, path)
 
 
+@dataclass(frozen=True)
+class BuildIdentity:
+    build_id: str
+    secret: bytes  # signs every sample; writers with it reject samples not signed with it
+
+
 def prepare_out_dir(
     out_dir: Path, config: BuildConfig, overwrite: bool, resume: bool, build_id: str | None
-) -> tuple[str, bool]:
-    """Returns (build id, already complete). Refuses to mix builds in one directory."""
+) -> tuple[BuildIdentity | None, bool]:
+    """Returns (build identity, already complete). Refuses to mix builds in one directory."""
     manifest = _read_json(out_dir / MANIFEST)
     if (
         not overwrite
@@ -117,7 +124,7 @@ def prepare_out_dir(
         and manifest.get("config") == config.to_dict()
         and manifest.get("samples") == config.num_samples
     ):
-        return manifest.get("build_id", ""), True
+        return None, True
     state = _read_json(out_dir / BUILD_STATE)
     if resume and not overwrite:
         if state is None:
@@ -132,7 +139,10 @@ def prepare_out_dir(
                 f"{out_dir} was started with another config (differs in: {', '.join(differing)}); "
                 "resume with the same config, seed and sample count"
             )
-        return state["build_id"], False
+        try:
+            return BuildIdentity(state["build_id"], parse_secret(state["secret"])), False
+        except (KeyError, ValueError) as exc:
+            raise BuildError(f"{out_dir / BUILD_STATE}: unreadable build state ({exc})") from None
     if out_dir.exists() and any(out_dir.iterdir()):
         if not overwrite:
             hint = " or pass --resume to finish it" if state else ""
@@ -143,12 +153,19 @@ def prepare_out_dir(
             )
         shutil.rmtree(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
-    build_id = build_id or secrets.token_hex(6)
-    _write_json_atomic(
-        out_dir / BUILD_STATE,
-        {"build_id": build_id, "config": config.to_dict(), "started_utc": _now()},
-    )
-    return build_id, False
+    try:
+        secret = parse_secret(os.environ[SECRET_ENV]) if os.environ.get(SECRET_ENV) else None
+    except ValueError as exc:
+        raise BuildError(str(exc)) from None
+    identity = BuildIdentity(build_id or secrets.token_hex(6), secret or secrets.token_bytes(32))
+    state = {
+        "build_id": identity.build_id,
+        "secret": identity.secret.hex(),
+        "config": config.to_dict(),
+        "started_utc": _now(),
+    }
+    _write_json_atomic(out_dir / BUILD_STATE, state, mode=0o600)
+    return identity, False
 
 
 def _now() -> str:
@@ -191,10 +208,10 @@ def run_build(
     """
     out_dir = Path(out_dir)
     start = time.monotonic()
-    build_id, complete = prepare_out_dir(out_dir, config, overwrite, resume, build_id)
+    identity, complete = prepare_out_dir(out_dir, config, overwrite, resume, build_id)
     if complete:
         return BuildResult(out_dir, config.num_samples, 0.0, already_complete=True)
-    coordinator = _Coordinator(config, out_dir, build_id, workers, writers, observer, on_progress)
+    coordinator = _Coordinator(config, out_dir, identity, workers, writers, observer, on_progress)
     with _broker(config, broker_url, observer) as (url, broker):
         coordinator.run(url, broker)
     result = coordinator.result
@@ -229,7 +246,7 @@ class _Coordinator:
         self,
         config: BuildConfig,
         out_dir: Path,
-        build_id: str,
+        identity: BuildIdentity,
         workers: int,
         writers: list[str] | None,
         observer: Observer | None,
@@ -237,7 +254,8 @@ class _Coordinator:
     ):
         self.config = config
         self.out_dir = out_dir
-        self.build_id = build_id
+        self.build_id = identity.build_id
+        self.secret = identity.secret
         self.num_workers = workers
         self.external_writers = writers
         self.writer_ids = list(writers) if writers else [LOCAL_WRITER_ID]
@@ -328,7 +346,7 @@ class _Coordinator:
         ours, theirs = self.context.Pipe(duplex=True)
         process = self.context.Process(
             target=worker_main,
-            args=(worker_id, self.config.to_dict(), self.url, self.build_id, theirs),
+            args=(worker_id, self.config.to_dict(), self.url, self.build_id, self.secret, theirs),
             name=f"datagen-worker-{worker_id}",
             daemon=True,
         )
@@ -414,7 +432,7 @@ class _Coordinator:
         # own session: a terminal's Ctrl-C reaches only the coordinator, which stops the writer
         self.writer = subprocess.Popen(
             command,
-            env=os.environ | {"DATAGEN_BROKER_URL": self.url},
+            env=os.environ | {"DATAGEN_BROKER_URL": self.url, SECRET_ENV: self.secret.hex()},
             start_new_session=True,
             preexec_fn=die_with_parent,
         )

@@ -129,7 +129,8 @@ def test_injected_duplicates_are_written_once(tmp_path):
     build = BuildThread(tmp_path)
     build.wait_progress(5)
     url, build_id = build.events["broker"]["url"], _build_id(tmp_path)
-    with SamplePublisher(url, build_id, client_id="test-duplicates") as publisher:
+    secret = _secret(tmp_path)  # as a worker of the build would
+    with SamplePublisher(url, build_id, client_id="test-duplicates", secret=secret) as publisher:
         for _ in range(3):
             for sample in duplicates:
                 publisher.publish(sample)
@@ -145,8 +146,12 @@ def _build_id(out: Path) -> str:
     return json.loads((out / "build.json").read_text())["build_id"]
 
 
-def _hostile_payloads(build_id: str) -> list[bytes]:
-    genuine = encode_sample(build_id, Sample(3, {"json": b'{"x":1}'}))
+def _secret(out: Path) -> bytes:
+    return bytes.fromhex(json.loads((out / "build.json").read_text())["secret"])
+
+
+def _hostile_payloads(build_id: str, secret: bytes) -> list[bytes]:
+    genuine = encode_sample(build_id, Sample(3, {"json": b'{"x":1}'}), secret)
     wrong_version = bytearray(genuine)
     wrong_version[4] = 9
     return [
@@ -158,6 +163,10 @@ def _hostile_payloads(build_id: str) -> list[bytes]:
         encode_sample("some-other-build", Sample(4, {"json": b"{}"})),
         genuine[:-1] + bytes([genuine[-1] ^ 0xFF]),  # bad CRC
         json.dumps({"index": 5, "rgb": "pickle?"}).encode(),
+        # forged: well-formed samples of this build that no worker made
+        encode_sample(build_id, Sample(6, {"json": b'{"x":1}'})),  # unsigned
+        encode_sample(build_id, Sample(7, {"json": b'{"x":1}'}), os.urandom(32)),  # wrong key
+        encode_sample(build_id, Sample(10**6, {"json": b'{"x":1}'}), os.urandom(32)),  # index >= N
     ]
 
 
@@ -172,7 +181,7 @@ def test_hostile_messages_are_rejected_counted_and_never_enter_the_dataset(tmp_p
     client.username_pw_set(address.username, address.password)
     client.connect(address.host, address.port)
     client.loop_start()
-    payloads = _hostile_payloads(build_id)
+    payloads = _hostile_payloads(build_id, _secret(tmp_path))
     for payload in payloads:
         client.publish(topics(build_id).samples, payload, qos=1).wait_for_publish(10)
     client.loop_stop()

@@ -63,7 +63,8 @@ def test_valid_frame_helper_decodes():
         (b"DGS1\x01\x00", "truncated"),
         (frame(header(), b"{}", magic=b"XXXX"), "bad magic"),
         (frame(header(), b"{}", version=2), "unknown wire version 2"),
-        (frame(header(), b"{}", flags=1), "unknown flags"),
+        (frame(header(), b"{}", flags=2), "unknown flags"),
+        (frame(header(), b"{}", flags=1), "truncated"),  # signed, but no room for the MAC
         (frame(header(), b"{}")[:-1], "CRC32 mismatch"),
         (frame(header(), b"{}")[:-3] + b"\x00\x00\x00", "CRC32 mismatch"),
         (frame(None, header_bytes=b"\xff\xfe"), "not UTF-8 JSON"),
@@ -152,3 +153,25 @@ def test_topics_of_a_build():
     )
     assert t.status("A") == "datagen/b1/status/A" and t.status_all == "datagen/b1/status/+"
     assert t.shared_samples == "$share/datagen-b1/datagen/b1/samples"
+
+
+def test_signed_samples_verify_only_with_the_builds_secret():
+    from datagen.engines.wire import FLAG_SIGNED
+
+    secret, other = b"s" * 32, b"o" * 32
+    sample = Sample(5, {"json": b'{"a":1}', "rgb.png": b"\x89PNG..."})
+    payload = encode_sample("b1", sample, secret)
+    assert int.from_bytes(payload[6:8], "little") == FLAG_SIGNED
+    build_id, decoded = decode_sample(payload, secret=secret)
+    assert build_id == "b1" and decoded.parts == sample.parts
+    assert decode_sample(payload)[1].parts == sample.parts  # readable without verifying
+    with pytest.raises(WireError, match="signature does not verify"):
+        decode_sample(payload, secret=other)
+    with pytest.raises(WireError, match="unsigned sample"):
+        decode_sample(encode_sample("b1", sample), secret=secret)
+    tampered = bytearray(payload)
+    tampered[-40] ^= 1  # inside the MAC; recompute the CRC so only the signature can catch it
+
+    tampered[-4:] = zlib.crc32(bytes(tampered[:-4])).to_bytes(4, "little")
+    with pytest.raises(WireError, match="signature does not verify"):
+        decode_sample(bytes(tampered), secret=secret)

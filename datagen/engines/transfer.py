@@ -142,10 +142,12 @@ class SamplePublisher:
         max_message_bytes: int = DEFAULT_MAX_MESSAGE_BYTES,
         publish_timeout_s: float = 300.0,
         ca_file: str | None = None,
+        secret: bytes | None = None,
     ):
         if window < 1:
             raise ValueError("window must be >= 1")
         self.build_id = build_id
+        self.secret = secret  # signs every sample (HMAC-SHA256) when given
         self.topic = topics(build_id).samples
         self.window = window
         self.max_message_bytes = max_message_bytes
@@ -170,7 +172,7 @@ class SamplePublisher:
 
     def publish(self, sample: Sample) -> None:
         """Encodes and sends one sample; blocks while the in-flight window is full."""
-        payload = encode_sample(self.build_id, sample)
+        payload = encode_sample(self.build_id, sample, self.secret)
         if len(payload) > self.max_message_bytes:
             raise SampleTooLarge(
                 f"sample {sample.key} encodes to {len(payload)} bytes, over the "

@@ -3,7 +3,12 @@
 Layout, little-endian::
 
     b"DGS1" | u16 version | u16 flags | u32 header_len | header (UTF-8 JSON)
-    | part payloads, concatenated in header order | u32 CRC32 of everything before it
+    | part payloads, concatenated in header order
+    | [32-byte HMAC-SHA256 of everything before it, when flag SIGNED is set]
+    | u32 CRC32 of everything before it
+
+A build signs its samples with a per-build secret, so a writer holding the secret rejects
+well-formed samples that no worker of the build made (forged, or from a stale build).
 
 Nothing here unpickles or evaluates anything: a message from the network is bytes,
 checked field by field, and either becomes a ``Sample`` or raises ``WireError``.
@@ -11,6 +16,8 @@ checked field by field, and either becomes a ``Sample`` or raises ``WireError``.
 
 from __future__ import annotations
 
+import hashlib
+import hmac
 import json
 import struct
 import zlib
@@ -23,15 +30,33 @@ VERSION = 1
 _PREFIX = struct.Struct("<4sHHI")
 _CRC = struct.Struct("<I")
 MIN_MESSAGE_BYTES = _PREFIX.size + _CRC.size
+FLAG_SIGNED = 0x0001
+KNOWN_FLAGS = FLAG_SIGNED
+MAC_BYTES = 32  # HMAC-SHA256
 # Default upper bound for one encoded sample; broker and clients are configured with it.
 DEFAULT_MAX_MESSAGE_BYTES = 64 * 2**20
+
+
+SECRET_ENV = "DATAGEN_BUILD_SECRET"  # hex; shared by a build's coordinator and its writers
+
+
+def parse_secret(text: str) -> bytes:
+    """A build secret from hex text (at least 16 bytes)."""
+    try:
+        secret = bytes.fromhex(text.strip())
+    except ValueError:
+        raise ValueError(f"${SECRET_ENV} must be hex digits") from None
+    if len(secret) < 16:
+        raise ValueError(f"${SECRET_ENV} must hold at least 16 bytes (32 hex digits)")
+    return secret
 
 
 class WireError(ValueError):
     """A payload is not a valid version-1 sample message; the text says why."""
 
 
-def encode_sample(build_id: str, sample: Sample) -> bytes:
+def encode_sample(build_id: str, sample: Sample, secret: bytes | None = None) -> bytes:
+    """``secret``: the build's signing key; the message then carries an HMAC-SHA256."""
     if not isinstance(build_id, str) or not build_id:
         raise WireError("build_id must be a non-empty string")
     if not sample.parts:
@@ -50,14 +75,26 @@ def encode_sample(build_id: str, sample: Sample) -> bytes:
         "parts": [{"name": name, "size": len(data)} for name, data in sample.parts.items()],
     }
     header_bytes = json.dumps(header, separators=(",", ":"), ensure_ascii=False).encode("utf-8")
+    flags = FLAG_SIGNED if secret else 0
     body = b"".join(
-        [_PREFIX.pack(MAGIC, VERSION, 0, len(header_bytes)), header_bytes, *sample.parts.values()]
+        [
+            _PREFIX.pack(MAGIC, VERSION, flags, len(header_bytes)),
+            header_bytes,
+            *sample.parts.values(),
+        ]
     )
+    if secret:
+        body += hmac.new(secret, body, hashlib.sha256).digest()
     return body + _CRC.pack(zlib.crc32(body))
 
 
-def decode_sample(payload: bytes, max_bytes: int | None = None) -> tuple[str, Sample]:
-    """Checks and decodes one message; returns (build_id, sample) or raises ``WireError``."""
+def decode_sample(
+    payload: bytes, max_bytes: int | None = None, secret: bytes | None = None
+) -> tuple[str, Sample]:
+    """Checks and decodes one message; returns (build_id, sample) or raises ``WireError``.
+
+    With ``secret``, only messages signed with it are accepted.
+    """
     payload = bytes(payload)
     n = len(payload)
     if max_bytes is not None and n > max_bytes:
@@ -69,10 +106,11 @@ def decode_sample(payload: bytes, max_bytes: int | None = None) -> tuple[str, Sa
         raise WireError(f"bad magic {magic!r}, expected {MAGIC!r}")
     if version != VERSION:
         raise WireError(f"unknown wire version {version}, this decoder reads version {VERSION}")
-    if flags != 0:
-        raise WireError(f"unknown flags 0x{flags:04x} (version 1 defines none)")
+    if flags & ~KNOWN_FLAGS:
+        raise WireError(f"unknown flags 0x{flags:04x} (version 1 defines only 0x0001, signed)")
+    mac_len = MAC_BYTES if flags & FLAG_SIGNED else 0
     header_end = _PREFIX.size + header_len
-    if header_end > n - _CRC.size:
+    if header_end > n - _CRC.size - mac_len:
         raise WireError(
             f"truncated: header_len {header_len} runs past the end of a {n}-byte message"
         )
@@ -80,9 +118,18 @@ def decode_sample(payload: bytes, max_bytes: int | None = None) -> tuple[str, Sa
     actual = zlib.crc32(memoryview(payload)[: n - _CRC.size])
     if crc != actual:
         raise WireError(f"CRC32 mismatch: message says 0x{crc:08x}, content gives 0x{actual:08x}")
+    if secret is not None:
+        if not mac_len:
+            raise WireError(
+                "unsigned sample: this build accepts only samples signed with its secret"
+            )
+        signed_end = n - _CRC.size - mac_len
+        expected = hmac.new(secret, memoryview(payload)[:signed_end], hashlib.sha256).digest()
+        if not hmac.compare_digest(expected, payload[signed_end : signed_end + mac_len]):
+            raise WireError("signature does not verify: not made by a worker of this build")
 
     build_id, index, parts = _parse_header(payload[_PREFIX.size : header_end])
-    body_len = n - _CRC.size - header_end
+    body_len = n - _CRC.size - mac_len - header_end
     total = sum(size for _, size in parts)
     if total != body_len:
         raise WireError(f"part sizes add up to {total} bytes but the body holds {body_len}")

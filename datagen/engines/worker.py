@@ -34,7 +34,12 @@ def die_with_parent(sig: int = signal.SIGKILL) -> None:
 
 
 def worker_main(
-    worker_id: int, config_dict: dict[str, Any], broker_url: str, build_id: str, conn: Connection
+    worker_id: int,
+    config_dict: dict[str, Any],
+    broker_url: str,
+    build_id: str,
+    secret: bytes,
+    conn: Connection,
 ) -> None:
     """Runs in a spawned process until the coordinator sends ``None`` or the pipe closes."""
     die_with_parent()
@@ -53,6 +58,7 @@ def worker_main(
             client_id=f"datagen-{build_id}-worker-{worker_id}",
             window=config.transfer.window,
             max_message_bytes=int(config.transfer.max_sample_mb * 2**20),
+            secret=secret,
         ) as publisher:
             while (index := conn.recv()) is not None:
                 publisher.publish(produce_sample(config, config.seed, index))

@@ -40,7 +40,13 @@ from paho.mqtt.subscribeoptions import SubscribeOptions
 
 from datagen.engines.mqtt_client import CA_FILE_ENV, MqttConnectError, MqttConnection
 from datagen.engines.transfer import ack_indices, topics, valid_build_id
-from datagen.engines.wire import DEFAULT_MAX_MESSAGE_BYTES, WireError, decode_sample
+from datagen.engines.wire import (
+    DEFAULT_MAX_MESSAGE_BYTES,
+    SECRET_ENV,
+    WireError,
+    decode_sample,
+    parse_secret,
+)
 from datagen.sample import Sample, sample_key
 from datagen.sinks.finalize import (
     FinalizeError,
@@ -88,6 +94,7 @@ class DatasetWriter:
         session_expiry_s: int = DEFAULT_SESSION_EXPIRY_S,
         batch_max: int = 32,
         ca_file: str | None = None,
+        secret: bytes | None = None,
     ):
         if not valid_writer_id(writer_id):
             raise ValueError(f"invalid writer id {writer_id!r}: use 1-32 of [A-Za-z0-9_-]")
@@ -103,6 +110,7 @@ class DatasetWriter:
         self.session_expiry_s = session_expiry_s
         self.batch_max = batch_max
         self.ca_file = ca_file
+        self.secret = secret  # when given, only samples signed with it are accepted
         self.rejected = 0
         self.duplicates = 0
         self._inbox: queue.Queue[mqtt.MQTTMessage] = queue.Queue()
@@ -260,7 +268,7 @@ class DatasetWriter:
     def _accept(self, msg: mqtt.MQTTMessage) -> Sample | None:
         """Writes a new sample; returns the sample to ack, or None for a rejected message."""
         try:
-            build_id, sample = decode_sample(msg.payload, self.max_message_bytes)
+            build_id, sample = decode_sample(msg.payload, self.max_message_bytes, self.secret)
             if build_id != self.build_id:
                 raise WireError(f"build_id {build_id!r} is not this build's {self.build_id!r}")
             if "json" in sample.parts:
@@ -500,6 +508,12 @@ def main(argv: list[str] | None = None) -> int:
         p.error("--broker URL (or $DATAGEN_BROKER_URL) is required")
     if args.session_expiry < 1:
         p.error("--session-expiry must be >= 1 second")
+    secret = None
+    if os.environ.get(SECRET_ENV):
+        try:
+            secret = parse_secret(os.environ[SECRET_ENV])
+        except ValueError as exc:
+            p.error(str(exc))
     logging.basicConfig(
         stream=sys.stderr,
         level=args.log_level.upper(),
@@ -514,7 +528,12 @@ def main(argv: list[str] | None = None) -> int:
         max_message_bytes=args.max_message_bytes,
         session_expiry_s=args.session_expiry,
         ca_file=args.ca_file,
+        secret=secret,
     )
+    if secret is None:
+        log.warning(
+            "no $%s: accepting any well-formed sample of build %s", SECRET_ENV, args.build_id
+        )
     for sig in (signal.SIGTERM, signal.SIGINT):
         signal.signal(sig, lambda *_: writer.stop())
     try:
