@@ -216,7 +216,23 @@ def run_build(
         coordinator.run(url, broker)
     result = coordinator.result
     result.seconds = time.monotonic() - start
+    if config.scene == "grasp_attempts" and (out_dir / MANIFEST).is_file():
+        _add_campaign_stats(
+            out_dir, made=result.samples - result.resumed_from, seconds=result.seconds
+        )
     return result
+
+
+def _add_campaign_stats(out_dir: Path, made: int, seconds: float) -> None:
+    """Campaign statistics go into the manifest (the writers know nothing of grasps)."""
+    from datagen.grasping.stats import campaign_stats
+    from datagen.loader import load
+
+    dataset = load(out_dir)
+    stats = campaign_stats(dataset.metadata(i)["attempt"] for i in range(len(dataset)))
+    stats["attempts_per_s"] = round(made / seconds, 4) if seconds else None
+    manifest = json.loads((out_dir / MANIFEST).read_text())
+    _write_json_atomic(out_dir / MANIFEST, manifest | {"campaign": stats})
 
 
 @contextlib.contextmanager

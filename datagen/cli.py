@@ -104,6 +104,34 @@ def _parser() -> argparse.ArgumentParser:
     broker.add_argument("--tls-key", help="the certificate's private key (PEM)")
     broker.add_argument("--advertise-host", help="host name to print in the URL clients use")
 
+    campaign = commands.add_parser(
+        "campaign",
+        help="record physically executed grasp attempts with success labels",
+        description="Grasp-attempt campaigns: one executed Panda grasp per sample, same workers, "
+        "MQTT transport and writers as every build.",
+    )
+    kinds = campaign.add_subparsers(dest="kind", metavar="KIND", required=True)
+    grasp = kinds.add_parser("grasp", help="grasp attempts in randomised tray scenes")
+    grasp.add_argument("config", help="YAML config, e.g. configs/grasp_campaign.yaml")
+    grasp.add_argument(
+        "--attempts", type=_positive_int, help="attempts to record (overrides num_samples)"
+    )
+    grasp.add_argument("--out", required=True, help="output directory")
+    grasp.add_argument(
+        "--sampler", choices=["antipodal", "random"], help="override campaign.sampler"
+    )
+    grasp.add_argument("--workers", type=_positive_int, default=os.cpu_count() or 1)
+    grasp.add_argument("--seed", type=_seed, help="override the config's seed")
+    grasp.add_argument(
+        "--resume", action="store_true", help="finish an interrupted campaign in --out"
+    )
+    grasp.add_argument("--overwrite", action="store_true", help="replace whatever is in --out")
+
+    inspect = commands.add_parser(
+        "inspect", help="summarise a dataset, draw its annotations and plot its distributions"
+    )
+    inspect.add_argument("dataset", help="dataset directory (with manifest.json)")
+
     preview = commands.add_parser(
         "preview", help="draw annotated samples of a dataset into a PNG grid"
     )
@@ -133,6 +161,10 @@ def main(argv: list[str] | None = None) -> int:
             return writer_main(args.args)
         if args.command == "broker":
             return _broker(args)
+        if args.command == "campaign":
+            return _campaign(args)
+        if args.command == "inspect":
+            return _inspect(args)
         return _preview(args)
     except ConfigError as exc:
         print(f"datagen: config error: {exc}", file=sys.stderr)
@@ -142,8 +174,9 @@ def main(argv: list[str] | None = None) -> int:
         return 1
     except KeyboardInterrupt:
         hint = ""
-        if args.command == "build":
-            hint = f" Finish it with: datagen build {args.config} --out {args.out} --resume"
+        if args.command in ("build", "campaign"):
+            command = "build" if args.command == "build" else "campaign grasp"
+            hint = f" Finish it with: datagen {command} {args.config} --out {args.out} --resume"
         print(
             f"\ndatagen: interrupted; the output is incomplete (no manifest).{hint}",
             file=sys.stderr,
@@ -151,13 +184,54 @@ def main(argv: list[str] | None = None) -> int:
         return EXIT_INTERRUPTED
 
 
-def _build(args: argparse.Namespace) -> int:
+def _campaign(args: argparse.Namespace) -> int:
+    import dataclasses
+
+    config = load_config(args.config)
+    campaign = config.campaign
+    if args.sampler:
+        campaign = dataclasses.replace(campaign, sampler=args.sampler)
+    config = config.replace(scene="grasp_attempts", campaign=campaign)
+    args.num_samples = args.attempts
+    args.broker = args.writers = args.build_id = args.ca_file = None
+    args.no_preview = False
+    result = _build(args, config)
+    if result == 0:
+        _print_campaign(Path(args.out))
+    return result
+
+
+def _print_campaign(out: Path) -> None:
+    import json
+
+    stats = json.loads((out / "manifest.json").read_text()).get("campaign", {})
+    if not stats:
+        return
+    print(f"datagen: {stats['attempts']} grasp attempts, success rate {stats['success_rate']:.1%}")
+    for name, row in {**stats["per_sampler"], **stats["per_family"]}.items():
+        print(f"  {name:<10} {row['attempts']:>6} attempts  {row['success_rate']:>6.1%} success")
+    print(f"  failures: {stats['failure_modes']}")
+
+
+def _inspect(args: argparse.Namespace) -> int:
+    import json
+
+    from datagen.inspect import inspect_dataset
+
+    summary, files = inspect_dataset(args.dataset)
+    print(json.dumps(summary, indent=2))
+    for path in files:
+        print(f"datagen: wrote {path}")
+    return 0
+
+
+def _build(args: argparse.Namespace, config=None) -> int:
     from tqdm import tqdm
 
     from datagen.build import run_build
     from datagen.preview import write_preview
 
-    config = load_config(args.config)
+    config = config or load_config(args.config)
     overrides = {}
     if args.num_samples is not None:
         overrides["num_samples"] = args.num_samples

@@ -18,7 +18,8 @@ import yaml
 
 CONFIG_VERSION = 1
 SHAPE_FAMILIES = ("box", "cylinder", "sphere", "capsule", "convex", "compound")
-SCENES = ("grasp_tabletop",)
+SCENES = ("grasp_tabletop", "grasp_attempts")
+GRASP_SAMPLERS = ("antipodal", "random")
 
 
 class ConfigError(ValueError):
@@ -132,6 +133,26 @@ class TransferConfig:
 
 
 @dataclass(frozen=True)
+class CampaignConfig:
+    """Grasp-attempt campaigns (scene ``grasp_attempts``): one physically executed grasp per sample."""
+
+    sampler: str = "antipodal"
+    sampler_tries: int = field(
+        default=200, metadata=_range(1, 100000, "candidates tried per attempt")
+    )
+    friction: float = field(
+        default=0.5,
+        metadata=_range(0.05, 2.0, "friction coefficient the antipodal sampler assumes"),
+    )
+    pre_grasp_distance: float = field(
+        default=0.1, metadata=_range(0.0, 0.5, "metres back along the approach")
+    )
+    lift_height: float = field(default=0.1, metadata=_range(0.01, 0.5, "metres"))
+    hold_time: float = field(default=1.0, metadata=_range(0.0, 10.0, "simulated seconds"))
+    post_grasp_frame: bool = True
+
+
+@dataclass(frozen=True)
 class BuildConfig:
     version: int = CONFIG_VERSION
     scene: str = "grasp_tabletop"
@@ -146,6 +167,7 @@ class BuildConfig:
     physics: PhysicsConfig = PhysicsConfig()
     output: OutputConfig = OutputConfig()
     transfer: TransferConfig = TransferConfig()
+    campaign: CampaignConfig = CampaignConfig()
 
     def to_dict(self) -> dict[str, Any]:
         return _jsonable(dataclasses.asdict(self))
@@ -255,6 +277,10 @@ def _check_semantics(config: BuildConfig, source: str) -> None:
         raise ConfigError(
             f"{source}: objects.families: expected a non-empty list from {list(SHAPE_FAMILIES)}, "
             f"got {list(config.objects.families)}"
+        )
+    if config.campaign.sampler not in GRASP_SAMPLERS:
+        raise ConfigError(
+            f"{source}: campaign.sampler: expected one of {list(GRASP_SAMPLERS)}, got {config.campaign.sampler!r}"
         )
     if config.render.near >= config.render.far:
         raise ConfigError(f"{source}: render.near: must be smaller than render.far")

@@ -117,6 +117,13 @@ class ShardDataset:
             part: self._read(shard, offset, size) for shard, offset, size, part in self._members[i]
         }
 
+    def metadata(self, i: int) -> dict[str, Any]:
+        """Only the JSON metadata of item ``i`` (no image decoding)."""
+        for shard, offset, size, part in self._members[i]:
+            if part == "json":
+                return json.loads(self._read(shard, offset, size))
+        raise DatasetError(f"item {i} has no json part")
+
     def shard_paths(self) -> list[str]:
         return [str(self.root / name) for name in self.shards]
 

@@ -63,7 +63,13 @@ def _labelled_objects(scene: GraspScene) -> list[LabelledObject]:
 
 def render_annotated(config: BuildConfig, seed: int, index: int) -> AnnotatedSample:
     keep_renderer_alive()
-    scene = build_scene(config, seed, index)
+    return annotate_scene(build_scene(config, seed, index), config, seed, index)
+
+
+def annotate_scene(
+    scene: GraspScene, config: BuildConfig, seed: int, index: int
+) -> AnnotatedSample:
+    """Renders every camera of a built (settled) scene and annotates what they see."""
     scene.scene.update_render()
     objects = _labelled_objects(scene)
     stuff_class_ids = {entity_id: CLASS_ID[name] for entity_id, name in scene.stuff.items()}
@@ -146,4 +152,9 @@ def to_sample(annotated: AnnotatedSample) -> Sample:
 
 
 def produce_sample(config: BuildConfig, seed: int, index: int) -> Sample:
+    """Sample ``index`` of the build: an annotated frame, or a grasp attempt in a campaign."""
+    if config.scene == "grasp_attempts":
+        from datagen.grasping.attempt import produce_attempt
+
+        return produce_attempt(config, seed, index)
     return to_sample(render_annotated(config, seed, index))

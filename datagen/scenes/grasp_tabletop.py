@@ -94,18 +94,22 @@ def _add_table(scene, material) -> list[sapien.Entity]:
     return parts
 
 
-def _add_tray(scene, material) -> sapien.Entity:
-    builder = scene.create_actor_builder()
-    mat = render_material(material)
+def tray_boxes() -> list[tuple[list[float], list[float]]]:
+    """The tray as (half size, centre offset from TRAY_CENTRE) boxes: floor and four walls."""
     (ix, iy), (t, h) = TRAY_INNER_HALF, TRAY_WALL
-    boxes = [
+    return [
         ([ix + t, iy + t, TRAY_FLOOR / 2], [0, 0, TRAY_FLOOR / 2]),
         ([t / 2, iy + t, h / 2], [ix + t / 2, 0, h / 2]),
         ([t / 2, iy + t, h / 2], [-ix - t / 2, 0, h / 2]),
         ([ix + t, t / 2, h / 2], [0, iy + t / 2, h / 2]),
         ([ix + t, t / 2, h / 2], [0, -iy - t / 2, h / 2]),
     ]
-    for half_size, offset in boxes:
+
+
+def _add_tray(scene, material) -> sapien.Entity:
+    builder = scene.create_actor_builder()
+    mat = render_material(material)
+    for half_size, offset in tray_boxes():
         builder.add_box_collision(sapien.Pose(offset), half_size=half_size)
         builder.add_box_visual(sapien.Pose(offset), half_size=half_size, material=mat)
     tray = builder.build_static(name="tray")

@@ -1,0 +1,153 @@
+"""One grasp attempt = one sample of a campaign.
+
+Randomised tray scene (the grasp_tabletop scene and randomisers) -> annotated pre-grasp frame
+-> target object -> grasp candidate from the configured sampler -> executed with the Panda ->
+outcome label -> optional post-grasp frame. Every random choice comes from (seed, index).
+"""
+
+from __future__ import annotations
+
+import json
+from typing import Any
+
+import numpy as np
+import trimesh
+
+from datagen.config import BuildConfig
+from datagen.engines.produce import annotate_scene, to_sample
+from datagen.engines.render import keep_renderer_alive
+from datagen.geometry import pose_record
+from datagen.grasping import GraspOutcome
+from datagen.grasping.execute import ExecutionParams, execute_grasp
+from datagen.grasping.samplers import GraspTarget, Obstacles, make_sampler
+from datagen.sample import Sample
+from datagen.scenes.grasp_tabletop import (
+    TABLE_TOP,
+    TRAY_CENTRE,
+    TRAY_INNER_HALF,
+    TRAY_WALL,
+    GraspScene,
+    SceneObject,
+    build_scene,
+    tray_boxes,
+)
+from datagen.seeding import sample_rng
+
+MIN_VISIBLE_FRACTION = 0.3  # targets are objects the camera sees well enough to learn from
+
+
+def _parts_world(obj: SceneObject) -> list[trimesh.Trimesh]:
+    pose = np.asarray(obj.entity.pose.to_transformation_matrix(), float)
+    return [part.copy().apply_transform(pose) for part in obj.geometry.parts]
+
+
+def _in_tray(obj: SceneObject) -> bool:
+    x, y, z = obj.entity.pose.p
+    (cx, cy, cz), (hx, hy) = TRAY_CENTRE, TRAY_INNER_HALF
+    return abs(x - cx) <= hx and abs(y - cy) <= hy and cz <= z <= cz + TRAY_WALL[1] + 0.15
+
+
+def choose_target(rng: np.random.Generator, scene: GraspScene, view: dict[str, Any]) -> SceneObject:
+    """A random object in the tray the workspace camera sees well; any object if there is none."""
+    visible = {r["instance_id"]: r["visible_fraction"] for r in view["objects"]}
+    candidates = (
+        [
+            o
+            for o in scene.objects
+            if _in_tray(o) and visible.get(o.instance_id, 0.0) >= MIN_VISIBLE_FRACTION
+        ]
+        or [o for o in scene.objects if _in_tray(o)]
+        or scene.objects
+    )
+    return candidates[int(rng.integers(len(candidates)))]
+
+
+def _tray_meshes() -> list[trimesh.Trimesh]:
+    meshes = []
+    for half, offset in tray_boxes():
+        box = trimesh.creation.box(extents=2 * np.asarray(half))
+        box.apply_translation(np.add(offset, TRAY_CENTRE))
+        meshes.append(box)
+    return meshes
+
+
+def produce_attempt(config: BuildConfig, seed: int, index: int) -> Sample:
+    keep_renderer_alive()
+    campaign = config.campaign
+    scene = build_scene(config, seed, index)
+    pre = annotate_scene(scene, config, seed, index)
+    workspace = pre.metadata["views"]["workspace"]
+    target = choose_target(sample_rng(seed, index, "grasp_target"), scene, workspace)
+
+    obstacles = Obstacles(
+        meshes_world=[p for o in scene.objects if o is not target for p in _parts_world(o)]
+        + _tray_meshes(),
+        table_z=TABLE_TOP,
+    )
+    sampler_params = {
+        "antipodal": {
+            "friction": campaign.friction,
+            "pregrasp_distance": campaign.pre_grasp_distance,
+        },
+        "random": {},
+    }[campaign.sampler]
+    sampler = make_sampler(campaign.sampler, **sampler_params)
+    result = sampler.sample(
+        sample_rng(seed, index, "grasp"),
+        GraspTarget(
+            _parts_world(target), np.asarray(target.entity.pose.to_transformation_matrix(), float)
+        ),
+        obstacles,
+        max_tries=campaign.sampler_tries,
+    )
+    candidate = result.candidate
+    if candidate is None:
+        outcome = GraspOutcome(
+            False, "no_candidate", 0.0, 0.0, {"reason": result.reason, "tries": result.tries}
+        )
+    else:
+        params = ExecutionParams(
+            pregrasp_distance=campaign.pre_grasp_distance,
+            lift_height=campaign.lift_height,
+            hold_time=campaign.hold_time,
+            open_fully=False,  # open to the width the sampler checked for collisions
+        )
+        outcome = execute_grasp(scene, target.instance_id, candidate, params)
+
+    extrinsics = np.asarray(workspace["camera"]["extrinsics_world_to_camera"])
+    grasp = None
+    if candidate is not None:
+        grasp = candidate.to_json() | {
+            "pose_camera": pose_record(extrinsics @ candidate.pose_world),
+            "tries": result.tries,
+        }
+    target_meta = next(o for o in pre.metadata["objects"] if o["instance_id"] == target.instance_id)
+    attempt = {
+        "attempt_id": pre.metadata["key"],
+        "scene_seed": seed,
+        "index": index,
+        "sampler": campaign.sampler,
+        "target": {
+            "instance_id": target.instance_id,
+            "class": target.class_name,
+            "shape": target_meta["shape"],
+            "mass": target_meta["mass"],
+            "friction": target_meta["friction"],
+            "pose_world": target_meta["pose_world"],
+        },
+        "grasp": grasp,
+        "outcome": outcome.to_json(),
+    }
+    pre.metadata["attempt"] = attempt
+    sample = to_sample(pre)
+    if campaign.post_grasp_frame:
+        post = annotate_scene(scene, config, seed, index)
+        post_parts = to_sample(post).parts
+        for name in ("rgb.png", "depth.png", "seg.png"):
+            sample.parts[f"post.{name}"] = post_parts[name]
+        post_objects = post.metadata["views"]["workspace"]["objects"]
+        attempt["post_view_objects"] = post_objects
+        sample.parts["json"] = json.dumps(
+            pre.metadata, sort_keys=True, separators=(",", ":")
+        ).encode()
+    return sample

@@ -1,0 +1,149 @@
+"""Antipodal grasps: two surface points whose normals oppose within the friction cone.
+
+A surface point p1 is drawn area-weighted over the target's part faces; the line from p1 along
+a direction drawn in the friction cone about -n1 (as Dex-Net does) is intersected with every convex part (exactly, from the part's face planes). A parallel
+gripper closing on that line from outside touches the object's extreme points on it, so p1
+must be the line's first entry into the union of parts (else it is rejected: occluded or an
+internal face) and p2 is its last exit, with n2 the normal of the plane it leaves through.
+The grasp closes along p2 - p1 with the TCP at the midpoint; the approach is drawn about that
+axis, downward approaches first, and must be collision-free from the pre-grasp pose.
+"""
+
+from __future__ import annotations
+
+from collections import Counter
+from dataclasses import dataclass
+
+import numpy as np
+
+from datagen.grasping import PANDA_MAX_WIDTH, GraspCandidate
+from datagen.grasping.gripper import ConvexBody, collides
+from datagen.grasping.samplers.base import GraspTarget, Obstacles, SampleResult
+
+EPS = 1e-6  # metres
+
+
+def line_interval(body: ConvexBody, origin: np.ndarray, direction: np.ndarray):
+    """(t_enter, t_exit, exit plane index) of the line origin + t direction through the body,
+    or None when the line misses it."""
+    along = body.normals @ direction
+    gap = body.offsets - body.normals @ origin  # >= 0 where origin is inside the plane
+    parallel = np.abs(along) < 1e-12
+    if np.any(parallel & (gap < -EPS)):
+        return None
+    t = np.where(parallel, 0.0, gap / np.where(parallel, 1.0, along))
+    t_enter = np.max(t[along < -1e-12], initial=-np.inf)
+    exits = np.where(along > 1e-12, t, np.inf)
+    k = int(np.argmin(exits))
+    return (t_enter, exits[k], k) if t_enter <= exits[k] + EPS else None
+
+
+def _perpendicular_basis(axis: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    u = np.cross(axis, np.eye(3)[np.argmin(np.abs(axis))])
+    u /= np.linalg.norm(u)
+    return u, np.cross(axis, u)
+
+
+@dataclass(frozen=True)
+class AntipodalSampler:
+    friction: float = 0.5  # Coulomb coefficient mu; the cone's half-angle is atan(mu)
+    clearance: float = 0.01  # metres added to the contact distance for the opening width
+    max_width: float = PANDA_MAX_WIDTH
+    pregrasp_distance: float = 0.1  # metres of straight approach checked for collisions
+    approach_angles: int = 24  # approach directions tried about the closing axis
+    downward_z: float = -0.3  # approaches with a z component below this are tried first
+    allow_side: bool = True  # then try the others (still collision-checked)
+    name: str = "antipodal"
+
+    def sample(
+        self,
+        rng: np.random.Generator,
+        target: GraspTarget,
+        obstacles: Obstacles,
+        max_tries: int = 200,
+    ) -> SampleResult:
+        parts, bodies = target.parts_world, target.bodies
+        areas = np.concatenate([part.area_faces for part in parts])
+        owner = np.concatenate([np.full(len(part.faces), i) for i, part in enumerate(parts)])
+        first = np.cumsum([0] + [len(part.faces) for part in parts])
+        blocking = bodies + obstacles.bodies
+        cos_cone = np.cos(np.arctan(self.friction))
+        rejected: Counter[str] = Counter()
+        for tries in range(1, max_tries + 1):
+            face = int(rng.choice(len(areas), p=areas / areas.sum()))
+            part = parts[owner[face]]
+            p1 = self._point_on(rng, part.triangles[face - first[owner[face]]])
+            n1 = part.face_normals[face - first[owner[face]]]
+            contact = self._contact(p1, self._in_cone(rng, -n1), bodies)
+            if isinstance(contact, str):
+                rejected[contact] += 1
+                continue
+            p2, n2 = contact
+            distance = float(np.linalg.norm(p2 - p1))
+            closing = (p2 - p1) / distance
+            if closing @ -n1 < cos_cone or -closing @ -n2 < cos_cone:
+                rejected["outside the friction cone"] += 1
+                continue
+            width = distance + self.clearance
+            if width > self.max_width:
+                rejected[f"wider than {self.max_width} m with clearance"] += 1
+                continue
+            pose = self._approach(rng, (p1 + p2) / 2, closing, width, blocking, obstacles)
+            if pose is None:
+                rejected["every approach collides"] += 1
+                continue
+            info = {"tries": tries, "friction": self.friction, "clearance": self.clearance}
+            candidate = GraspCandidate(pose, width, self.name, np.stack([p1, p2]), info)
+            return SampleResult(candidate, tries, "antipodal pair found")
+        counts = ", ".join(f"{why}: {n}" for why, n in rejected.most_common())
+        return SampleResult(None, max_tries, f"no antipodal grasp in {max_tries} tries ({counts})")
+
+    def _in_cone(self, rng: np.random.Generator, axis: np.ndarray) -> np.ndarray:
+        """A direction uniform (by solid angle) in the friction cone about ``axis``."""
+        cos_t = rng.uniform(np.cos(np.arctan(self.friction)), 1.0)
+        phi = rng.uniform(0, 2 * np.pi)
+        u, v = _perpendicular_basis(axis)
+        sin_t = np.sqrt(1 - cos_t**2)
+        return cos_t * axis + sin_t * (np.cos(phi) * u + np.sin(phi) * v)
+
+    @staticmethod
+    def _point_on(rng: np.random.Generator, triangle: np.ndarray) -> np.ndarray:
+        u, v = rng.random(2)
+        if u + v > 1:
+            u, v = 1 - u, 1 - v
+        return triangle[0] + u * (triangle[1] - triangle[0]) + v * (triangle[2] - triangle[0])
+
+    @staticmethod
+    def _contact(p1, direction, bodies):
+        """(p2, n2) where the line leaves the union of parts, or why p1 is unusable."""
+        hits = [(body, line_interval(body, p1, direction)) for body in bodies]
+        hits = [(body, hit) for body, hit in hits if hit is not None]
+        if not hits:  # numerically grazing a sliver face
+            return "degenerate ray"
+        if min(hit[0] for _, hit in hits) < -EPS:
+            return "not the outermost surface on its line"
+        body, (_, t_exit, plane) = max(hits, key=lambda item: item[1][1])
+        if t_exit < 1e-4:
+            return "degenerate ray"
+        return p1 + t_exit * direction, body.normals[plane]
+
+    def _approach(self, rng, centre, closing, width, blocking, obstacles):
+        """A collision-free TCP pose closing along ``closing``, or None."""
+        u, v = _perpendicular_basis(closing)
+        angles = rng.uniform(0, 2 * np.pi) + np.arange(self.approach_angles) * (
+            2 * np.pi / self.approach_angles
+        )
+        approaches = np.cos(angles)[:, None] * u + np.sin(angles)[:, None] * v
+        down = approaches[:, 2] < self.downward_z
+        order = [*rng.permutation(np.flatnonzero(down))]
+        if self.allow_side:
+            order += [*rng.permutation(np.flatnonzero(~down))]
+        for k in order:
+            pose = np.eye(4)
+            pose[:3, :3] = np.column_stack(
+                [np.cross(closing, approaches[k]), closing, approaches[k]]
+            )
+            pose[:3, 3] = centre
+            if not collides(pose, width, blocking, obstacles.table_z, self.pregrasp_distance):
+                return pose
+        return None

@@ -1,0 +1,66 @@
+"""What every grasp sampler takes and returns."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from functools import cached_property
+from typing import Protocol
+
+import numpy as np
+import trimesh
+
+from datagen.grasping import GraspCandidate
+from datagen.grasping.gripper import ConvexBody
+from datagen.shapes import ObjectGeometry
+
+TABLE_Z = 0.75  # metres, the grasping scene's table top
+
+
+@dataclass(frozen=True)
+class GraspTarget:
+    """The object to grasp: its convex parts in the world frame, and its pose."""
+
+    parts_world: list[trimesh.Trimesh]
+    pose_world: np.ndarray  # (4, 4)
+
+    @classmethod
+    def from_geometry(cls, geometry: ObjectGeometry, pose_world: np.ndarray) -> GraspTarget:
+        pose = np.asarray(pose_world, float)
+        return cls([part.copy().apply_transform(pose) for part in geometry.parts], pose)
+
+    @cached_property
+    def bodies(self) -> list[ConvexBody]:
+        return [ConvexBody.from_mesh(part) for part in self.parts_world]
+
+
+@dataclass(frozen=True)
+class Obstacles:
+    """Everything but the target the gripper must not touch: convex meshes in the world frame
+    (the other objects' parts, the tray's boxes) and the table top, the half-space z < table_z.
+    A non-convex mesh is treated as its convex hull."""
+
+    meshes_world: list[trimesh.Trimesh]
+    table_z: float = TABLE_Z
+
+    @cached_property
+    def bodies(self) -> list[ConvexBody]:
+        return [ConvexBody.from_mesh(mesh) for mesh in self.meshes_world]
+
+
+@dataclass(frozen=True)
+class SampleResult:
+    candidate: GraspCandidate | None
+    tries: int
+    reason: str  # why sampling failed, or how the candidate was found
+
+
+class GraspSampler(Protocol):
+    name: str
+
+    def sample(
+        self,
+        rng: np.random.Generator,
+        target: GraspTarget,
+        obstacles: Obstacles,
+        max_tries: int = 200,
+    ) -> SampleResult: ...

@@ -1,0 +1,211 @@
+"""Grasp candidate samplers and the gripper collision check: pure geometry, no simulator."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import trimesh
+
+from datagen.grasping import PANDA_MAX_WIDTH
+from datagen.grasping.gripper import ConvexBody, collides, gripper_boxes
+from datagen.grasping.samplers import GraspTarget, Obstacles, make_sampler
+from datagen.shapes import build_geometry
+
+TABLE = 0.75
+
+
+def on_table(mesh: trimesh.Trimesh, xy=(0.0, 0.0)) -> GraspTarget:
+    pose = np.eye(4)
+    pose[:3, 3] = (*xy, TABLE - mesh.bounds[0, 2])
+    return GraspTarget([mesh.copy().apply_transform(pose)], pose)
+
+
+def check_antipodal(result, target: GraspTarget, mu: float = 0.5, clearance: float = 0.01):
+    cand = result.candidate
+    assert cand is not None, result.reason
+    p1, p2 = cand.contacts_world
+    surface = np.concatenate([b.depth(cand.contacts_world)[None] for b in target.bodies]).min(0)
+    assert np.all(np.abs(surface) < 1e-6)  # both contacts on the surface
+    closing = (p2 - p1) / np.linalg.norm(p2 - p1)
+    assert np.allclose(cand.closing, closing)
+    assert abs(cand.approach @ cand.closing) < 1e-9
+    assert np.allclose(cand.pose_world[:3, :3].T @ cand.pose_world[:3, :3], np.eye(3))
+    assert np.linalg.det(cand.pose_world[:3, :3]) == pytest.approx(1.0)
+    assert np.allclose(cand.pose_world[:3, 3], (p1 + p2) / 2)
+    assert cand.width == pytest.approx(np.linalg.norm(p2 - p1) + clearance)
+    assert cand.width <= PANDA_MAX_WIDTH
+    # the surface normals at the contacts oppose each other within the friction cone
+    normals = []
+    for p in (p1, p2):
+        body = min(target.bodies, key=lambda b: abs(b.depth(p)[0]))
+        normals.append(body.normals[np.argmax(body.normals @ p - body.offsets)])
+    cone = np.cos(np.arctan(mu))
+    assert closing @ -normals[0] >= cone - 1e-9
+    assert -closing @ -normals[1] >= cone - 1e-9
+    return cand
+
+
+def test_antipodal_box_on_table_is_antipodal_and_clear_of_table():
+    target = on_table(trimesh.creation.box(extents=(0.05, 0.04, 0.06)))
+    obstacles = Obstacles([], TABLE)
+    sampler = make_sampler("antipodal")
+    for seed in range(5):
+        cand = check_antipodal(
+            sampler.sample(np.random.default_rng(seed), target, obstacles), target
+        )
+        assert abs(cand.closing[2]) < 0.5  # closing vertically would put a finger in the table
+        assert not collides(cand.pose_world, cand.width, target.bodies, TABLE, 0.1)
+        assert cand.approach[2] < -0.3  # from above
+
+
+def test_antipodal_cylinder():
+    cylinder = trimesh.creation.cylinder(radius=0.025, height=0.1, sections=32)
+    target = on_table(cylinder)
+    sampler = make_sampler("antipodal", friction=0.3)
+    for seed in range(5):
+        result = sampler.sample(np.random.default_rng(seed), target, Obstacles([], TABLE))
+        check_antipodal(result, target, mu=0.3)
+
+
+def test_antipodal_compound_contacts_are_outermost():
+    shape = {
+        "family": "compound",
+        "parts": [
+            {"kind": "box", "extents": [0.04, 0.04, 0.04]},
+            {"kind": "box", "extents": [0.02, 0.06, 0.02], "offset": [0.0, 0.02, 0.0],
+             "quat_wxyz": [1, 0, 0, 0]},
+        ],
+    }  # fmt: skip
+    geometry = build_geometry(shape)
+    pose = np.eye(4)
+    pose[:3, 3] = (0.1, 0.0, TABLE + 0.02)
+    target = GraspTarget.from_geometry(geometry, pose)
+    sampler = make_sampler("antipodal")
+    for seed in range(5):
+        cand = check_antipodal(
+            sampler.sample(np.random.default_rng(seed), target, Obstacles([])), target
+        )
+        # no contact inside the other part
+        assert all(min(b.depth(p)[0] for b in target.bodies) > -1e-6 for p in cand.contacts_world)
+
+
+def test_antipodal_too_wide_object_reports_why():
+    target = on_table(trimesh.creation.box(extents=(0.2, 0.2, 0.2)))
+    result = make_sampler("antipodal").sample(np.random.default_rng(0), target, Obstacles([]), 50)
+    assert result.candidate is None and result.tries == 50
+    assert "wider than" in result.reason
+
+
+def test_antipodal_avoids_neighbours():
+    target = on_table(trimesh.creation.box(extents=(0.04, 0.04, 0.08)))
+    # walls 15 mm from the box on both sides along x, 10 mm higher: the fingers do not fit
+    # between them, so the gripper must close along y
+    walls = [
+        trimesh.creation.box(
+            (0.01, 0.2, 0.09), trimesh.transformations.translation_matrix((x, 0, 0.795))
+        )
+        for x in (-0.04, 0.04)
+    ]
+    obstacles = Obstacles(walls, TABLE)
+    sampler = make_sampler("antipodal")
+    for seed in range(5):
+        cand = sampler.sample(np.random.default_rng(seed), target, obstacles, 500).candidate
+        assert cand is not None
+        assert not collides(cand.pose_world, cand.width, obstacles.bodies, TABLE, 0.1)
+        assert abs(cand.closing[0]) < 0.5  # within the friction cone of the y faces
+    # without the walls, the x faces are used too
+    free = [sampler.sample(np.random.default_rng(s), target, Obstacles([])) for s in range(20)]
+    assert any(abs(r.candidate.closing[0]) > 0.9 for r in free)
+
+
+def test_samplers_are_deterministic():
+    target = on_table(trimesh.creation.cylinder(radius=0.02, height=0.08, sections=24))
+    for name in ("antipodal", "random"):
+        a, b = (
+            make_sampler(name).sample(np.random.default_rng(7), target, Obstacles([]))
+            for _ in range(2)
+        )
+        assert a.candidate.to_json() == b.candidate.to_json()
+        c = make_sampler(name).sample(np.random.default_rng(8), target, Obstacles([]))
+        assert c.candidate.to_json() != a.candidate.to_json()
+
+
+def test_random_sampler_near_object_above_table():
+    target = on_table(trimesh.creation.box(extents=(0.05, 0.05, 0.05)), xy=(0.1, -0.1))
+    lo, hi = target.parts_world[0].bounds
+    sampler = make_sampler("random", margin=0.03)
+    rng = np.random.default_rng(0)
+    for _ in range(50):
+        cand = sampler.sample(rng, target, Obstacles([], TABLE)).candidate
+        pos = cand.pose_world[:3, 3]
+        assert np.all(pos >= lo - 0.03) and np.all(pos <= hi + 0.03) and pos[2] > TABLE
+        rot = cand.pose_world[:3, :3]
+        assert np.allclose(rot.T @ rot, np.eye(3)) and np.linalg.det(rot) == pytest.approx(1)
+        assert cand.width == PANDA_MAX_WIDTH and cand.contacts_world is None
+
+
+def test_unknown_sampler_name():
+    with pytest.raises(ValueError, match=r"unknown grasp sampler 'nope'.*antipodal.*random"):
+        make_sampler("nope")
+
+
+def translated_box(extents, position):
+    return trimesh.creation.box(extents, trimesh.transformations.translation_matrix(position))
+
+
+def test_gripper_collision_check():
+    pose = np.eye(4)
+    pose[:3, 3] = (0, 0, 1)
+    pose[:3, :3] = np.diag([1.0, -1.0, -1.0])  # approach straight down
+    big = translated_box((0.1, 0.1, 0.1), (0, 0, 1))  # wider than the open fingers
+    assert collides(pose, 0.08, [big])
+    far = pose.copy()
+    far[0, 3] += 0.2
+    assert not collides(far, 0.08, [big])
+    # open fingers around a small box clear it, and so does the straight approach from above
+    small = translated_box((0.03, 0.03, 0.03), (0, 0, 1))
+    assert not collides(pose, 0.06, [small], approach_distance=0.1)
+    assert collides(pose, 0.02, [small])  # fingers closed into it
+    # a lid above the grasp blocks the approach path, not the grasp pose
+    lid = translated_box((0.2, 0.2, 0.01), (0, 0, 1.2))
+    assert not collides(pose, 0.06, [small, lid])
+    assert collides(pose, 0.06, [small, lid], approach_distance=0.1)
+    # the table is the half-space below table_z; the pads reach 9 mm below the TCP
+    assert collides(pose, 0.06, [], table_z=0.995)
+    assert not collides(pose, 0.06, [], table_z=0.985)
+
+
+def test_gripper_boxes_follow_the_width():
+    boxes = gripper_boxes(0.08)
+    assert len(boxes) == 5
+    pads = [t[:3, 3] for t, e in boxes if np.allclose(e, (0.0175, 0.0152, 0.0185))]
+    assert sorted(p[1] for p in pads) == pytest.approx([-0.0476, 0.0476])
+    swept = gripper_boxes(0.08, approach_distance=0.1)
+    for (t0, e0), (t1, e1) in zip(boxes, swept, strict=True):
+        assert e1[2] == pytest.approx(e0[2] + 0.1)
+        assert t1[2, 3] + e1[2] / 2 == pytest.approx(t0[2, 3] + e0[2] / 2)  # front face stays
+
+
+def test_box_vs_convex_matches_linear_programming():
+    """The separating-axis test agrees with an exact LP feasibility test on random poses."""
+    from scipy.optimize import linprog
+
+    from datagen.grasping.gripper import box_hits_body
+
+    rng = np.random.default_rng(3)
+    body = ConvexBody.from_mesh(trimesh.creation.cylinder(radius=0.03, height=0.05, sections=12))
+    hits = 0
+    for _ in range(300):
+        transform = np.eye(4)
+        transform[:3, :3] = trimesh.transformations.random_rotation_matrix(rng.random(3))[:3, :3]
+        transform[:3, 3] = rng.uniform(-0.06, 0.06, 3)
+        extents = rng.uniform(0.005, 0.05, 3)
+        rot, centre = transform[:3, :3], transform[:3, 3]
+        a_ub = np.concatenate([body.normals, rot.T, -rot.T])
+        b_ub = np.concatenate(
+            [body.offsets, rot.T @ centre + extents / 2, -(rot.T @ centre) + extents / 2]
+        )
+        feasible = linprog(np.zeros(3), A_ub=a_ub, b_ub=b_ub, bounds=[(None, None)] * 3).status == 0
+        hits += feasible
+        assert box_hits_body(transform, extents, body) == feasible
+    assert 30 < hits < 270
