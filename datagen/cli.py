@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 import logging
 import os
+import signal
 import sys
 from pathlib import Path
 
@@ -142,6 +143,8 @@ def _parser() -> argparse.ArgumentParser:
 
 
 def main(argv: list[str] | None = None) -> int:
+    # a parent may hand us SIGINT blocked (it is then never delivered): Ctrl-C must work
+    signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGINT})
     args = _parser().parse_args(argv)
     logging.basicConfig(
         level=logging.INFO if args.verbose else logging.WARNING,

@@ -177,3 +177,22 @@ def start_writer(
     yield start
     for w in started:
         w.stop()
+
+
+def _sigint_ignored() -> bool:
+    """At the C level: children inherit an ignored or blocked SIGINT and never see Ctrl-C."""
+    for line in Path("/proc/thread-self/status").read_text().splitlines():
+        if line.startswith(("SigIgn:", "SigBlk:")) and int(line.split()[1], 16) & (1 << (2 - 1)):
+            return True
+    return False
+
+
+@pytest.fixture(autouse=True)
+def _sigint_stays_default(request):
+    yield
+    if _sigint_ignored():
+        import signal
+
+        signal.signal(signal.SIGINT, signal.default_int_handler)
+        signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGINT})
+        pytest.fail(f"{request.node.nodeid} left SIGINT ignored or blocked in the test process")
