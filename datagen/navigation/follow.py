@@ -1,0 +1,128 @@
+"""Pure-pursuit path following for a differential-drive (unicycle) robot, simulated kinematically
+at a fixed control rate. No dynamics, no slip: the simulator later replays or tracks this."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from datagen.navigation.grid import Layout
+from datagen.navigation.planning import footprint_collides
+
+
+@dataclass
+class FollowParams:
+    lookahead: float = 0.3  # metres along the path ahead of the closest point
+    max_linear: float = 0.6  # m/s
+    max_angular: float = 1.5  # rad/s
+    rate_hz: float = 10.0  # control rate
+    goal_tolerance: float = 0.2  # success when the centre is this close to the goal, metres
+    turn_in_place: float = math.radians(45)  # heading error above which the robot only rotates
+    robot_radius: float = 0.25  # footprint disk for the collision flag, metres
+    max_steps: int | None = None  # default: 3x the path at full speed + 20 s
+
+
+@dataclass
+class Trajectory:
+    """Per step k: the pose, the command applied from it, and observations at the pose.
+    ``poses``, ``distance_to_goal``, ``goal_in_robot`` and ``collision`` have one more row than
+    ``commands`` (the final pose)."""
+
+    poses: np.ndarray  # (n+1, 3) x, y, yaw
+    commands: np.ndarray  # (n, 2) v (m/s), w (rad/s)
+    distance_to_goal: np.ndarray  # (n+1,) metres
+    goal_in_robot: np.ndarray  # (n+1, 2) goal in the robot frame (x forward, y left), metres
+    collision: np.ndarray  # (n+1,) bool, footprint overlaps an occupied cell
+    success: bool
+    dt: float
+
+    def to_dict(self) -> dict:
+        r = lambda a: np.round(a, 5).tolist()  # noqa: E731
+        return {"poses": r(self.poses), "commands": r(self.commands),
+                "distance_to_goal": r(self.distance_to_goal), "goal_in_robot": r(self.goal_in_robot),
+                "collision": self.collision.tolist(), "success": self.success, "dt": self.dt}  # fmt: skip
+
+
+def _wrap(a: float) -> float:
+    return (a + math.pi) % (2 * math.pi) - math.pi
+
+
+def _progress(
+    path: np.ndarray, s_cum: np.ndarray, p: np.ndarray, s_prev: float, window: float
+) -> float:
+    """Arc length of the closest path point to p among those in [s_prev, s_prev + window]."""
+    a, b = path[:-1], path[1:]
+    seg = b - a
+    seg_len2 = np.maximum((seg**2).sum(axis=1), 1e-12)
+    t = np.clip(((p - a) * seg).sum(axis=1) / seg_len2, 0.0, 1.0)
+    s = s_cum[:-1] + t * np.sqrt(seg_len2)
+    d = np.hypot(*(a + t[:, None] * seg - p).T)
+    d[(s < s_prev - 1e-9) | (s > s_prev + window)] = np.inf
+    return max(s_prev, float(s[np.argmin(d)])) if np.isfinite(d).any() else s_prev
+
+
+def follow(
+    path_world, start_yaw: float, params: FollowParams | None = None, layout: Layout | None = None
+) -> Trajectory:
+    """Drive from the path's first point to its last; collisions are checked against
+    ``layout.grid`` (un-inflated) when a layout is given."""
+    p = params or FollowParams()
+    path = np.asarray(path_world, dtype=float).reshape(-1, 2)
+    if len(path) == 1:
+        path = np.vstack([path, path])
+    s_cum = np.concatenate([[0.0], np.cumsum(np.hypot(*np.diff(path, axis=0).T))])
+    goal, total, dt = path[-1], s_cum[-1], 1.0 / p.rate_hz
+    max_steps = p.max_steps or math.ceil((3 * total / p.max_linear + 20.0) / dt)
+    x, y, yaw = float(path[0, 0]), float(path[0, 1]), float(start_yaw)
+    s_prev = 0.0
+    poses, cmds, dist, rel, coll = [], [], [], [], []
+    success = False
+    while True:
+        dx, dy = goal[0] - x, goal[1] - y
+        poses.append((x, y, yaw))
+        dist.append(math.hypot(dx, dy))
+        rel.append(
+            (math.cos(yaw) * dx + math.sin(yaw) * dy, -math.sin(yaw) * dx + math.cos(yaw) * dy)
+        )
+        coll.append(
+            layout is not None
+            and footprint_collides(layout.grid, layout.resolution, x, y, p.robot_radius)
+        )
+        if dist[-1] <= p.goal_tolerance:
+            success = True
+            break
+        if len(cmds) >= max_steps:
+            break
+        s_prev = _progress(path, s_cum, np.array([x, y]), s_prev, 2 * p.lookahead + 0.5)
+        s_target = min(s_prev + p.lookahead, total)
+        target = np.array(
+            [np.interp(s_target, s_cum, path[:, 0]), np.interp(s_target, s_cum, path[:, 1])]
+        )
+        tdist = max(math.hypot(target[0] - x, target[1] - y), 1e-6)
+        alpha = _wrap(math.atan2(target[1] - y, target[0] - x) - yaw)
+        if abs(alpha) > p.turn_in_place:
+            v, w = 0.0, math.copysign(min(p.max_angular, abs(alpha) / dt), alpha)
+        else:
+            v = min(p.max_linear, max(0.1, dist[-1]))  # slow down near the goal
+            w = v * 2.0 * math.sin(alpha) / tdist  # pure-pursuit curvature
+            if abs(w) > p.max_angular:  # keep the curvature, lower the speed
+                v *= p.max_angular / abs(w)
+                w = math.copysign(p.max_angular, w)
+        cmds.append((v, w))
+        heading = yaw + 0.5 * w * dt  # midpoint integration of the unicycle
+        x, y, yaw = (
+            x + v * dt * math.cos(heading),
+            y + v * dt * math.sin(heading),
+            _wrap(yaw + w * dt),
+        )
+    return Trajectory(
+        poses=np.array(poses),
+        commands=np.array(cmds).reshape(-1, 2),
+        distance_to_goal=np.array(dist),
+        goal_in_robot=np.array(rel),
+        collision=np.array(coll, dtype=bool),
+        success=success,
+        dt=dt,
+    )
