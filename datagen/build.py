@@ -42,9 +42,9 @@ from datagen.engines.wire import VERSION as WIRE_VERSION
 from datagen.engines.worker import die_with_parent, worker_main
 from datagen.scenes.grasp_tabletop import CLASSES
 from datagen.schedule import Schedule
+from datagen.sinks.webdataset import MANIFEST, write_manifest
 
 log = logging.getLogger(__name__)
-MANIFEST = "manifest.json"
 BUILD_STATE = "build.json"
 DATASET_FORMAT = "datagen.dataset/1"
 LOCAL_WRITER_ID = "0"
@@ -96,15 +96,6 @@ def _read_json(path: Path) -> dict[str, Any] | None:
         return json.loads(path.read_text())
     except (OSError, ValueError):
         return None
-
-
-def _write_json_atomic(path: Path, doc: dict[str, Any], mode: int = 0o644) -> None:
-    tmp = path.with_suffix(".tmp")
-    with open(os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_TRUNC, mode), "w") as f:
-        json.dump(doc, f, indent=2, sort_keys=True)
-        f.flush()
-        os.fsync(f.fileno())
-    os.replace(tmp, path)
 
 
 @dataclass(frozen=True)
@@ -164,7 +155,7 @@ def prepare_out_dir(
         "config": config.to_dict(),
         "started_utc": _now(),
     }
-    _write_json_atomic(out_dir / BUILD_STATE, state, mode=0o600)
+    write_manifest(out_dir, state, name=BUILD_STATE, mode=0o600)  # it holds the secret
     return identity, False
 
 
@@ -232,7 +223,7 @@ def _add_campaign_stats(out_dir: Path, made: int, seconds: float) -> None:
     stats = campaign_stats(dataset.metadata(i)["attempt"] for i in range(len(dataset)))
     stats["attempts_per_s"] = round(made / seconds, 4) if seconds else None
     manifest = json.loads((out_dir / MANIFEST).read_text())
-    _write_json_atomic(out_dir / MANIFEST, manifest | {"campaign": stats})
+    write_manifest(out_dir, manifest | {"campaign": stats})
 
 
 @contextlib.contextmanager

@@ -115,7 +115,11 @@ def _parser() -> argparse.ArgumentParser:
     grasp = kinds.add_parser("grasp", help="grasp attempts in randomised tray scenes")
     grasp.add_argument("config", help="YAML config, e.g. configs/grasp_campaign.yaml")
     grasp.add_argument(
-        "--attempts", type=_positive_int, help="attempts to record (overrides num_samples)"
+        "--attempts",
+        dest="num_samples",
+        metavar="N",
+        type=_positive_int,
+        help="attempts to record (overrides num_samples)",
     )
     grasp.add_argument("--out", required=True, help="output directory")
     grasp.add_argument(
@@ -127,6 +131,8 @@ def _parser() -> argparse.ArgumentParser:
         "--resume", action="store_true", help="finish an interrupted campaign in --out"
     )
     grasp.add_argument("--overwrite", action="store_true", help="replace whatever is in --out")
+    # a campaign is a build: the build options it does not expose take their defaults
+    grasp.set_defaults(broker=None, writers=None, build_id=None, ca_file=None, no_preview=False)
 
     inspect = commands.add_parser(
         "inspect", help="summarise a dataset, draw its annotations and plot its distributions"
@@ -195,9 +201,6 @@ def _campaign(args: argparse.Namespace) -> int:
     if args.sampler:
         campaign = dataclasses.replace(campaign, sampler=args.sampler)
     config = config.replace(scene="grasp_attempts", campaign=campaign)
-    args.num_samples = args.attempts
-    args.broker = args.writers = args.build_id = args.ca_file = None
-    args.no_preview = False
     result = _build(args, config)
     if result == 0:
         _print_campaign(Path(args.out))

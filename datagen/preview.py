@@ -8,6 +8,8 @@ from typing import Any
 import cv2
 import numpy as np
 
+from datagen.engines.annotate import project
+
 # (i, j) corner pairs of the 8 box corners ordered x-major, then y, then z (see annotate.py)
 _BOX_EDGES = [
     (0, 1),
@@ -23,6 +25,9 @@ _BOX_EDGES = [
     (2, 6),
     (3, 7),
 ]
+
+
+SUCCESS_BGR, FAILURE_BGR = (60, 200, 60), (50, 50, 230)
 
 
 def instance_colour(instance_id: int) -> tuple[int, int, int]:
@@ -75,28 +80,64 @@ def depth_colour(depth_mm: np.ndarray) -> np.ndarray:
     return image
 
 
-def write_preview(dataset_dir: Path, out_path: Path, count: int = 8, columns: int = 4) -> Path:
-    """A grid of ``count`` samples: annotated colour image above its depth map."""
-    from datagen.loader import load
+def draw_grasp(image: np.ndarray, attempt: dict[str, Any], camera: dict[str, Any]) -> None:
+    """The gripper as two fingers and the approach, projected into the (BGR) image, green for a
+    successful attempt, red for a failed one."""
+    grasp = attempt["grasp"]
+    if grasp is None:
+        return
+    pose = np.asarray(grasp["pose_world"])
+    centre, closing, approach = pose[:3, 3], pose[:3, 1], pose[:3, 2]
+    half = max(grasp["width"], 0.02) / 2
+    finger = 0.045  # metres, finger length back from the tool centre point
+    tips = [centre + s * half * closing for s in (-1, 1)]
+    points = np.array(
+        [*tips, *(t - finger * approach for t in tips), centre - (finger + 0.06) * approach]
+    )
+    K, E = np.asarray(camera["intrinsics"]), np.asarray(camera["extrinsics_world_to_camera"])
+    uv, _ = project(points, K, E)
+    if not np.isfinite(uv).all() or np.abs(uv).max() > 1e5:
+        return
+    uv = np.rint(uv).astype(int)
+    colour = SUCCESS_BGR if attempt["outcome"]["success"] else FAILURE_BGR
+    for a, b in ((0, 2), (1, 3), (2, 3)):
+        cv2.line(image, tuple(uv[a]), tuple(uv[b]), colour, 2, cv2.LINE_AA)
+    palm = (uv[2] + uv[3]) // 2
+    cv2.line(image, tuple(palm), tuple(uv[4]), colour, 2, cv2.LINE_AA)
+    label = "success" if attempt["outcome"]["success"] else attempt["outcome"]["failure_mode"]
+    put_label(image, label, (int(uv[4][0]) + 4, int(uv[4][1])), 0.45)
 
-    dataset = load(dataset_dir)
-    tiles = []
-    for i in range(min(count, len(dataset))):
-        item = dataset[i]
-        view = item["meta"]["views"]["workspace"]
-        annotated = draw_annotations(item["rgb"], item["seg"], view)
-        put_label(annotated, item["key"], (6, 18), 0.55)
-        tiles.append(np.vstack([annotated, depth_colour(item["depth"])]))
-    if not tiles:
-        raise ValueError(f"{dataset_dir}: the dataset has no samples to preview")
+
+def sample_tile(item: dict[str, Any]) -> np.ndarray:
+    """One loaded sample: annotated colour image (and its grasp, if any) above its depth map."""
+    view = item["meta"]["views"]["workspace"]
+    image = draw_annotations(item["rgb"], item["seg"], view)
+    attempt = item["meta"].get("attempt")
+    if attempt:
+        draw_grasp(image, attempt, view["camera"])
+    put_label(image, item["key"], (6, 18), 0.55)
+    return np.vstack([image, depth_colour(item["depth"])])
+
+
+def tile_grid(tiles: list[np.ndarray], columns: int = 4, max_width: int = 2400) -> np.ndarray:
     blank = np.zeros_like(tiles[0])
     while len(tiles) % columns and len(tiles) > columns:
         tiles.append(blank)
-    rows = [np.hstack(tiles[r : r + columns]) for r in range(0, len(tiles), columns)]
-    grid = np.vstack(rows)
-    scale = min(1.0, 2400 / grid.shape[1])
+    grid = np.vstack([np.hstack(tiles[r : r + columns]) for r in range(0, len(tiles), columns)])
+    scale = min(1.0, max_width / grid.shape[1])
     if scale < 1.0:
         grid = cv2.resize(grid, None, fx=scale, fy=scale, interpolation=cv2.INTER_AREA)
+    return grid
+
+
+def write_preview(dataset_dir: Path, out_path: Path, count: int = 8, columns: int = 4) -> Path:
+    """A grid of the first ``count`` samples, drawn by :func:`sample_tile`."""
+    from datagen.loader import load
+
+    dataset = load(dataset_dir)
+    tiles = [sample_tile(dataset[i]) for i in range(min(count, len(dataset)))]
+    if not tiles:
+        raise ValueError(f"{dataset_dir}: the dataset has no samples to preview")
     out_path.parent.mkdir(parents=True, exist_ok=True)
-    cv2.imwrite(str(out_path), grid)
+    cv2.imwrite(str(out_path), tile_grid(tiles, columns))
     return out_path

@@ -8,13 +8,15 @@ silhouette, rasterised from its convex parts projected through the same camera.
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import cv2
 import numpy as np
 
-from datagen.engines.render import Frame
 from datagen.geometry import pose_record
+
+if TYPE_CHECKING:  # only for annotations: drawing and tests need no simulator
+    from datagen.engines.render import Frame
 
 _BOX_CORNERS = np.array([[x, y, z] for x in (-0.5, 0.5) for y in (-0.5, 0.5) for z in (-0.5, 0.5)])
 

@@ -7,7 +7,6 @@ outcome label -> optional post-grasp frame. Every random choice comes from (seed
 
 from __future__ import annotations
 
-import json
 from typing import Any
 
 import numpy as np
@@ -139,15 +138,8 @@ def produce_attempt(config: BuildConfig, seed: int, index: int) -> Sample:
         "outcome": outcome.to_json(),
     }
     pre.metadata["attempt"] = attempt
-    sample = to_sample(pre)
     if campaign.post_grasp_frame:
         post = annotate_scene(scene, config, seed, index)
-        post_parts = to_sample(post).parts
-        for name in ("rgb.png", "depth.png", "seg.png"):
-            sample.parts[f"post.{name}"] = post_parts[name]
-        post_objects = post.metadata["views"]["workspace"]["objects"]
-        attempt["post_view_objects"] = post_objects
-        sample.parts["json"] = json.dumps(
-            pre.metadata, sort_keys=True, separators=(",", ":")
-        ).encode()
-    return sample
+        pre.views["post"] = post.views["workspace"]  # encoded as post.rgb.png, post.depth.png, ...
+        attempt["post_view_objects"] = post.metadata["views"]["workspace"]["objects"]
+    return to_sample(pre)

@@ -94,11 +94,14 @@ def keys_sha256(keys: Iterable[str]) -> str:
     return hashlib.sha256("".join(f"{k}\n" for k in sorted(keys)).encode()).hexdigest()
 
 
-def write_manifest(out_dir: str | Path, doc: dict[str, Any], name: str = MANIFEST) -> Path:
+def write_manifest(
+    out_dir: str | Path, doc: dict[str, Any], name: str = MANIFEST, mode: int = 0o644
+) -> Path:
     """Writes ``doc`` as JSON atomically and durably (temp file, fsync, rename, fsync dir)."""
     out = Path(out_dir)
     tmp = out / (name + ".tmp")
-    with open(tmp, "w", encoding="utf-8") as f:
+    fd = os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_TRUNC, mode)
+    with open(fd, "w", encoding="utf-8") as f:
         json.dump(doc, f, indent=2, sort_keys=True)
         f.write("\n")
         f.flush()
