@@ -4,10 +4,19 @@ Loading a dataset needs neither the simulator nor a broker::
 
     import datagen
     dataset = datagen.load("datasets/grasp_tabletop")
+    frames = datagen.load_frames("datasets/nav_rooms")  # navigation: one item per frame
 """
 
 from datagen.config import BuildConfig, ConfigError, load_config
-from datagen.loader import DatasetError, load, verify
+from datagen.loader import DatasetError, load, load_frames, verify
 
 __version__ = "0.1.0"
-__all__ = ["BuildConfig", "ConfigError", "DatasetError", "load", "load_config", "verify"]
+__all__ = [
+    "BuildConfig",
+    "ConfigError",
+    "DatasetError",
+    "load",
+    "load_config",
+    "load_frames",
+    "verify",
+]

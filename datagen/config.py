@@ -18,7 +18,8 @@ import yaml
 
 CONFIG_VERSION = 1
 SHAPE_FAMILIES = ("box", "cylinder", "sphere", "capsule", "convex", "compound")
-SCENES = ("grasp_tabletop", "grasp_attempts")
+SCENES = ("grasp_tabletop", "grasp_attempts", "navigation")
+NAV_FAMILIES = ("rooms", "corridor", "maze")
 GRASP_SAMPLERS = ("antipodal", "random")
 
 
@@ -153,6 +154,51 @@ class CampaignConfig:
 
 
 @dataclass(frozen=True)
+class NavigationConfig:
+    """Navigation episodes (scene ``navigation``): Fetch drives from a start to a goal."""
+
+    family: str = "rooms"
+    clutter: tuple[int, int] | None = field(
+        default=None, metadata=_range(0, 40, "obstacles placed in the layout (None: per family)")
+    )
+    clutter_size: tuple[float, float] = field(
+        default=(0.3, 0.7), metadata=_range(0.05, 2.0, "obstacle footprint side, metres")
+    )
+    obstacle_height: tuple[float, float] = field(
+        default=(0.3, 1.2), metadata=_range(0.02, 3.0, "metres")
+    )
+    wall_height: tuple[float, float] = field(
+        default=(2.3, 2.8), metadata=_range(0.5, 5.0, "metres")
+    )
+    robot_radius: float = field(
+        default=0.3, metadata=_range(0.05, 1.0, "footprint disk for planning and collisions, m")
+    )
+    planning_margin: float = field(
+        default=0.1, metadata=_range(0.0, 0.5, "clearance added to the radius when planning, m")
+    )
+    min_goal_distance: float = field(
+        default=3.0, metadata=_range(0.0, 50.0, "straight-line start-goal distance, metres")
+    )
+    control_rate_hz: float = field(default=10.0, metadata=_range(1.0, 100.0, "Hz"))
+    frame_rate_hz: float = field(
+        default=2.0, metadata=_range(0.01, 100.0, "rendered frames per simulated second")
+    )
+    max_linear: float = field(default=0.6, metadata=_range(0.05, 3.0, "m/s"))
+    max_angular: float = field(default=1.5, metadata=_range(0.1, 6.0, "rad/s"))
+    lookahead: float = field(default=0.3, metadata=_range(0.05, 3.0, "pure-pursuit lookahead, m"))
+    torso_lift: tuple[float, float] = field(
+        default=(0.0, 0.386),
+        metadata=_range(0.0, 0.386, "Fetch torso lift, metres (camera at about 1.03-1.42 m)"),
+    )
+    camera_pitch_deg: tuple[float, float] = field(
+        default=(5.0, 30.0), metadata=_range(-60.0, 85.0, "head tilt below horizontal, degrees")
+    )
+    camera_fovy_deg: tuple[float, float] = field(
+        default=(50.0, 70.0), metadata=_range(10.0, 150.0, "vertical field of view, degrees")
+    )
+
+
+@dataclass(frozen=True)
 class BuildConfig:
     version: int = CONFIG_VERSION
     scene: str = "grasp_tabletop"
@@ -168,6 +214,7 @@ class BuildConfig:
     output: OutputConfig = OutputConfig()
     transfer: TransferConfig = TransferConfig()
     campaign: CampaignConfig = CampaignConfig()
+    navigation: NavigationConfig = NavigationConfig()
 
     def to_dict(self) -> dict[str, Any]:
         return _jsonable(dataclasses.asdict(self))
@@ -253,7 +300,7 @@ def _check_ranges(obj: Any, source: str, prefix: str) -> None:
         if dataclasses.is_dataclass(value):
             _check_ranges(value, source, prefix=f"{key}.")
             continue
-        if "min" not in f.metadata:
+        if "min" not in f.metadata or value is None:
             continue
         lo, hi, doc = f.metadata["min"], f.metadata["max"], f.metadata["doc"]
         values = value if isinstance(value, tuple) else (value,)
@@ -281,6 +328,11 @@ def _check_semantics(config: BuildConfig, source: str) -> None:
     if config.campaign.sampler not in GRASP_SAMPLERS:
         raise ConfigError(
             f"{source}: campaign.sampler: expected one of {list(GRASP_SAMPLERS)}, got {config.campaign.sampler!r}"
+        )
+    if config.navigation.family not in NAV_FAMILIES:
+        raise ConfigError(
+            f"{source}: navigation.family: expected one of {list(NAV_FAMILIES)}, "
+            f"got {config.navigation.family!r}"
         )
     if config.render.near >= config.render.far:
         raise ConfigError(f"{source}: render.near: must be smaller than render.far")

@@ -9,8 +9,10 @@ each process, so random access is cheap and the dataset pickles into DataLoader 
 from __future__ import annotations
 
 import contextlib
+import functools
 import json
 import os
+import re
 from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
@@ -47,17 +49,37 @@ def read_manifest(root: str | Path) -> dict[str, Any]:
     return manifest
 
 
+_FRAME_PART = re.compile(r"^f(\d{4})\.(rgb|depth|seg|semantic)\.png$")
+
+
 def decode_parts(parts: dict[str, bytes]) -> dict[str, Any]:
     """Encoded parts -> arrays: rgb HxWx3 uint8 RGB, depth HxW uint16 mm, seg HxW instance ids,
-    semantic HxW class ids, meta dict; unknown parts stay bytes under their own name."""
+    semantic HxW class ids, meta dict; unknown parts stay bytes under their own name.
+
+    Navigation episodes also get ``frames`` (a list in time order of dicts with rgb, depth, seg,
+    semantic and ``meta``, the frame's record), ``map`` (RGB picture) and ``occupancy`` (bool
+    grid, True = occupied)."""
     item: dict[str, Any] = {}
+    frames: dict[int, dict[str, Any]] = {}
     for name, data in parts.items():
         if name == "json":
             item["meta"] = json.loads(data.decode("utf-8"))
         elif name in _IMAGES:
             item[_IMAGES[name]] = _decode_png(name, data)
+        elif match := _FRAME_PART.match(name):
+            kind = f"{match[2]}.png"
+            frames.setdefault(int(match[1]), {})[_IMAGES[kind]] = _decode_png(kind, data)
+        elif name == "map.png":
+            item["map"] = _decode_png("rgb.png", data)
+        elif name == "occupancy.png":
+            item["occupancy"] = _decode_png(name, data) > 0
         else:
             item[name] = data
+    if frames:
+        records = item.get("meta", {}).get("frames", [])
+        item["frames"] = [
+            frames[k] | ({"meta": records[k]} if k < len(records) else {}) for k in sorted(frames)
+        ]
     return item
 
 
@@ -111,11 +133,16 @@ class ShardDataset:
         for i in range(len(self)):
             yield self[i]
 
-    def raw(self, i: int) -> dict[str, bytes]:
-        """The encoded parts of item ``i``, as stored."""
+    def raw(self, i: int, parts: set[str] | None = None) -> dict[str, bytes]:
+        """The encoded parts of item ``i`` as stored; only those named in ``parts`` if given."""
         return {
-            part: self._read(shard, offset, size) for shard, offset, size, part in self._members[i]
+            part: self._read(shard, offset, size)
+            for shard, offset, size, part in self._members[i]
+            if parts is None or part in parts
         }
+
+    def part_names(self, i: int) -> list[str]:
+        return [member[3] for member in self._members[i]]
 
     def metadata(self, i: int) -> dict[str, Any]:
         """Only the JSON metadata of item ``i`` (no image decoding)."""
@@ -154,8 +181,61 @@ class ShardDataset:
         return data
 
 
+class FrameDataset:
+    """Map-style dataset of the single frames of navigation episodes, in (episode, frame) order.
+
+    Item: rgb, depth, seg, semantic, ``meta`` (the frame's record: pose, command, goal, ...),
+    ``camera`` (the episode's camera record), ``episode`` (its key), ``frame`` (its number) and
+    ``key`` (``<episode>/f<frame>``). Only the frame's own images are read and decoded."""
+
+    def __init__(self, root: str | Path):
+        self.episodes = ShardDataset(root)
+        self.index: list[tuple[int, int]] = []
+        for i in range(len(self.episodes)):
+            frames = sorted(
+                int(m[1]) for p in self.episodes.part_names(i) if (m := _FRAME_PART.match(p))
+            )
+            self.index.extend((i, k) for k in dict.fromkeys(frames))
+        if len(self.episodes) and not self.index:
+            raise DatasetError(
+                f"{root}: no episode frames (fNNNN.*.png parts); not navigation data"
+            )
+
+    def __len__(self) -> int:
+        return len(self.index)
+
+    @functools.lru_cache(maxsize=8)  # noqa: B019 - a handful of episodes' JSON, per process
+    def _episode_meta(self, i: int) -> dict[str, Any]:
+        return self.episodes.metadata(i)
+
+    def __getitem__(self, j: int) -> dict[str, Any]:
+        i, k = self.index[j]
+        prefix = f"f{k:04d}."
+        raw = self.episodes.raw(i, {prefix + name for name in _IMAGES})
+        item = decode_parts({name[len(prefix) :]: data for name, data in raw.items()})
+        meta = self._episode_meta(i)
+        item.update(
+            meta=meta["frames"][k],
+            camera=meta["camera"],
+            episode=self.episodes.keys[i],
+            frame=k,
+            key=f"{self.episodes.keys[i]}/f{k:04d}",
+        )
+        return item
+
+    def __iter__(self) -> Iterator[dict[str, Any]]:
+        for j in range(len(self)):
+            yield self[j]
+
+
 def load(root: str | Path) -> ShardDataset:
+    """One item per sample: a frame, a grasp attempt, or a whole navigation episode."""
     return ShardDataset(root)
+
+
+def load_frames(root: str | Path) -> FrameDataset:
+    """The frames of a navigation dataset as one flat map-style dataset."""
+    return FrameDataset(root)
 
 
 def verify(root: str | Path) -> dict[str, Any]:

@@ -108,8 +108,87 @@ def draw_grasp(image: np.ndarray, attempt: dict[str, Any], camera: dict[str, Any
     put_label(image, label, (int(uv[4][0]) + 4, int(uv[4][1])), 0.45)
 
 
+# BGR per navigation class; background stays unblended
+_NAV_COLOURS = {
+    "floor": (90, 160, 90),
+    "wall": (200, 170, 120),
+    "door": (60, 200, 240),
+    "obstacle": (60, 90, 230),
+    "goal_marker": (240, 60, 240),
+    "robot": (160, 160, 160),
+}
+
+
+def _fit(image: np.ndarray, height: int, width: int) -> np.ndarray:
+    """``image`` scaled to fit (height, width), centred on black."""
+    scale = min(height / image.shape[0], width / image.shape[1])
+    resized = cv2.resize(image, None, fx=scale, fy=scale, interpolation=cv2.INTER_AREA)
+    out = np.zeros((height, width, 3), np.uint8)
+    y, x = (height - resized.shape[0]) // 2, (width - resized.shape[1]) // 2
+    out[y : y + resized.shape[0], x : x + resized.shape[1]] = resized
+    return out
+
+
+def draw_navigation_frame(
+    frame: dict[str, Any], classes: list[str], camera: dict[str, Any], path_xy: np.ndarray
+) -> np.ndarray:
+    """BGR: semantic classes blended in, the expert path projected onto the floor, 2-D boxes of
+    the labelled things, and the frame's state (distance to goal, command, collision)."""
+    image = cv2.cvtColor(frame["rgb"], cv2.COLOR_RGB2BGR)
+    overlay = image.copy()
+    for class_id, name in enumerate(classes):
+        if name in _NAV_COLOURS:
+            overlay[frame["semantic"] == class_id] = _NAV_COLOURS[name]
+    image = cv2.addWeighted(overlay, 0.35, image, 0.65, 0)
+    meta = frame["meta"]
+    if len(path_xy) > 1:  # the planned path, densified to 5 cm, on the floor (z = 0)
+        s = np.concatenate([[0.0], np.cumsum(np.hypot(*np.diff(path_xy, axis=0).T))])
+        t = np.arange(0.0, s[-1], 0.05)
+        points = np.stack(
+            [np.interp(t, s, path_xy[:, 0]), np.interp(t, s, path_xy[:, 1]), 0 * t], 1
+        )
+        K, E = np.asarray(camera["intrinsics"]), np.asarray(meta["extrinsics_world_to_camera"])
+        uv, depth = project(points, K, E)
+        ahead = (depth > 0.05) & (np.abs(uv) < 1e4).all(axis=1)
+        for a, b in zip(
+            uv[:-1][ahead[:-1] & ahead[1:]], uv[1:][ahead[:-1] & ahead[1:]], strict=True
+        ):
+            cv2.line(image, tuple(np.rint(a).astype(int)), tuple(np.rint(b).astype(int)), (230, 140, 30), 2, cv2.LINE_AA)  # fmt: skip
+    for thing in meta["things"]:
+        x0, y0, x1, y1 = thing["bbox_xyxy"]
+        cv2.rectangle(image, (x0, y0), (x1 - 1, y1 - 1), (255, 255, 255), 1)
+        put_label(image, thing["class"], (x0 + 2, max(10, y0 + 12)), 0.38)
+    v, w = meta["command"]
+    state = f"d={meta['distance_to_goal']:.2f}m v={v:.2f} w={w:+.2f}"
+    put_label(image, state, (6, image.shape[0] - 8), 0.45)
+    if meta["collision"]:
+        put_label(image, "COLLISION", (6, image.shape[0] - 26), 0.5)
+    return image
+
+
+def navigation_tile(item: dict[str, Any]) -> np.ndarray:
+    """One loaded navigation episode: its middle frame annotated, above its top-down map."""
+    meta, frames = item["meta"], item["frames"]
+    k = len(frames) // 2
+    episode = meta["episode"]
+    image = draw_navigation_frame(
+        frames[k], meta["classes"], meta["camera"], np.asarray(episode["planned_path"])
+    )
+    put_label(image, f"{item['key']} f{k}/{len(frames)} {meta['family']}", (6, 18), 0.5)
+    overview = _fit(cv2.cvtColor(item["map"], cv2.COLOR_RGB2BGR), *image.shape[:2])
+    outcome = "success" if episode["success"] else "failure"
+    summary = (
+        f"{outcome} {episode['path_length_m']:.1f} m (shortest {episode['shortest_path_m']:.1f} m)"
+    )
+    put_label(overview, summary, (6, 18), 0.5)
+    return np.vstack([image, overview])
+
+
 def sample_tile(item: dict[str, Any]) -> np.ndarray:
-    """One loaded sample: annotated colour image (and its grasp, if any) above its depth map."""
+    """One loaded sample: annotated colour image (and its grasp, if any) above its depth map;
+    navigation episodes by :func:`navigation_tile`."""
+    if "frames" in item:
+        return navigation_tile(item)
     view = item["meta"]["views"]["workspace"]
     image = draw_annotations(item["rgb"], item["seg"], view)
     attempt = item["meta"].get("attempt")

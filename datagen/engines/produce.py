@@ -130,11 +130,25 @@ def annotate_scene(
     return AnnotatedSample(index, views, metadata)
 
 
-def _png(image: np.ndarray) -> bytes:
+def png_bytes(image: np.ndarray) -> bytes:
     ok, encoded = cv2.imencode(".png", image)
     if not ok:
         raise RuntimeError(f"PNG encoding failed for an image of shape {image.shape}")
     return encoded.tobytes()
+
+
+def encode_view(view: View, prefix: str = "") -> dict[str, bytes]:
+    """``<prefix>rgb.png depth.png seg.png semantic.png`` of one rendered view."""
+    return {
+        f"{prefix}rgb.png": png_bytes(cv2.cvtColor(view.rgb, cv2.COLOR_RGB2BGR)),
+        f"{prefix}depth.png": png_bytes(view.depth),
+        f"{prefix}seg.png": png_bytes(view.instance),
+        f"{prefix}semantic.png": png_bytes(view.semantic),
+    }
+
+
+def metadata_bytes(metadata: dict[str, Any]) -> bytes:
+    return json.dumps(metadata, sort_keys=True, separators=(",", ":")).encode()
 
 
 def to_sample(annotated: AnnotatedSample) -> Sample:
@@ -142,19 +156,20 @@ def to_sample(annotated: AnnotatedSample) -> Sample:
     names prefixed ``<camera>.`` for any other camera, and ``json`` for the metadata."""
     parts: dict[str, bytes] = {}
     for name, view in annotated.views.items():
-        prefix = "" if name == "workspace" else f"{name}."
-        parts[f"{prefix}rgb.png"] = _png(cv2.cvtColor(view.rgb, cv2.COLOR_RGB2BGR))
-        parts[f"{prefix}depth.png"] = _png(view.depth)
-        parts[f"{prefix}seg.png"] = _png(view.instance)
-        parts[f"{prefix}semantic.png"] = _png(view.semantic)
-    parts["json"] = json.dumps(annotated.metadata, sort_keys=True, separators=(",", ":")).encode()
+        parts |= encode_view(view, "" if name == "workspace" else f"{name}.")
+    parts["json"] = metadata_bytes(annotated.metadata)
     return Sample(annotated.index, parts)
 
 
 def produce_sample(config: BuildConfig, seed: int, index: int) -> Sample:
-    """Sample ``index`` of the build: an annotated frame, or a grasp attempt in a campaign."""
+    """Sample ``index`` of the build: an annotated frame, a grasp attempt in a campaign, or a
+    navigation episode."""
     if config.scene == "grasp_attempts":
         from datagen.grasping.attempt import produce_attempt
 
         return produce_attempt(config, seed, index)
+    if config.scene == "navigation":
+        from datagen.engines.produce_nav import produce_nav_episode
+
+        return produce_nav_episode(config, seed, index)
     return to_sample(render_annotated(config, seed, index))

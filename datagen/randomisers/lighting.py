@@ -14,7 +14,7 @@ from datagen.config import LightingConfig
 FILL_DISTANCE = (1.0, 1.8)  # metres from the light target
 
 
-def _direction(rng: np.random.Generator, cfg: LightingConfig) -> np.ndarray:
+def light_direction(rng: np.random.Generator, cfg: LightingConfig) -> np.ndarray:
     """Unit vector the light travels along: downwards from a random azimuth and elevation."""
     azimuth = rng.uniform(0, 2 * np.pi)
     elevation = np.deg2rad(rng.uniform(*cfg.elevation_deg))
@@ -32,7 +32,7 @@ def sample_lighting(
 ) -> dict[str, Any]:
     lights = []
     for i in range(int(rng.integers(cfg.lights[0], cfg.lights[1] + 1))):
-        direction = _direction(rng, cfg)
+        direction = light_direction(rng, cfg)
         tint = 1.0 + rng.uniform(-cfg.colour_temperature_jitter, cfg.colour_temperature_jitter, 3)
         light = {
             "type": "directional" if i == 0 else "spot",
@@ -55,17 +55,22 @@ def apply_lighting(scene: sapien.Scene, values: dict[str, Any], shadow_map_size:
     for light in values["lights"]:
         colour = np.asarray(light["colour"]) * light["intensity"]
         if light["type"] == "directional":
-            # the shadow volume (metres around the table) must cover the tray and the robot
+            # the shadow volume (metres around its centre) must cover what the cameras see;
+            # the default covers the table, the tray and the robot
+            scale = values.get("shadow_half_extent", 1.5)
             scene.add_directional_light(
                 light["direction"],
                 colour.tolist(),
                 shadow=light["shadow"],
-                position=[0, 0, 1],
-                shadow_scale=1.5,
-                shadow_near=-3.0,
-                shadow_far=3.0,
+                position=values.get("shadow_centre", [0, 0, 1]),
+                shadow_scale=scale,
+                shadow_near=-2.0 * scale,
+                shadow_far=2.0 * scale,
                 shadow_map_size=shadow_map_size,
             )
+        elif light["type"] == "point":
+            # radiance falls off with the squared distance: intensity means the same at 2 m
+            scene.add_point_light(light["position"], (colour * 4.0).tolist(), shadow=False)
         else:
             # spot radiance falls off with the squared distance: scale so intensity means the same at the target
             distance_sq = float(np.sum((np.asarray(light["position"]) - values["target"]) ** 2))

@@ -14,16 +14,18 @@ from datagen.config import MaterialsConfig
 _SURFACE_VALUE = {"table": (0.35, 0.85), "tray": (0.2, 0.9), "floor": (0.25, 0.75)}
 
 
-def _colour(
+def random_colour(
     rng: np.random.Generator, saturation: tuple[float, float], value: tuple[float, float]
 ) -> list[float]:
     rgb = colorsys.hsv_to_rgb(rng.uniform(0, 1), rng.uniform(*saturation), rng.uniform(*value))
     return [round(float(c), 6) for c in rgb] + [1.0]
 
 
-def _material(rng: np.random.Generator, cfg: MaterialsConfig, saturation, value) -> dict[str, Any]:
+def random_material(
+    rng: np.random.Generator, cfg: MaterialsConfig, saturation, value
+) -> dict[str, Any]:
     return {
-        "base_color": _colour(rng, saturation, value),
+        "base_color": random_colour(rng, saturation, value),
         "roughness": round(float(rng.uniform(*cfg.roughness)), 6),
         "metallic": round(float(rng.uniform(*cfg.metallic)), 6),
     }
@@ -33,9 +35,9 @@ def sample_materials(
     rng: np.random.Generator, cfg: MaterialsConfig, num_objects: int
 ) -> dict[str, Any]:
     surfaces = {
-        name: _material(rng, cfg, (0.0, 0.5), value) for name, value in _SURFACE_VALUE.items()
+        name: random_material(rng, cfg, (0.0, 0.5), value) for name, value in _SURFACE_VALUE.items()
     }
-    objects = [_material(rng, cfg, cfg.saturation, cfg.value) for _ in range(num_objects)]
+    objects = [random_material(rng, cfg, cfg.saturation, cfg.value) for _ in range(num_objects)]
     return {"objects": objects, **surfaces}
 
 

@@ -1,0 +1,184 @@
+"""Episode ``index`` of a navigation build: plan, build the scene, drive Fetch along the expert
+trajectory and render its head camera at the frame rate; one sample per episode.
+
+Parts: ``fNNNN.rgb.png fNNNN.depth.png fNNNN.seg.png fNNNN.semantic.png`` per frame (NNNN = frame
+number from 0), ``map.png`` (top-down picture with the paths), ``occupancy.png`` (the grid, one
+pixel per cell, 255 = occupied) and ``json`` (see README, "Navigation episodes").
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import numpy as np
+from scipy import ndimage
+
+from datagen.config import BuildConfig
+from datagen.engines.produce import View, encode_view, metadata_bytes, png_bytes
+from datagen.engines.render import DEPTH_SCALE, capture, keep_renderer_alive
+from datagen.navigation.episode import Episode, frame_steps, plan_episode
+from datagen.navigation.map_image import episode_map, occupancy_image
+from datagen.navigation.planning import inflate
+from datagen.randomisers.navigation import sample_nav_scene
+from datagen.sample import Sample, sample_key
+from datagen.scenes.navigation import NAV_CLASSES, NavScene, build_nav_scene, fetch_urdf
+
+NAV_FORMAT = "datagen.nav_episode/1"
+
+
+def frame_prefix(frame: int) -> str:
+    return f"f{frame:04d}."
+
+
+def planar_pose(x: float, y: float, yaw: float) -> np.ndarray:
+    """4x4 world pose of the robot frame: origin on the floor under the base, x forward."""
+    c, s = math.cos(yaw), math.sin(yaw)
+    return np.array([[c, -s, 0, x], [s, c, 0, y], [0, 0, 1, 0], [0, 0, 0, 1]], float)
+
+
+def _things_in_view(scene: NavScene, instance: np.ndarray) -> list[dict[str, Any]]:
+    """2-D boxes of the labelled instances the camera sees (the robot itself excluded)."""
+    out = []
+    slices = ndimage.find_objects(instance)
+    for thing in scene.things:
+        box = slices[thing.instance_id - 1] if thing.instance_id <= len(slices) else None
+        if box is None or thing.class_name == "robot":
+            continue
+        rows, cols = box
+        out.append({
+            "instance_id": thing.instance_id,
+            "class": thing.class_name,
+            "name": thing.name,
+            "bbox_xyxy": [cols.start, rows.start, cols.stop, rows.stop],
+            "pixels": int((instance[box] == thing.instance_id).sum()),
+        })  # fmt: skip
+    return out
+
+
+def _round(a, digits: int = 6) -> list:
+    return np.round(np.asarray(a, float), digits).tolist()
+
+
+def render_episode(
+    config: BuildConfig, episode: Episode, scene: NavScene, steps: list[int]
+) -> tuple[dict[str, bytes], list[dict[str, Any]], dict[str, Any]]:
+    """Encoded frame parts, per-frame records and the camera record."""
+    traj = episode.trajectory
+    parts: dict[str, bytes] = {}
+    records = []
+    camera_in_robot = None
+    for k, step in enumerate(steps):
+        x, y, yaw = (float(v) for v in traj.poses[step])
+        scene.set_base(x, y, yaw)
+        scene.scene.update_render()
+        frame = capture(scene.camera)
+        instance, semantic = scene.label_maps(frame.entity_ids)
+        parts |= encode_view(View(frame.rgb, frame.depth, instance, semantic), frame_prefix(k))
+        if camera_in_robot is None:  # fixed mount: the same in every frame
+            camera_in_robot = np.linalg.inv(planar_pose(x, y, yaw)) @ np.linalg.inv(
+                frame.extrinsics
+            )
+            intrinsics = frame.intrinsics
+        command = traj.commands[step] if step < len(traj.commands) else (0.0, 0.0)
+        records.append({
+            "frame": k,
+            "step": step,
+            "time_s": round(step * traj.dt, 6),
+            "pose": _round([x, y, yaw]),
+            "command": _round(command),
+            "goal_in_robot": _round(traj.goal_in_robot[step]),
+            "distance_to_goal": round(float(traj.distance_to_goal[step]), 6),
+            "collision": bool(traj.collision[step]),
+            "extrinsics_world_to_camera": _round(frame.extrinsics, 7),
+            "things": _things_in_view(scene, instance),
+        })  # fmt: skip
+    forward = camera_in_robot[:3, 2]  # OpenCV z axis = viewing direction
+    r = config.render
+    camera = {
+        "width": r.width,
+        "height": r.height,
+        "fovy_deg": round(math.degrees(scene.camera.fovy), 6),
+        "near": r.near,
+        "far": r.far,
+        "intrinsics": _round(intrinsics),
+        "camera_in_robot": _round(camera_in_robot, 7),
+        "height_m": round(float(camera_in_robot[2, 3]), 6),
+        "pitch_down_deg": round(math.degrees(-math.asin(float(forward[2]))), 6),
+        "convention": "opencv",
+        "depth_scale": DEPTH_SCALE,
+    }
+    return parts, records, camera
+
+
+def episode_record(config: BuildConfig, episode: Episode, steps: list[int]) -> dict[str, Any]:
+    traj, layout = episode.trajectory, episode.layout
+    shortest, travelled = episode.shortest_path_m, episode.travelled_m
+    return {
+        "success": bool(traj.success),
+        "path_length_m": round(travelled, 6),
+        "shortest_path_m": round(shortest, 6),
+        "astar_path_m": round(episode.astar_length_m, 6),
+        "spl": round(float(traj.success) * shortest / max(travelled, shortest, 1e-9), 6),
+        "steps": len(traj.commands),
+        "duration_s": round(len(traj.commands) * traj.dt, 6),
+        "frames": len(steps),
+        "collision_steps": int(traj.collision.sum()),
+        "start": _round(episode.start),
+        "goal": _round(episode.goal),
+        "start_cell": list(episode.start_cell),
+        "goal_cell": list(episode.goal_cell),
+        "inflation_m": round(episode.inflation, 6),
+        "planned_path": _round(episode.path, 5),
+        "trajectory": traj.to_dict(),
+        "layout": {
+            "family": layout.family,
+            "resolution": layout.resolution,
+            "size_m": _round(layout.size_m),
+            "grid_shape": list(layout.grid.shape),
+            "walls": [list(w) for w in layout.walls],
+            "doors": [list(d) for d in layout.doors],
+            "obstacles": [list(o) for o in layout.obstacles],
+            "params": layout.params,
+        },
+    }
+
+
+def produce_nav_episode(config: BuildConfig, seed: int, index: int) -> Sample:
+    keep_renderer_alive()
+    nav = config.navigation
+    episode = plan_episode(nav, seed, index)
+    values = sample_nav_scene(config, seed, index, episode.layout)
+    scene = build_nav_scene(config, episode, values)
+    steps = frame_steps(episode.trajectory, nav.frame_rate_hz)
+    parts, frames, camera = render_episode(config, episode, scene, steps)
+    layout = episode.layout
+    inflated = inflate(layout.grid, episode.inflation, layout.resolution)
+    parts["map.png"] = png_bytes(episode_map(episode, inflated, steps))
+    parts["occupancy.png"] = png_bytes(occupancy_image(layout.grid))
+    metadata = {
+        "format": NAV_FORMAT,
+        "key": sample_key(index),
+        "index": index,
+        "seed": seed,
+        "scene": config.scene,
+        "family": nav.family,
+        "classes": list(NAV_CLASSES),
+        "things": [
+            {"instance_id": t.instance_id, "class": t.class_name, "name": t.name}
+            for t in scene.things
+        ],
+        "episode": episode_record(config, episode, steps),
+        "camera": camera,
+        "frames": frames,
+        "robot": {
+            "name": "fetch",
+            "description": f"mani_skill/assets/robots/{fetch_urdf().parent.name}/fetch.urdf",
+            "radius": nav.robot_radius,
+            "qpos_fixed": _round(scene.robot.get_qpos()[3:]),
+            "joints": [j.name for j in scene.robot.get_active_joints()],
+        },
+        "randomisation": values,
+    }
+    parts["json"] = metadata_bytes(metadata)
+    return Sample(index, parts)

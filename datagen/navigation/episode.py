@@ -1,0 +1,136 @@
+"""One navigation episode, without the simulator: layout, start and goal, expert path, trajectory.
+
+Random streams (from ``datagen.seeding.sample_rng(seed, index, name)``): ``nav_layout`` for the
+floor plan and its clutter, ``nav_task`` for the start, the goal and the start heading.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from datagen.config import NavigationConfig
+from datagen.navigation.follow import FollowParams, Trajectory, follow
+from datagen.navigation.grid import ClutterParams, Layout
+from datagen.navigation.layouts import FAMILIES, make_layout
+from datagen.navigation.planning import (
+    PlanningError,
+    astar,
+    inflate,
+    path_to_world,
+    sample_start_goal,
+    shortest_path_length_m,
+    smooth_path,
+)
+from datagen.seeding import sample_rng
+
+
+@dataclass
+class Episode:
+    layout: Layout
+    start: tuple[float, float, float]  # x, y, yaw (metres, radians)
+    goal: tuple[float, float]  # x, y (metres)
+    start_cell: tuple[int, int]  # (row, col)
+    goal_cell: tuple[int, int]
+    inflation: float  # metres: robot radius + planning margin
+    grid_path: list[tuple[int, int]]  # 8-connected A* cells on the inflated grid
+    path: np.ndarray  # (K, 2) world waypoints after line-of-sight smoothing
+    trajectory: Trajectory
+
+    @property
+    def astar_length_m(self) -> float:
+        return shortest_path_length_m(self.grid_path, self.layout.resolution)
+
+    @property
+    def shortest_path_m(self) -> float:
+        """Length of the smoothed (any-angle) path: the shortest collision-free distance known."""
+        return float(np.hypot(*np.diff(self.path, axis=0).T).sum()) if len(self.path) > 1 else 0.0
+
+    @property
+    def travelled_m(self) -> float:
+        poses = self.trajectory.poses[:, :2]
+        return float(np.hypot(*np.diff(poses, axis=0).T).sum())
+
+
+def layout_params(cfg: NavigationConfig):
+    """The family's layout parameters with the config's clutter settings."""
+    _, params_cls = FAMILIES[cfg.family]
+    family_default = params_cls().clutter
+    clutter = ClutterParams(
+        count=tuple(cfg.clutter) if cfg.clutter is not None else family_default.count,
+        size=tuple(cfg.clutter_size),
+        clearance=cfg.robot_radius + cfg.planning_margin,
+    )
+    return dataclasses.replace(params_cls(), clutter=clutter)
+
+
+def follow_params(cfg: NavigationConfig) -> FollowParams:
+    return FollowParams(
+        lookahead=cfg.lookahead,
+        max_linear=cfg.max_linear,
+        max_angular=cfg.max_angular,
+        rate_hz=cfg.control_rate_hz,
+        robot_radius=cfg.robot_radius,
+    )
+
+
+LAYOUT_ATTEMPTS = 10
+
+
+def plan_episode(cfg: NavigationConfig, seed: int, index: int) -> Episode:
+    """Draws a layout and a task until one has a start/goal pair with a path (streams
+    ``nav_layout``/``nav_task``, then ``nav_layout/1``/``nav_task/1``, ...: still a function of
+    (seed, index) alone). Raises :class:`PlanningError` after ``LAYOUT_ATTEMPTS`` layouts."""
+    reasons = []
+    for attempt in range(LAYOUT_ATTEMPTS):
+        suffix = f"/{attempt}" if attempt else ""
+        layout = make_layout(
+            cfg.family, sample_rng(seed, index, "nav_layout" + suffix), layout_params(cfg)
+        )
+        layout.params["attempt"] = attempt
+        try:
+            return _plan_task(cfg, layout, sample_rng(seed, index, "nav_task" + suffix))
+        except PlanningError as exc:
+            reasons.append(str(exc))
+    raise PlanningError(
+        f"episode {index}: no {cfg.family} layout out of {LAYOUT_ATTEMPTS} had a start and goal "
+        f"navigation.min_goal_distance={cfg.min_goal_distance} m apart with a path for "
+        f"navigation.robot_radius + planning_margin; lower those or navigation.clutter "
+        f"(last reason: {reasons[-1]})"
+    )
+
+
+def _plan_task(cfg: NavigationConfig, layout: Layout, rng: np.random.Generator) -> Episode:
+    inflation = cfg.robot_radius + cfg.planning_margin
+    start, goal = sample_start_goal(rng, layout, inflation, cfg.min_goal_distance)
+    occupied = inflate(layout.grid, inflation, layout.resolution)
+    cells = astar(occupied, start, goal)
+    if cells is None:  # sample_start_goal only returns connected pairs
+        raise PlanningError(f"A* found no path from {start} to {goal} in a connected component")
+    path = path_to_world(smooth_path(occupied, cells), layout.resolution)
+    yaw = float(rng.uniform(-math.pi, math.pi))
+    trajectory = follow(path, yaw, follow_params(cfg), layout)
+    start_xy, goal_xy = path[0], path[-1]
+    return Episode(
+        layout=layout,
+        start=(float(start_xy[0]), float(start_xy[1]), yaw),
+        goal=(float(goal_xy[0]), float(goal_xy[1])),
+        start_cell=start,
+        goal_cell=goal,
+        inflation=inflation,
+        grid_path=cells,
+        path=path,
+        trajectory=trajectory,
+    )
+
+
+def frame_steps(trajectory: Trajectory, frame_rate_hz: float) -> list[int]:
+    """Control steps at which frames are rendered: every 1/frame_rate seconds from step 0, and
+    always the final pose."""
+    last = len(trajectory.poses) - 1
+    every = frame_rate_hz * trajectory.dt
+    steps = sorted({min(last, round(k / every)) for k in range(int(last * every) + 1)} | {last})
+    return steps

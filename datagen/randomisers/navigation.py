@@ -1,0 +1,109 @@
+"""Randomised appearance of a navigation scene: materials of walls, floor, doors and obstacles,
+wall and obstacle heights, lighting over the whole floor plan, and Fetch's onboard camera (torso
+lift = height, head tilt = pitch, field of view). The floor plan itself is drawn by
+``datagen.navigation.layouts`` from its own stream."""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+from scipy import ndimage
+
+from datagen.config import BuildConfig
+from datagen.navigation.grid import Layout
+from datagen.randomisers.lighting import light_direction
+from datagen.randomisers.materials import random_colour, random_material
+from datagen.seeding import sample_rng
+
+# HSV value ranges that keep rooms plausible; obstacles use the config's full colour range.
+_SURFACE_VALUE = {"floor": (0.2, 0.75), "walls": (0.5, 0.95), "doors": (0.3, 0.8)}
+OBSTACLE_SHAPES = ("box", "cylinder")
+CEILING_LIGHT_BELOW_TOP = 0.2  # metres below the top of the walls
+LAMP_CLEARANCE = 0.8  # metres
+
+
+def _u(rng: np.random.Generator, bounds: tuple[float, float]) -> float:
+    return round(float(rng.uniform(*bounds)), 6)
+
+
+def sample_nav_materials(rng, config: BuildConfig, obstacles: int) -> dict[str, Any]:
+    cfg = config.materials
+    out: dict[str, Any] = {
+        name: random_material(rng, cfg, (0.0, 0.6), value) for name, value in _SURFACE_VALUE.items()
+    }
+    out["obstacles"] = [
+        random_material(rng, cfg, cfg.saturation, cfg.value) for _ in range(obstacles)
+    ]
+    goal = {
+        "base_color": random_colour(rng, (0.8, 1.0), (0.8, 1.0)),
+        "roughness": 0.5,
+        "metallic": 0.0,
+    }
+    out["goal_marker"] = goal
+    return out
+
+
+def sample_nav_lighting(rng, config: BuildConfig, layout: Layout, top: float) -> dict[str, Any]:
+    """A directional key light with a shadow volume over the whole floor plan, and ceiling
+    point lights over free cells for the other lights the config asks for."""
+    cfg = config.lighting
+    width, depth = layout.size_m
+    # ceiling lights over cells at least LAMP_CLEARANCE from any wall or obstacle (else anywhere free)
+    clearance = ndimage.distance_transform_edt(~layout.grid) * layout.resolution
+    free = np.argwhere(clearance >= LAMP_CLEARANCE)
+    free = free if len(free) else np.argwhere(~layout.grid)
+    lights = []
+    for i in range(int(rng.integers(max(cfg.lights[0], 1), max(cfg.lights[1], 1) + 1))):
+        tint = 1.0 + rng.uniform(-cfg.colour_temperature_jitter, cfg.colour_temperature_jitter, 3)
+        light = {
+            "type": "directional" if i == 0 else "point",
+            "colour": np.round(tint / tint.max(), 6).tolist(),
+            "intensity": _u(rng, cfg.intensity),
+            "shadow": bool(cfg.shadows and i == 0),
+        }
+        if i == 0:
+            light["direction"] = np.round(light_direction(rng, cfg), 6).tolist()
+        else:
+            r, c = free[rng.integers(len(free))]
+            res = layout.resolution
+            z = top - CEILING_LIGHT_BELOW_TOP
+            light["position"] = [round((c + 0.5) * res, 4), round((r + 0.5) * res, 4), z]
+        lights.append(light)
+    return {
+        "ambient": _u(rng, cfg.ambient),
+        "lights": lights,
+        "shadow_centre": [round(width / 2, 4), round(depth / 2, 4), round(top / 2, 4)],
+        "shadow_half_extent": round(max(width, depth) / 2 + 0.5, 4),
+    }
+
+
+def sample_nav_scene(config: BuildConfig, seed: int, index: int, layout: Layout) -> dict[str, Any]:
+    """All randomised appearance values of one episode; stored in its metadata."""
+    nav = config.navigation
+    geometry_rng = sample_rng(seed, index, "nav_geometry")
+    wall_height = _u(geometry_rng, nav.wall_height)
+    obstacles = [
+        {
+            "shape": str(geometry_rng.choice(OBSTACLE_SHAPES)),
+            "height": _u(geometry_rng, nav.obstacle_height),
+        }
+        for _ in layout.obstacles
+    ]
+    camera_rng = sample_rng(seed, index, "nav_camera")
+    return {
+        "wall_height": wall_height,
+        "door_top": round(min(wall_height - 0.1, _u(geometry_rng, (1.95, 2.15))), 6),
+        "obstacles": obstacles,
+        "materials": sample_nav_materials(
+            sample_rng(seed, index, "nav_materials"), config, len(obstacles)
+        ),
+        "lighting": sample_nav_lighting(
+            sample_rng(seed, index, "nav_lighting"), config, layout, wall_height
+        ),
+        "camera": {
+            "torso_lift": _u(camera_rng, nav.torso_lift),
+            "pitch_deg": _u(camera_rng, nav.camera_pitch_deg),
+            "fovy_deg": _u(camera_rng, nav.camera_fovy_deg),
+        },
+    }
