@@ -5,12 +5,22 @@ Loading a dataset needs neither the simulator nor a broker::
     import datagen
     dataset = datagen.load("datasets/grasp_tabletop")
     frames = datagen.load_frames("datasets/nav_rooms")  # navigation: one item per frame
+    stream = datagen.stream("datasets/grasp_tabletop", shuffle=True)  # torch IterableDataset
 """
 
 from datagen.config import BuildConfig, ConfigError, load_config
 from datagen.loader import DatasetError, load, load_frames, verify
 
 __version__ = "0.1.0"
+
+
+def stream(root, **options):
+    """An iterable dataset split across DataLoader workers and nodes (see datagen.streaming)."""
+    from datagen.streaming import StreamingDataset
+
+    return StreamingDataset(root, **options)
+
+
 __all__ = [
     "BuildConfig",
     "ConfigError",

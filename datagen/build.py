@@ -41,7 +41,9 @@ from datagen.engines.wire import SECRET_ENV, parse_secret
 from datagen.engines.wire import VERSION as WIRE_VERSION
 from datagen.engines.worker import die_with_parent, worker_main
 from datagen.scenes.grasp_tabletop import CLASSES
+from datagen.scenes.navigation import NAV_CLASSES
 from datagen.schedule import Schedule
+from datagen.sinks.export import run_exports
 from datagen.sinks.webdataset import MANIFEST, write_manifest
 
 log = logging.getLogger(__name__)
@@ -172,7 +174,7 @@ def build_manifest(config: BuildConfig, build_id: str, workers: int) -> dict[str
         "seed": config.seed,
         "num_samples": config.num_samples,
         "workers": workers,
-        "classes": list(CLASSES),
+        "classes": list(NAV_CLASSES if config.scene == "navigation" else CLASSES),
         "wire_format_version": WIRE_VERSION,
         "config": config.to_dict(),
         "versions": _versions(),
@@ -201,6 +203,7 @@ def run_build(
     start = time.monotonic()
     identity, complete = prepare_out_dir(out_dir, config, overwrite, resume, build_id)
     if complete:
+        run_exports(out_dir, config.output.sinks)  # finishes an interrupted export, if any
         return BuildResult(out_dir, config.num_samples, 0.0, already_complete=True)
     coordinator = _Coordinator(config, out_dir, identity, workers, writers, observer, on_progress)
     with _broker(config, broker_url, observer) as (url, broker):
@@ -211,6 +214,8 @@ def run_build(
         _add_campaign_stats(
             out_dir, made=result.samples - result.resumed_from, seconds=result.seconds
         )
+    if (out_dir / MANIFEST).is_file():
+        run_exports(out_dir, config.output.sinks)
     return result
 
 

@@ -139,6 +139,15 @@ def _parser() -> argparse.ArgumentParser:
     )
     inspect.add_argument("dataset", help="dataset directory (with manifest.json)")
 
+    export = commands.add_parser(
+        "export", help="write a finished dataset's samples in other formats (COCO, HDF5)"
+    )
+    export.add_argument("dataset", help="dataset directory (with manifest.json)")
+    export.add_argument(
+        "--to", required=True, type=_sink_list, help="comma-separated formats: coco,hdf5"
+    )
+    export.add_argument("--force", action="store_true", help="redo exports already done")
+
     preview = commands.add_parser(
         "preview", help="draw annotated samples of a dataset into a PNG grid"
     )
@@ -174,6 +183,8 @@ def main(argv: list[str] | None = None) -> int:
             return _campaign(args)
         if args.command == "inspect":
             return _inspect(args)
+        if args.command == "export":
+            return _export(args)
         return _preview(args)
     except ConfigError as exc:
         print(f"datagen: config error: {exc}", file=sys.stderr)
@@ -219,16 +230,55 @@ def _print_campaign(out: Path) -> None:
     print(f"  failures: {stats['failure_modes']}")
 
 
+def _sink_list(text: str) -> list[str]:
+    from datagen.sinks.export import EXPORTS
+
+    names = [n.strip() for n in text.split(",") if n.strip()]
+    unknown = [n for n in names if n not in EXPORTS]
+    if unknown or not names:
+        raise argparse.ArgumentTypeError(
+            f"expected a comma-separated list from {sorted(EXPORTS)}, got {text!r}"
+        )
+    return names
+
+
+def _export(args: argparse.Namespace) -> int:
+    from datagen.sinks.export import run_exports
+
+    done = run_exports(args.dataset, args.to, force=args.force)
+    for name in args.to:
+        record = done[name]
+        path = Path(args.dataset) / record["path"]
+        print(f"datagen: {name}: {path} ({record['bytes'] / 2**20:.1f} MiB)")
+    return 0
+
+
 def _inspect(args: argparse.Namespace) -> int:
     import json
 
     from datagen.inspect import inspect_dataset
 
     summary, files = inspect_dataset(args.dataset)
-    print(json.dumps(summary, indent=2))
-    for path in files:
+    print(summary_table(summary))
+    summary_path = Path(args.dataset) / "inspect" / "summary.json"
+    summary_path.write_text(json.dumps(summary, indent=2))
+    for path in [*files, summary_path]:
         print(f"datagen: wrote {path}")
     return 0
+
+
+def summary_table(summary: dict, indent: int = 0) -> str:
+    """Nested summary -> aligned two-column text, sub-tables indented."""
+    width = max((len(str(k)) for k in summary), default=0)
+    lines = []
+    for key, value in summary.items():
+        if isinstance(value, dict) and value:
+            lines.append(f"{' ' * indent}{key}")
+            lines.append(summary_table(value, indent + 2))
+        else:
+            shown = f"{value:.4g}" if isinstance(value, float) else value
+            lines.append(f"{' ' * indent}{key!s:<{width}}  {shown}")
+    return "\n".join(lines)
 
 
 def _build(args: argparse.Namespace, config=None) -> int:
@@ -285,6 +335,10 @@ def _build(args: argparse.Namespace, config=None) -> int:
                 f"datagen: recovered from faults: restarts {recovered or 'none'}, "
                 f"samples issued again {result.reissued}"
             )
+    from datagen.loader import read_manifest
+
+    for name, record in read_manifest(out).get("exports", {}).items():
+        print(f"datagen: {name} export: {out / record['path']}")
     if not args.no_preview:
         path = write_preview(out, out / "preview.png")
         print(f"datagen: preview with annotation overlays: {path}")

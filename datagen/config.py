@@ -21,6 +21,7 @@ SHAPE_FAMILIES = ("box", "cylinder", "sphere", "capsule", "convex", "compound")
 SCENES = ("grasp_tabletop", "grasp_attempts", "navigation")
 NAV_FAMILIES = ("rooms", "corridor", "maze")
 GRASP_SAMPLERS = ("antipodal", "random")
+SINKS = ("webdataset", "coco", "hdf5")  # webdataset is the store the others are exported from
 
 
 class ConfigError(ValueError):
@@ -121,6 +122,7 @@ class PhysicsConfig:
 @dataclass(frozen=True)
 class OutputConfig:
     shard_size: int = field(default=200, metadata=_range(1, 1_000_000, "samples per tar shard"))
+    sinks: tuple[str, ...] = ("webdataset",)
 
 
 @dataclass(frozen=True)
@@ -328,6 +330,16 @@ def _check_semantics(config: BuildConfig, source: str) -> None:
     if config.campaign.sampler not in GRASP_SAMPLERS:
         raise ConfigError(
             f"{source}: campaign.sampler: expected one of {list(GRASP_SAMPLERS)}, got {config.campaign.sampler!r}"
+        )
+    sinks = list(config.output.sinks)
+    if (
+        "webdataset" not in sinks
+        or any(s not in SINKS for s in sinks)
+        or len(set(sinks)) != len(sinks)
+    ):
+        raise ConfigError(
+            f"{source}: output.sinks: expected distinct names from {list(SINKS)} including "
+            f"'webdataset' (the store the other formats are exported from), got {sinks}"
         )
     if config.navigation.family not in NAV_FAMILIES:
         raise ConfigError(

@@ -56,12 +56,10 @@ def _navigation_distributions(metas: list[dict[str, Any]]) -> dict[str, list[flo
 
 
 def _plot_distributions(values: dict[str, list[float]], title: str, path: Path) -> None:
-    import matplotlib
+    from matplotlib.figure import Figure  # no pyplot: leaves the caller's backend alone
 
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    fig, axes = plt.subplots(3, 3, figsize=(12, 9))
+    fig = Figure(figsize=(12, 9))
+    axes = fig.subplots(3, 3)
     for ax, (name, data) in zip(axes.ravel(), values.items(), strict=False):
         ax.hist(data, bins=20, color="#4878a8")
         ax.set_title(name, fontsize=10)
@@ -70,7 +68,6 @@ def _plot_distributions(values: dict[str, list[float]], title: str, path: Path) 
     fig.suptitle(title)
     fig.tight_layout()
     fig.savefig(path, dpi=80)
-    plt.close(fig)
 
 
 def _histogram(values: list[float], bins: int = 5) -> dict[str, int]:

@@ -1,4 +1,5 @@
-"""Preview grids: samples drawn with their annotations (masks, 2D boxes, 3D boxes, labels)."""
+"""Preview grids: samples drawn with their annotations (masks, 2D boxes, 3D boxes, object axes,
+labels, grasps; navigation frames with their classes, path and map)."""
 
 from __future__ import annotations
 
@@ -62,11 +63,28 @@ def draw_annotations(rgb: np.ndarray, instance: np.ndarray, view: dict[str, Any]
             for i, j in _BOX_EDGES:
                 p, q = np.rint(corners[[i, j]]).astype(int)
                 cv2.line(image, tuple(p), tuple(q), colour, 1, cv2.LINE_AA)
+        if "pose_camera" in obj and "intrinsics" in view.get("camera", {}):
+            draw_axes(image, np.asarray(obj["pose_camera"]["matrix"]), np.asarray(view["camera"]["intrinsics"]))  # fmt: skip
         x0, y0, x1, y1 = obj["bbox_xyxy"]
         cv2.rectangle(image, (x0, y0), (x1, y1), (255, 255, 255), 1)
         label = f"{obj['class']} {obj['visible_fraction']:.2f}"
         put_label(image, label, (x0, max(10, y0 - 3)), 0.38)
     return image
+
+
+AXIS_LENGTH = 0.03  # metres
+_AXIS_BGR = ((0, 0, 230), (0, 200, 0), (230, 80, 0))  # x red, y green, z blue
+
+
+def draw_axes(image: np.ndarray, pose_camera: np.ndarray, intrinsics: np.ndarray) -> None:
+    """An object's frame (4x4 object -> OpenCV camera) as three projected axes."""
+    points = pose_camera[:3, 3] + AXIS_LENGTH * np.vstack([np.zeros(3), pose_camera[:3, :3].T])
+    if (points[:, 2] <= 0.01).any():
+        return
+    uv = points @ intrinsics.T
+    uv = np.rint(uv[:, :2] / uv[:, 2:3] - 0.5).astype(int)
+    for axis in range(3):
+        cv2.line(image, tuple(uv[0]), tuple(uv[axis + 1]), _AXIS_BGR[axis], 2, cv2.LINE_AA)
 
 
 def depth_colour(depth_mm: np.ndarray) -> np.ndarray:
@@ -156,7 +174,7 @@ def draw_navigation_frame(
             cv2.line(image, tuple(np.rint(a).astype(int)), tuple(np.rint(b).astype(int)), (230, 140, 30), 2, cv2.LINE_AA)  # fmt: skip
     for thing in meta["things"]:
         x0, y0, x1, y1 = thing["bbox_xyxy"]
-        cv2.rectangle(image, (x0, y0), (x1 - 1, y1 - 1), (255, 255, 255), 1)
+        cv2.rectangle(image, (x0, y0), (x1, y1), (255, 255, 255), 1)
         put_label(image, thing["class"], (x0 + 2, max(10, y0 + 12)), 0.38)
     v, w = meta["command"]
     state = f"d={meta['distance_to_goal']:.2f}m v={v:.2f} w={w:+.2f}"

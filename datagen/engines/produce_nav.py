@@ -50,7 +50,7 @@ def _things_in_view(scene: NavScene, instance: np.ndarray) -> list[dict[str, Any
             "instance_id": thing.instance_id,
             "class": thing.class_name,
             "name": thing.name,
-            "bbox_xyxy": [cols.start, rows.start, cols.stop, rows.stop],
+            "bbox_xyxy": [cols.start, rows.start, cols.stop - 1, rows.stop - 1],  # inclusive
             "pixels": int((instance[box] == thing.instance_id).sum()),
         })  # fmt: skip
     return out

@@ -1,0 +1,81 @@
+"""COCO instance annotations: ``DIR/coco/annotations.json`` and ``DIR/coco/images/*.png``.
+
+One COCO image per labelled view (grasp samples: each camera; attempts: the pre-grasp frame;
+navigation: every frame). Annotations carry the visible mask as RLE, its box and area, plus
+datagen's ``instance_id`` and ``visible_fraction`` where known. Category ids are the dataset's
+class ids, so they equal the values in ``semantic.png``.
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+from typing import Any
+
+import cv2
+import numpy as np
+from pycocotools import mask as mask_utils
+from tqdm import tqdm
+
+from datagen.sinks.views import labelled_views, thing_classes
+
+NAME = "coco"
+
+
+def _rle(mask: np.ndarray) -> dict[str, Any]:
+    rle = mask_utils.encode(np.asfortranarray(mask.astype(np.uint8)))
+    return {"size": [int(v) for v in rle["size"]], "counts": rle["counts"].decode("ascii")}
+
+
+def export(dataset, manifest: dict[str, Any], out: Path) -> list[Path]:
+    """Writes into ``out`` (a fresh directory); returns the files written."""
+    images_dir = out / "images"
+    images_dir.mkdir(parents=True)
+    classes = dataset.metadata(0)["classes"] if len(dataset) else manifest.get("classes", [])
+    categories = thing_classes(classes)
+    images, annotations = [], []
+    for i in tqdm(range(len(dataset)), desc="coco", unit="sample", leave=False):
+        key, meta = dataset.keys[i], dataset.metadata(i)
+        views = list(labelled_views(meta))
+        wanted = {f"{v.prefix}{part}" for v in views for part in ("rgb.png", "seg.png")}
+        raw = dataset.raw(i, wanted)
+        for view in views:
+            file_name = f"{key}.{view.prefix}png"
+            (images_dir / file_name).write_bytes(raw[f"{view.prefix}rgb.png"])  # PNG as stored
+            seg = cv2.imdecode(np.frombuffer(raw[f"{view.prefix}seg.png"], np.uint8), -1)
+            image_id = len(images) + 1
+            images.append({
+                "id": image_id, "file_name": file_name, "width": int(seg.shape[1]),
+                "height": int(seg.shape[0]), "datagen_key": key, "datagen_view": view.name,
+                "intrinsics": view.camera["intrinsics"],
+                "extrinsics_world_to_camera": view.camera["extrinsics_world_to_camera"],
+            })  # fmt: skip
+            for inst in view.instances:
+                mask = seg == inst["instance_id"]
+                x0, y0, x1, y1 = inst["bbox_xyxy"]
+                annotation = {
+                    "id": len(annotations) + 1, "image_id": image_id,
+                    "category_id": categories[inst["class"]], "iscrowd": 0,
+                    "bbox": [x0, y0, x1 - x0 + 1, y1 - y0 + 1], "area": int(mask.sum()),
+                    "segmentation": _rle(mask), "instance_id": inst["instance_id"],
+                }  # fmt: skip
+                if "visible_fraction" in inst:
+                    annotation["visible_fraction"] = inst["visible_fraction"]
+                annotations.append(annotation)
+    doc = {
+        "info": {
+            "description": f"datagen {manifest.get('config', {}).get('scene', '')} dataset",
+            "version": manifest.get("datagen_version", ""),
+            "build_id": manifest.get("build_id", ""),
+            "seed": manifest.get("seed"),
+        },
+        "licenses": [],
+        "images": images,
+        "annotations": annotations,
+        "categories": [
+            {"id": cid, "name": name, "supercategory": "thing"} for name, cid in categories.items()
+        ],
+    }
+    path = out / "annotations.json"
+    path.write_text(json.dumps(doc, separators=(",", ":")))
+    return [path, images_dir]

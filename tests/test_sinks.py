@@ -1,0 +1,127 @@
+"""COCO and HDF5 sinks and the streaming loader, on a dataset built by the real pipeline."""
+
+from __future__ import annotations
+
+import collections
+import json
+import shutil
+
+import h5py
+import numpy as np
+import pytest
+from pycocotools.coco import COCO
+from torch.utils.data import DataLoader
+
+import datagen
+from datagen.build import run_build
+from datagen.config import BuildConfig, ConfigError, OutputConfig, RenderConfig, config_from_dict
+from datagen.loader import load, read_manifest
+
+SAMPLES = 8
+CONFIG = BuildConfig(
+    num_samples=SAMPLES,
+    seed=21,
+    render=RenderConfig(width=160, height=120, wrist_camera=True),
+    output=OutputConfig(shard_size=3, sinks=("webdataset", "coco", "hdf5")),
+)
+
+
+@pytest.fixture(scope="module")
+def built(tmp_path_factory):
+    out = tmp_path_factory.mktemp("sinks") / "grasp"
+    run_build(CONFIG, out, workers=2)
+    return out
+
+
+def test_coco_loads_in_pycocotools_and_matches_the_samples(built):
+    coco = COCO(str(built / "coco" / "annotations.json"))
+    dataset = load(built)
+    classes = dataset.metadata(0)["classes"]
+    assert len(coco.getImgIds()) == 2 * SAMPLES  # workspace and wrist cameras
+    images = {(img["datagen_key"], img["datagen_view"]): img for img in coco.dataset["images"]}
+    checked = 0
+    for i in range(SAMPLES):
+        item = dataset[i]
+        image = images[(item["key"], "")]
+        assert (built / "coco" / "images" / image["file_name"]).read_bytes() == dataset.raw(i)["rgb.png"]  # fmt: skip
+        visible = [o for o in item["meta"]["views"]["workspace"]["objects"] if o["visible"]]
+        annotations = coco.loadAnns(coco.getAnnIds(imgIds=[image["id"]]))
+        assert len(annotations) == len(visible)
+        for obj, ann in zip(
+            visible, sorted(annotations, key=lambda a: a["instance_id"]), strict=True
+        ):
+            assert ann["instance_id"] == obj["instance_id"]
+            assert coco.loadCats(ann["category_id"])[0]["name"] == obj["class"]
+            assert classes[ann["category_id"]] == obj["class"]  # ids are semantic.png values
+            mask = coco.annToMask(ann).astype(bool)
+            np.testing.assert_array_equal(mask, item["seg"] == obj["instance_id"])
+            x0, y0, x1, y1 = obj["bbox_xyxy"]
+            assert ann["bbox"] == [x0, y0, x1 - x0 + 1, y1 - y0 + 1]
+            assert ann["area"] == int(mask.sum())
+            checked += 1
+    assert checked > SAMPLES  # several objects per scene
+
+
+def test_hdf5_round_trip(built):
+    dataset = load(built)
+    with h5py.File(built / "episodes.h5", "r") as f:
+        assert f.attrs["format"] == "datagen.hdf5/1" and f.attrs["scene"] == "grasp_tabletop"
+        assert [k.decode() for k in f["index/keys"][:]] == dataset.keys
+        for i in range(SAMPLES):
+            item, group = dataset[i], f[f"samples/{dataset.keys[i]}"]
+            for name in ("rgb", "depth", "seg", "semantic"):
+                np.testing.assert_array_equal(group[name][()], item[name])
+            wrist = load(built).raw(i)["wrist.depth.png"]
+            assert group["wrist/depth"].shape == datagen.loader.decode_parts({"depth.png": wrist})["depth"].shape  # fmt: skip
+            assert json.loads(group.attrs["meta"]) == item["meta"]
+
+
+def test_exports_are_recorded_and_redone_after_an_interruption(built):
+    manifest = read_manifest(built)
+    assert set(manifest["exports"]) == {"coco", "hdf5"}
+    # a crash during the COCO export: its partial directory is left, nothing recorded
+    annotations = (built / "coco" / "annotations.json").read_bytes()
+    shutil.move(built / "coco", built / ".coco.partial")
+    (built / ".coco.partial" / "annotations.json").write_text("{truncated")
+    del manifest["exports"]["coco"]
+    (built / "manifest.json").write_text(json.dumps(manifest))
+    result = run_build(CONFIG, built, workers=1)  # the finished build: only the export is redone
+    assert result.already_complete
+    assert not (built / ".coco.partial").exists()
+    assert (built / "coco" / "annotations.json").read_bytes() == annotations
+    assert set(read_manifest(built)["exports"]) == {"coco", "hdf5"}
+
+
+def test_unknown_or_missing_sinks_are_config_errors():
+    with pytest.raises(ConfigError, match=r"output.sinks: expected distinct names"):
+        config_from_dict({"output": {"sinks": ["webdataset", "parquet"]}}, source="x.yaml")
+    with pytest.raises(ConfigError, match=r"including 'webdataset'"):
+        config_from_dict({"output": {"sinks": ["coco"]}}, source="x.yaml")
+
+
+def _keys(dataset, workers: int) -> list[str]:
+    return [item["key"] for item in DataLoader(dataset, batch_size=None, num_workers=workers)]
+
+
+@pytest.mark.parametrize("workers", [0, 2, 3])
+def test_stream_sees_every_sample_once_per_epoch(built, workers):
+    stream = datagen.stream(built, shuffle=True, buffer_size=4, seed=1, parts={"json", "rgb.png"})
+    orders = []
+    for epoch in range(2):
+        stream.set_epoch(epoch)
+        keys = _keys(stream, workers)
+        assert collections.Counter(keys) == collections.Counter(load(built).keys)
+        orders.append(keys)
+    assert orders[0] != orders[1]  # reshuffled per epoch
+    item = next(iter(stream))
+    assert set(item) == {"meta", "rgb", "key"}  # only the parts asked for are read and decoded
+
+
+def test_stream_splits_across_nodes(built):
+    per_node = [
+        _keys(datagen.stream(built, shuffle=True, seed=3, rank=r, world_size=2), 2) for r in (0, 1)
+    ]
+    assert not set(per_node[0]) & set(per_node[1])
+    assert sorted(per_node[0] + per_node[1]) == load(built).keys
+    raw = next(iter(datagen.stream(built, decode=False, parts={"json"})))
+    assert isinstance(raw["json"], bytes)
