@@ -13,7 +13,9 @@ import functools
 import json
 import os
 import re
+import sys
 from collections.abc import Iterator
+from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 from typing import Any
 
@@ -58,29 +60,57 @@ def decode_parts(parts: dict[str, bytes]) -> dict[str, Any]:
 
     Navigation episodes also get ``frames`` (a list in time order of dicts with rgb, depth, seg,
     semantic and ``meta``, the frame's record), ``map`` (RGB picture) and ``occupancy`` (bool
-    grid, True = occupied)."""
+    grid, True = occupied). The PNGs of one call are decoded on a small thread pool (OpenCV
+    releases the GIL)."""
     item: dict[str, Any] = {}
     frames: dict[int, dict[str, Any]] = {}
+    jobs: list[tuple[dict[str, Any], str, str, bytes]] = []  # (into, field, image kind, data)
     for name, data in parts.items():
         if name == "json":
             item["meta"] = json.loads(data.decode("utf-8"))
         elif name in _IMAGES:
-            item[_IMAGES[name]] = _decode_png(name, data)
+            jobs.append((item, _IMAGES[name], name, data))
         elif match := _FRAME_PART.match(name):
             kind = f"{match[2]}.png"
-            frames.setdefault(int(match[1]), {})[_IMAGES[kind]] = _decode_png(kind, data)
+            jobs.append((frames.setdefault(int(match[1]), {}), _IMAGES[kind], kind, data))
         elif name == "map.png":
-            item["map"] = _decode_png("rgb.png", data)
+            jobs.append((item, "map", "rgb.png", data))
         elif name == "occupancy.png":
-            item["occupancy"] = _decode_png(name, data) > 0
+            jobs.append((item, "occupancy", name, data))
         else:
             item[name] = data
+    pool = _decoder_pool() if len(jobs) > 1 else None
+    images = (
+        pool.map(lambda job: _decode_png(job[2], job[3]), jobs)
+        if pool
+        else [_decode_png(job[2], job[3]) for job in jobs]
+    )
+    for (into, field, _, _), image in zip(jobs, images, strict=True):
+        into[field] = image > 0 if field == "occupancy" else image
     if frames:
         records = item.get("meta", {}).get("frames", [])
         item["frames"] = [
             frames[k] | ({"meta": records[k]} if k < len(records) else {}) for k in sorted(frames)
         ]
     return item
+
+
+_pool: tuple[int, ThreadPoolExecutor | None] | None = None
+
+
+def _decoder_pool() -> ThreadPoolExecutor | None:
+    """One pool per process (a pool inherited through fork has no threads), sized so that the
+    DataLoader workers' threads together do not exceed the cores; None = decode inline."""
+    global _pool
+    if _pool is None or _pool[0] != os.getpid():
+        threads = min(4, os.cpu_count() or 1)
+        if "torch" in sys.modules:
+            from torch.utils.data import get_worker_info
+
+            info = get_worker_info()
+            threads = max(1, threads // info.num_workers) if info else threads
+        _pool = (os.getpid(), ThreadPoolExecutor(threads) if threads > 1 else None)
+    return _pool[1]
 
 
 def _decode_png(name: str, data: bytes) -> np.ndarray:

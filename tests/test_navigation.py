@@ -9,11 +9,13 @@ import pickle
 from pathlib import Path
 
 import cv2
+import h5py
 import numpy as np
 import pytest
+from pycocotools.coco import COCO
 
 from datagen.build import run_build
-from datagen.config import BuildConfig, NavigationConfig, RenderConfig, load_config
+from datagen.config import BuildConfig, NavigationConfig, OutputConfig, RenderConfig, load_config
 from datagen.engines.produce_nav import planar_pose, produce_nav_episode
 from datagen.inspect import inspect_dataset
 from datagen.loader import load, load_frames, verify
@@ -133,6 +135,7 @@ def nav_build(tmp_path_factory):
         num_samples=EPISODES,
         render=RENDER,
         navigation=NavigationConfig(family="maze", clutter=(1, 4), frame_rate_hz=1.0),
+        output=OutputConfig(sinks=("webdataset", "coco", "hdf5")),
     )
     out = tmp_path_factory.mktemp("nav")
     run_build(config, out / "two", workers=2)
@@ -181,6 +184,30 @@ def test_inspect_summarises_episodes(nav_build):
     assert all(p.is_file() and p.stat().st_size > 0 for p in files)
     preview = cv2.imread(str(write_preview(nav_build / "two", nav_build / "preview.png")))
     assert preview.shape[1] == 4 * RENDER.width  # one column per episode: frame above map
+
+
+def test_episodes_export_to_hdf5_and_coco(nav_build):
+    root = nav_build / "one"
+    episodes = load(root)
+    with h5py.File(root / "episodes.h5", "r") as f:
+        assert list(f["index/frames"][:]) == [episodes.metadata(i)["episode"]["frames"] for i in range(EPISODES)]  # fmt: skip
+        for i in range(EPISODES):
+            item, group = episodes[i], f[f"samples/{episodes.keys[i]}"]
+            np.testing.assert_array_equal(group["depth"][()], np.stack([fr["depth"] for fr in item["frames"]]))  # fmt: skip
+            np.testing.assert_allclose(group["pose"][()], [fr["meta"]["pose"] for fr in item["frames"]])  # fmt: skip
+            np.testing.assert_array_equal(group["occupancy"][()], item["occupancy"])
+            assert len(group["trajectory/poses"]) == item["meta"]["episode"]["steps"] + 1
+    coco = COCO(str(root / "coco" / "annotations.json"))
+    frames = load_frames(root)
+    assert len(coco.getImgIds()) == len(frames)
+    by_name = {img["file_name"]: img for img in coco.dataset["images"]}
+    for j in range(len(frames)):
+        frame = frames[j]
+        image = by_name[f"{frame['episode']}.f{frame['frame']:04d}.png"]
+        anns = coco.loadAnns(coco.getAnnIds(imgIds=[image["id"]]))
+        assert sorted(a["instance_id"] for a in anns) == sorted(t["instance_id"] for t in frame["meta"]["things"])  # fmt: skip
+        for ann in anns:
+            np.testing.assert_array_equal(coco.annToMask(ann).astype(bool), frame["seg"] == ann["instance_id"])  # fmt: skip
 
 
 @pytest.mark.parametrize("family", FAMILIES)

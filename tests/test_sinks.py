@@ -104,6 +104,7 @@ def _keys(dataset, workers: int) -> list[str]:
 
 
 @pytest.mark.parametrize("workers", [0, 2, 3])
+@pytest.mark.filterwarnings("ignore:This DataLoader will create:UserWarning")
 def test_stream_sees_every_sample_once_per_epoch(built, workers):
     stream = datagen.stream(built, shuffle=True, buffer_size=4, seed=1, parts={"json", "rgb.png"})
     orders = []
