@@ -8,11 +8,13 @@ import subprocess
 import sys
 from pathlib import Path
 
+import h5py
+import numpy as np
 import pytest
 import yaml
 
 from datagen.build import run_build
-from datagen.config import BuildConfig, CampaignConfig, RenderConfig
+from datagen.config import BuildConfig, CampaignConfig, OutputConfig, RenderConfig
 from datagen.grasping import FAILURE_MODES
 from datagen.loader import load, verify
 
@@ -24,6 +26,7 @@ CONFIG = BuildConfig(
     seed=5,
     render=RenderConfig(width=160, height=120),
     campaign=CampaignConfig(hold_time=0.5),
+    output=OutputConfig(sinks=("webdataset", "hdf5")),
 )
 
 
@@ -49,6 +52,20 @@ def test_exact_count_and_an_attempt_record_per_sample(campaign):
             assert len(grasp["pose_world"]) == 4 and len(grasp["pose_camera"]["matrix"]) == 4
             assert 0 < grasp["width"] <= 0.08 + 1e-6
         assert {"post.rgb.png", "post.depth.png", "post.seg.png"} <= set(dataset.raw(i))
+
+
+def test_attempts_export_to_hdf5(campaign):
+    dataset = load(campaign)
+    with h5py.File(campaign / "episodes.h5", "r") as f:
+        assert f.attrs["scene"] == "grasp_attempts"
+        for i, key in enumerate(f["index/keys"][:].astype(str)):
+            attempt, group = dataset.metadata(i)["attempt"], f[f"samples/{key}"]
+            assert key == dataset.keys[i]
+            assert f["index/success"][i] == group.attrs["success"] == attempt["outcome"]["success"]
+            assert group.attrs["failure_mode"] == (attempt["outcome"]["failure_mode"] or "")
+            if attempt["grasp"] is not None:
+                np.testing.assert_allclose(group["grasp/pose_world"][()], attempt["grasp"]["pose_world"])  # fmt: skip
+            assert group["post/rgb"].shape == group["rgb"].shape
 
 
 def test_campaign_statistics_in_the_manifest_match_the_records(campaign):
