@@ -17,7 +17,6 @@ from __future__ import annotations
 import contextlib
 import json
 import logging
-import multiprocessing as mp
 import os
 import platform
 import secrets
@@ -30,16 +29,16 @@ from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field
 from datetime import UTC, datetime
 from importlib import metadata
-from multiprocessing.connection import wait as wait_connections
 from pathlib import Path
 from typing import Any
 
 from datagen.config import BuildConfig
 from datagen.engines.broker import ManagedBroker
+from datagen.engines.executors import WorkerSpec, make_executor
 from datagen.engines.transfer import AckCollector
 from datagen.engines.wire import SECRET_ENV, parse_secret
 from datagen.engines.wire import VERSION as WIRE_VERSION
-from datagen.engines.worker import die_with_parent, worker_main
+from datagen.engines.worker import die_with_parent
 from datagen.scenes.grasp_tabletop import CLASSES
 from datagen.scenes.navigation import NAV_CLASSES
 from datagen.schedule import Schedule
@@ -193,11 +192,15 @@ def run_build(
     writers: list[str] | None = None,
     build_id: str | None = None,
     observer: Observer | None = None,
+    executor: str = "local",
+    ray_address: str | None = None,
 ) -> BuildResult:
     """Builds ``config.num_samples`` samples into ``out_dir``.
 
     ``broker_url``: an MQTT v5 broker to use instead of starting Mosquitto. ``writers``: ids of
-    writers started elsewhere (``datagen writer``) instead of one local writer.
+    writers started elsewhere (``datagen writer``) instead of one local writer. ``executor``:
+    ``local`` (processes of this machine) or ``ray`` (actors; ``ray_address`` None starts a local
+    Ray instance, ``auto`` or ``ray://host:port`` joins a cluster).
     """
     out_dir = Path(out_dir)
     start = time.monotonic()
@@ -205,7 +208,21 @@ def run_build(
     if complete:
         run_exports(out_dir, config.output.sinks)  # finishes an interrupted export, if any
         return BuildResult(out_dir, config.num_samples, 0.0, already_complete=True)
-    coordinator = _Coordinator(config, out_dir, identity, workers, writers, observer, on_progress)
+    if executor == "ray" and ray_address and not broker_url:
+        raise BuildError(
+            "--executor ray on a cluster needs a broker every node can reach: pass --broker "
+            "mqtt://HOST:PORT (see docs/deployment.md, 'Ray cluster')"
+        )
+    options = {}
+    if executor == "ray":
+        options = {
+            "address": ray_address,
+            "cpus_per_worker": config.executor.cpus_per_worker,
+            "gpus_per_worker": config.executor.gpus_per_worker,
+        }
+    coordinator = _Coordinator(
+        config, out_dir, identity, workers, writers, observer, on_progress, executor, options
+    )
     with _broker(config, broker_url, observer) as (url, broker):
         coordinator.run(url, broker)
     result = coordinator.result
@@ -245,14 +262,6 @@ def _broker(
         yield broker.url, broker
 
 
-@dataclass
-class _Worker:
-    id: int
-    process: mp.Process
-    conn: Any  # multiprocessing.connection.Connection
-    finished: bool = False
-
-
 class _Coordinator:
     def __init__(
         self,
@@ -263,6 +272,8 @@ class _Coordinator:
         writers: list[str] | None,
         observer: Observer | None,
         on_progress: ProgressCallback | None,
+        executor: str = "local",
+        executor_options: dict[str, Any] | None = None,
     ):
         self.config = config
         self.out_dir = out_dir
@@ -273,8 +284,9 @@ class _Coordinator:
         self.writer_ids = list(writers) if writers else [LOCAL_WRITER_ID]
         self.observer = observer or (lambda event, details: None)
         self.on_progress = on_progress
-        self.context = mp.get_context("spawn")  # SAPIEN/Vulkan and paho threads are not fork-safe
-        self.workers: dict[int, _Worker] = {}
+        self.executor_name, self.executor_options = executor, executor_options or {}
+        self.workers: dict[int, int] = {}  # live worker id -> samples it has published
+        self.retiring: set[int] = set()
         self.next_worker_id = 0
         self.writer: subprocess.Popen | None = None
         self.restarts = {"worker": 0, "writer": 0, "broker": 0}
@@ -284,6 +296,8 @@ class _Coordinator:
     # --- the run -------------------------------------------------------------------------------
     def run(self, url: str, broker: ManagedBroker | None) -> None:
         self.url, self.broker = url, broker
+        spec = WorkerSpec(self.config.to_dict(), url, self.build_id, self.secret)
+        self.executor = make_executor(self.executor_name, spec, self.executor_options)
         total = self.config.num_samples
         with AckCollector(url, self.build_id, on_ack=self.acks.append) as collector:
             self.collector = collector
@@ -344,86 +358,76 @@ class _Coordinator:
                     self.config.transfer.ack_timeout_s,
                     overdue[:10],
                 )
-            for worker in list(self.workers.values()):
-                self._feed(worker)
+            for worker_id in list(self.workers):
+                self._feed(worker_id)
 
     def _report(self, done: int) -> None:
         if self.on_progress:
             self.on_progress(done, self.config.num_samples)
 
-    # --- workers -------------------------------------------------------------------------------
+    # --- workers ---------------------------------------------------------------------------------
     def _start_worker(self) -> None:
         worker_id = self.next_worker_id
         self.next_worker_id += 1
-        ours, theirs = self.context.Pipe(duplex=True)
-        process = self.context.Process(
-            target=worker_main,
-            args=(worker_id, self.config.to_dict(), self.url, self.build_id, self.secret, theirs),
-            name=f"datagen-worker-{worker_id}",
-            daemon=True,
-        )
-        process.start()
-        theirs.close()
-        self.workers[worker_id] = _Worker(worker_id, process, ours)
+        details = self.executor.start(worker_id)
+        self.workers[worker_id] = 0
         self.schedule.add_worker(worker_id)
-        self.observer("worker", {"id": worker_id, "pid": process.pid})
-        self._feed(self.workers[worker_id])
+        self.observer("worker", {"id": worker_id, **details})
+        self._feed(worker_id)
 
-    def _feed(self, worker: _Worker) -> None:
-        for index in self.schedule.next_for(worker.id):
-            try:
-                worker.conn.send(index)
-            except (BrokenPipeError, OSError):
-                return  # it died; _handle_worker_messages sees the closed pipe
+    def _feed(self, worker_id: int) -> None:
+        if worker_id in self.retiring:
+            return
+        for index in self.schedule.next_for(worker_id):
+            if not self.executor.send(worker_id, index):
+                return  # it died; poll reports it
 
     def _handle_worker_messages(self) -> None:
-        by_conn = {w.conn: w for w in self.workers.values()}
-        for conn in wait_connections(list(by_conn), timeout=POLL_S):
-            worker = by_conn[conn]
-            try:
-                kind, payload = conn.recv()
-            except (EOFError, OSError):
-                self._lose_worker(worker)
-                continue
+        recycle_after = self.config.executor.recycle_after
+        for worker_id, kind, payload in self.executor.poll(POLL_S):
             if kind == "published":
-                self.schedule.on_published(worker.id, payload, time.monotonic())
+                self.schedule.on_published(worker_id, payload, time.monotonic())
+                self.workers[worker_id] += 1
+                if recycle_after and self.workers[worker_id] >= recycle_after:
+                    self._retire(worker_id)
             elif kind == "error":
                 raise BuildError(payload)
+            elif kind == "lost":
+                self._lose_worker(worker_id, payload)
             elif kind == "done":
-                worker.finished = True
-        if not by_conn:
-            time.sleep(POLL_S)
+                self.workers.pop(worker_id, None)
+                if worker_id in self.retiring:  # recycled: published samples stay tracked
+                    self.retiring.discard(worker_id)
+                    self.schedule.on_worker_lost(worker_id, keep_published=True)
+                    if not self.schedule.done:
+                        self._start_worker()
 
-    def _lose_worker(self, worker: _Worker) -> None:
-        worker.process.join(timeout=5)
-        del self.workers[worker.id]
-        lost = self.schedule.on_worker_lost(worker.id)
+    def _retire(self, worker_id: int) -> None:
+        """Recycling: the worker finishes what it holds and stops; a fresh one replaces it."""
+        if worker_id not in self.retiring:
+            self.retiring.add(worker_id)
+            self.observer("recycle", {"id": worker_id, "samples": self.workers[worker_id]})
+            self.executor.retire(worker_id)
+
+    def _lose_worker(self, worker_id: int, why: str) -> None:
+        self.workers.pop(worker_id, None)
+        self.retiring.discard(worker_id)
+        lost = self.schedule.on_worker_lost(worker_id)
         self.restarts["worker"] += 1
         log.warning(
-            "worker %d died (exit code %s); issuing its %d unfinished samples again and starting a new worker",
-            worker.id,
-            worker.process.exitcode,
+            "worker %d died (%s); issuing its %d unfinished samples again and starting a new worker",
+            worker_id,
+            why,
             len(lost),
         )
-        self.observer("restart", {"what": "worker", "id": worker.id, "reissued": lost})
+        self.observer("restart", {"what": "worker", "id": worker_id, "reissued": lost})
         if self.restarts["worker"] > MAX_RESTARTS * max(1, self.num_workers):
             raise BuildError(self._missing("workers keep dying"))
         self._start_worker()
 
     def _stop_workers(self, graceful: bool) -> None:
-        for worker in self.workers.values():
-            if graceful:
-                with contextlib.suppress(BrokenPipeError, OSError):
-                    worker.conn.send(None)
-        deadline = time.monotonic() + (30 if graceful else 0)
-        for worker in self.workers.values():
-            worker.process.join(timeout=max(0.0, deadline - time.monotonic()))
-            if worker.process.is_alive():
-                worker.process.terminate()
-                worker.process.join(timeout=10)
-            if worker.process.is_alive():
-                worker.process.kill()
-            worker.conn.close()
+        if hasattr(self, "executor"):
+            self.executor.stop(graceful)
         self.workers.clear()
 
     # --- writer (local) and broker (managed) ------------------------------------------------------

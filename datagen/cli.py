@@ -87,6 +87,19 @@ def _parser() -> argparse.ArgumentParser:
     build.add_argument("--ca-file", help="CA certificate to verify an mqtts:// broker")
     build.add_argument("--no-preview", action="store_true", help="skip writing preview.png")
 
+    build.add_argument(
+        "--executor",
+        choices=["local", "ray"],
+        default="local",
+        help="where workers run: processes of this machine, or Ray actors (default: local)",
+    )
+    build.add_argument(
+        "--ray-address",
+        default=None,
+        help="with --executor ray: 'auto' or ray://HOST:PORT to join a cluster (default: a "
+        "local Ray instance); a cluster needs --broker",
+    )
+
     writer = commands.add_parser(
         "writer",
         help="run a dataset writer for a build on an external broker (e.g. on the storage machine)",
@@ -132,7 +145,15 @@ def _parser() -> argparse.ArgumentParser:
     )
     grasp.add_argument("--overwrite", action="store_true", help="replace whatever is in --out")
     # a campaign is a build: the build options it does not expose take their defaults
-    grasp.set_defaults(broker=None, writers=None, build_id=None, ca_file=None, no_preview=False)
+    grasp.set_defaults(
+        broker=None,
+        writers=None,
+        build_id=None,
+        ca_file=None,
+        no_preview=False,
+        executor="local",
+        ray_address=None,
+    )
 
     inspect = commands.add_parser(
         "inspect", help="summarise a dataset, draw its annotations and plot its distributions"
@@ -319,6 +340,8 @@ def _build(args: argparse.Namespace, config=None) -> int:
             broker_url=args.broker or os.environ.get("DATAGEN_BROKER_URL"),
             writers=writers,
             build_id=args.build_id,
+            executor=args.executor,
+            ray_address=args.ray_address,
         )
     if result.already_complete:
         print(f"datagen: {out} already holds this build ({result.samples} samples); nothing to do.")

@@ -126,6 +126,23 @@ class OutputConfig:
 
 
 @dataclass(frozen=True)
+class ExecutorConfig:
+    recycle_after: int = field(
+        default=500,
+        metadata=_range(
+            0, 10**9, "samples a worker makes before a fresh one replaces it; 0 = never"
+        ),
+    )
+    cpus_per_worker: float = field(
+        default=1.0, metadata=_range(0.0, 256.0, "CPUs a Ray worker actor reserves")
+    )
+    gpus_per_worker: float = field(
+        default=0.0,
+        metadata=_range(0.0, 16.0, "GPUs a Ray worker actor reserves (SAPIEN renders on it)"),
+    )
+
+
+@dataclass(frozen=True)
 class TransferConfig:
     window: int = field(default=8, metadata=_range(1, 256, "in-flight samples per worker"))
     max_sample_mb: float = field(default=32.0, metadata=_range(0.1, 256.0, "MiB per sample"))
@@ -215,6 +232,7 @@ class BuildConfig:
     physics: PhysicsConfig = PhysicsConfig()
     output: OutputConfig = OutputConfig()
     transfer: TransferConfig = TransferConfig()
+    executor: ExecutorConfig = ExecutorConfig()
     campaign: CampaignConfig = CampaignConfig()
     navigation: NavigationConfig = NavigationConfig()
 

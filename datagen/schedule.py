@@ -52,10 +52,13 @@ class Schedule:
         for indices in self.published.values():
             indices.pop(index, None)
 
-    def on_worker_lost(self, worker: int) -> list[int]:
-        """The worker died: everything it held and nobody acknowledged is issued again."""
+    def on_worker_lost(self, worker: int, keep_published: bool = False) -> list[int]:
+        """The worker died: everything it held and nobody acknowledged is issued again. A worker
+        that finished cleanly (``keep_published``) hands its published samples over to the
+        ack deadline instead: the broker has them."""
         lost = [i for i in self.assigned.pop(worker, []) if i in self.remaining]
-        lost += [i for i in self.published.pop(worker, {}) if i in self.remaining]
+        if not keep_published:  # else they stay tracked under the old id (ids are not reused)
+            lost += [i for i in self.published.pop(worker, {}) if i in self.remaining]
         self._reissue(lost)
         return lost
 

@@ -1,0 +1,126 @@
+"""Where scene workers run: local spawned processes, or Ray actors on a cluster.
+
+The coordinator talks to both through the same five calls and never sees processes or actors:
+``start(id)``, ``send(id, index)``, ``retire(id)`` (finish what it holds, then stop), ``poll``
+(events ``(id, kind, payload)`` with kind ``published`` (payload: index), ``done``, ``lost``
+(it died; payload: why) or ``error`` (payload: message)), and ``stop(graceful)``.
+"""
+
+from __future__ import annotations
+
+import logging
+import multiprocessing as mp
+import os
+import time
+from dataclasses import dataclass
+from multiprocessing.connection import wait as wait_connections
+from typing import Any
+
+from datagen.engines.worker import worker_main
+
+log = logging.getLogger(__name__)
+Event = tuple[int, str, Any]
+EXECUTORS = ("local", "ray")
+
+
+@dataclass
+class WorkerSpec:
+    """What every worker needs: the build's config, broker and identity."""
+
+    config: dict[str, Any]
+    broker_url: str
+    build_id: str
+    secret: bytes
+
+
+class LocalExecutor:
+    """Workers as processes of this machine ("spawn": SAPIEN, Vulkan and paho are not
+    fork-safe), each with its own duplex pipe (see datagen/engines/worker.py)."""
+
+    def __init__(self, spec: WorkerSpec):
+        self.spec = spec
+        self.context = mp.get_context("spawn")
+        self.workers: dict[int, tuple[Any, Any]] = {}  # id -> (process, connection)
+
+    def start(self, worker_id: int) -> dict[str, Any]:
+        ours, theirs = self.context.Pipe(duplex=True)
+        s = self.spec
+        process = self.context.Process(
+            target=worker_main,
+            args=(worker_id, s.config, s.broker_url, s.build_id, s.secret, theirs),
+            name=f"datagen-worker-{worker_id}",
+            daemon=True,
+        )
+        process.start()
+        theirs.close()
+        self.workers[worker_id] = (process, ours)
+        return {"pid": process.pid}
+
+    def send(self, worker_id: int, index: int | None) -> bool:
+        try:
+            self.workers[worker_id][1].send(index)
+            return True
+        except (BrokenPipeError, OSError):
+            return False  # it died: poll reports it
+
+    def retire(self, worker_id: int) -> None:
+        self.send(worker_id, None)
+
+    def poll(self, timeout: float) -> list[Event]:
+        by_conn = {conn: wid for wid, (_, conn) in self.workers.items()}
+        if not by_conn:
+            time.sleep(timeout)
+            return []
+        events: list[Event] = []
+        for conn in wait_connections(list(by_conn), timeout=timeout):
+            worker_id = by_conn[conn]
+            try:
+                kind, payload = conn.recv()
+            except (EOFError, OSError):
+                process = self._forget(worker_id)
+                events.append((worker_id, "lost", f"exit code {process.exitcode}"))
+                continue
+            if kind == "done":
+                self._forget(worker_id)
+            events.append((worker_id, kind, payload))
+        return events
+
+    def _forget(self, worker_id: int):
+        process, conn = self.workers.pop(worker_id)
+        process.join(timeout=5)
+        conn.close()
+        return process
+
+    def stop(self, graceful: bool) -> None:
+        if graceful:
+            for worker_id in self.workers:
+                self.send(worker_id, None)
+        deadline = time.monotonic() + (30 if graceful else 0)
+        for process, conn in self.workers.values():
+            process.join(timeout=max(0.0, deadline - time.monotonic()))
+            if process.is_alive():
+                process.terminate()
+                process.join(timeout=10)
+            if process.is_alive():
+                process.kill()
+            conn.close()
+        self.workers.clear()
+
+    def pids(self) -> list[int]:
+        return [p.pid for p, _ in self.workers.values()]
+
+
+def make_executor(name: str, spec: WorkerSpec, options: dict[str, Any]):
+    if name == "local":
+        return LocalExecutor(spec)
+    if name == "ray":
+        from datagen.engines.ray_executor import RayExecutor
+
+        return RayExecutor(spec, **options)
+    raise ValueError(f"unknown executor {name!r}; expected one of {list(EXECUTORS)}")
+
+
+def worker_env() -> dict[str, str]:
+    """Environment a worker on another machine needs from ours (log level only: everything
+    else travels in its arguments)."""
+    return {k: v for k, v in os.environ.items() if k in ("DATAGEN_LOG_LEVEL",)}

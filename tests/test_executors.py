@@ -1,0 +1,80 @@
+"""Workers on a local Ray instance and recycled workers: the same dataset as local processes,
+exactly N samples, and a Ray worker killed for real is replaced."""
+
+from __future__ import annotations
+
+import dataclasses
+import os
+import signal
+
+import psutil
+import pytest
+
+from datagen.build import run_build
+from datagen.config import BuildConfig, ExecutorConfig, RenderConfig
+from datagen.loader import load, verify
+
+SAMPLES = 10
+CONFIG = BuildConfig(num_samples=SAMPLES, seed=4, render=RenderConfig(width=128, height=96))
+
+
+def _parts(root):
+    dataset = load(root)
+    return dataset.keys, [dataset.raw(i) for i in range(len(dataset))]
+
+
+@pytest.fixture(scope="module")
+def recycled_local(tmp_path_factory):
+    events = []
+    out = tmp_path_factory.mktemp("local") / "recycled"
+    config = dataclasses.replace(CONFIG, executor=ExecutorConfig(recycle_after=3))
+    result = run_build(config, out, workers=2, observer=lambda kind, d: events.append((kind, d)))
+    return out, result, events
+
+
+def test_recycled_workers_make_exactly_n_samples(recycled_local):
+    out, result, events = recycled_local
+    assert verify(out)["samples"] == SAMPLES
+    recycled = [d for kind, d in events if kind == "recycle"]
+    started = [d for kind, d in events if kind == "worker"]
+    assert len(recycled) >= 2 and all(d["samples"] == 3 for d in recycled)
+    assert len(started) >= 2 + len(recycled) - 1  # replacements (not for the last ones)
+    assert result.restarts["worker"] == 0  # recycling is not a fault
+
+
+def test_ray_executor_builds_the_same_dataset(recycled_local, tmp_path):
+    out = tmp_path / "ray"
+    events = []
+    result = run_build(
+        CONFIG, out, workers=2, executor="ray", observer=lambda k, d: events.append((k, d))
+    )
+    assert result.samples == SAMPLES and verify(out)["samples"] == SAMPLES
+    assert any("ray_actor" in d for kind, d in events if kind == "worker")
+    assert _parts(out) == _parts(recycled_local[0])
+
+
+def _ray_workers() -> list[psutil.Process]:
+    found = []
+    for p in psutil.process_iter(["cmdline"]):
+        cmdline = " ".join(p.info["cmdline"] or [])
+        if "SceneWorker" in cmdline and p.pid != os.getpid():
+            found.append(p)
+    return found
+
+
+def test_a_killed_ray_worker_is_replaced(tmp_path):
+    killed = []
+
+    def on_progress(done: int, total: int) -> None:
+        if done >= 3 and not killed:
+            workers = _ray_workers()
+            if workers:
+                workers[0].send_signal(signal.SIGKILL)
+                killed.append(workers[0].pid)
+
+    out = tmp_path / "ray-kill"
+    config = dataclasses.replace(CONFIG, num_samples=16)
+    result = run_build(config, out, workers=2, executor="ray", on_progress=on_progress)
+    assert killed, "no Ray worker process was found to kill"
+    assert verify(out)["samples"] == 16 and len(set(load(out).keys)) == 16
+    assert result.restarts["worker"] >= 1
