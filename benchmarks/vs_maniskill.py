@@ -1,0 +1,113 @@
+"""datagen against ManiSkill's own recording path, side by side in one run.
+
+    .venv/bin/python benchmarks/vs_maniskill.py                 # 120 frames each, 640x480
+    .venv/bin/python benchmarks/vs_maniskill.py --frames 40     # quick
+
+- **ManiSkill**: ``PickCube-v1`` (a Panda before a cube on a table: ManiSkill's comparable
+  tabletop scene) with ``obs_mode="rgb+depth+segmentation"``, its sensor camera set to the same
+  resolution, CPU physics and rendering, wrapped in ``RecordEpisode(save_trajectory=True,
+  save_video=False)`` so every observation is written to its HDF5 trajectory file. Random actions;
+  one frame per env step; a reset (new episode) every 50 steps, as a dataset recorder would.
+  Timed from the first reset to ``env.close()`` (which flushes the file); ``gym.make`` is not.
+- **datagen**: ``run_build`` of the default grasping config at the same resolution, the same
+  number of frames, with W workers. Each frame is a fresh randomised scene settled by physics,
+  annotated with boxes, 3D boxes, poses and visibility, published through Mosquitto and written
+  by the writer process. Timed as a user sees it (start-up included).
+
+The ratio is datagen frames/s ÷ ManiSkill frames/s (target 1.5).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import shutil
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+REPO = Path(__file__).resolve().parents[1]
+
+
+def maniskill_fps(frames: int, width: int, height: int, episode_steps: int = 50) -> dict:
+    import gymnasium as gym
+    import mani_skill.envs  # noqa: F401 - registers the environments
+    from mani_skill.utils.wrappers.record import RecordEpisode
+
+    out = Path(tempfile.mkdtemp(prefix="datagen-maniskill-"))
+    try:
+        env = gym.make(
+            "PickCube-v1",
+            obs_mode="rgb+depth+segmentation",
+            sim_backend="physx_cpu",
+            render_backend="cpu",
+            sensor_configs={"width": width, "height": height},
+            max_episode_steps=episode_steps,
+        )
+        env = RecordEpisode(env, str(out), save_trajectory=True, save_video=False)
+        start = time.monotonic()
+        obs, _ = env.reset(seed=0)
+        camera = next(iter(obs["sensor_data"].values()))
+        shape = tuple(camera["rgb"].shape)
+        for step in range(frames - 1):
+            obs, _, terminated, truncated, _ = env.step(env.action_space.sample())
+            if (step + 1) % episode_steps == 0 or bool(terminated) or bool(truncated):
+                env.reset(seed=step + 1)
+        env.close()
+        seconds = time.monotonic() - start
+        size = sum(p.stat().st_size for p in out.rglob("*") if p.is_file())
+    finally:
+        shutil.rmtree(out, ignore_errors=True)
+    return {"frames": frames, "seconds": round(seconds, 2), "frames_per_s": round(frames / seconds, 2),
+            "rgb_shape": list(shape), "bytes": size}  # fmt: skip
+
+
+def datagen_fps(frames: int, width: int, height: int, workers: int) -> dict:
+    from datagen.build import run_build
+    from datagen.config import RenderConfig, load_config
+
+    base = load_config(REPO / "configs/grasp_tabletop.yaml")
+    config = base.replace(
+        num_samples=frames, render=RenderConfig(width=width, height=height, far=base.render.far)
+    )
+    out = Path(tempfile.mkdtemp(prefix="datagen-vs-maniskill-"))
+    try:
+        start = time.monotonic()
+        run_build(config, out, workers)
+        seconds = time.monotonic() - start
+        size = sum(p.stat().st_size for p in out.glob("*.tar"))
+    finally:
+        shutil.rmtree(out, ignore_errors=True)
+    return {"frames": frames, "seconds": round(seconds, 2), "frames_per_s": round(frames / seconds, 2),
+            "workers": workers, "bytes": size}  # fmt: skip
+
+
+def main() -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--frames", type=int, default=120)
+    parser.add_argument("--width", type=int, default=640)
+    parser.add_argument("--height", type=int, default=480)
+    parser.add_argument("--workers", type=int, default=os.cpu_count() or 1)
+    parser.add_argument("--out", default=str(REPO / "benchmarks/results/vs_maniskill.json"))
+    args = parser.parse_args()
+    rows = {
+        "ManiSkill RecordEpisode, 1 process": maniskill_fps(args.frames, args.width, args.height),
+        f"datagen, {args.workers} workers": datagen_fps(args.frames, args.width, args.height, args.workers),  # fmt: skip
+        "datagen, 1 worker": datagen_fps(args.frames, args.width, args.height, 1),
+    }
+    ms = rows["ManiSkill RecordEpisode, 1 process"]["frames_per_s"]
+    ratios = {f"{name} / ManiSkill": round(r["frames_per_s"] / ms, 3) for name, r in rows.items() if name.startswith("datagen")}  # fmt: skip
+    print(f"{'side':38} {'frames':>6} {'s':>7} {'frames/s':>9} {'MB':>7}")
+    for name, r in rows.items():
+        print(f"{name:38} {r['frames']:>6} {r['seconds']:>7.1f} {r['frames_per_s']:>9.2f} {r['bytes'] / 2**20:>7.1f}")  # fmt: skip
+    for name, value in ratios.items():
+        print(f"ratio {name}: {value}")
+    Path(args.out).parent.mkdir(parents=True, exist_ok=True)
+    Path(args.out).write_text(json.dumps({"command": " ".join(sys.argv), "resolution": [args.width, args.height], "rows": rows, "ratios": ratios}, indent=2))  # fmt: skip
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
