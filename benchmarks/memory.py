@@ -7,7 +7,7 @@ Each run builds the default grasping config (fresh randomised scene per frame) w
 a sampler thread reads the resident set size (RSS) of every live worker process every second.
 Reported per run: the workers' mean RSS over the first 10 % of the build (after each worker's
 first frame) and over the last 10 %, the largest RSS seen, and the number of workers started.
-Runs: ``executor.recycle_after`` = the config default (500) and 0 (never recycled).
+Runs: ``executor.recycle_after`` = the config default (2000) and 0 (never recycled).
 """
 
 from __future__ import annotations
@@ -79,7 +79,9 @@ def _run(config, workers: int) -> dict:
         "rss_start_mib": round(sum(early) / len(early) / MIB, 1) if early else None,
         "rss_end_mib": round(sum(late) / len(late) / MIB, 1) if late else None,
         "rss_max_mib": round(max(r for _, _, rss in samples for r in rss) / MIB, 1),
-        "timeline": [(round(t - samples[0][0], 1), d, [round(r / MIB) for r in rss]) for t, d, rss in samples],  # fmt: skip
+        "timeline": [
+            (round(t - samples[0][0], 1), d, [round(r / MIB) for r in rss]) for t, d, rss in samples
+        ],
     }
 
 

@@ -44,6 +44,7 @@ from typing import Any
 from tqdm import tqdm
 
 from datagen.config import BuildConfig, ConfigError, config_from_dict, load_config
+from datagen.engines.executors import WORKER_ENV_DEFAULTS, default_env
 
 ROOT = Path(__file__).resolve().parent.parent
 RESULTS = ROOT / "benchmarks" / "results" / "pipeline_vs_render.json"
@@ -86,8 +87,9 @@ def run_plain(config: BuildConfig, workers: int) -> dict[str, Any]:
     cpu = _cpu_seconds()
     start = time.monotonic()
     try:
-        for process in processes:
-            process.start()
+        with default_env(WORKER_ENV_DEFAULTS):  # the same thread settings as pipeline workers
+            for process in processes:
+                process.start()
         while len(finished) < workers:
             try:
                 kind, worker, payload = events.get(timeout=1.0)

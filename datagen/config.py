@@ -128,7 +128,7 @@ class OutputConfig:
 @dataclass(frozen=True)
 class ExecutorConfig:
     recycle_after: int = field(
-        default=500,
+        default=2000,
         metadata=_range(
             0, 10**9, "samples a worker makes before a fresh one replaces it; 0 = never"
         ),

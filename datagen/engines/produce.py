@@ -8,6 +8,7 @@ calls the first alone.
 from __future__ import annotations
 
 import json
+import time
 from dataclasses import dataclass
 from typing import Any
 
@@ -161,9 +162,12 @@ def to_sample(annotated: AnnotatedSample) -> Sample:
     return Sample(annotated.index, parts)
 
 
-def produce_sample(config: BuildConfig, seed: int, index: int) -> Sample:
+def produce_sample(
+    config: BuildConfig, seed: int, index: int, timings: dict[str, float] | None = None
+) -> Sample:
     """Sample ``index`` of the build: an annotated frame, a grasp attempt in a campaign, or a
-    navigation episode."""
+    navigation episode. ``timings`` (grasp_tabletop only) receives ``render_s`` (scene, physics,
+    render, annotate) and ``encode_s`` (PNG and JSON), for the stage benchmark."""
     if config.scene == "grasp_attempts":
         from datagen.grasping.attempt import produce_attempt
 
@@ -172,4 +176,10 @@ def produce_sample(config: BuildConfig, seed: int, index: int) -> Sample:
         from datagen.engines.produce_nav import produce_nav_episode
 
         return produce_nav_episode(config, seed, index)
-    return to_sample(render_annotated(config, seed, index))
+    start = time.perf_counter()
+    annotated = render_annotated(config, seed, index)
+    rendered = time.perf_counter()
+    sample = to_sample(annotated)
+    if timings is not None:
+        timings.update(render_s=rendered - start, encode_s=time.perf_counter() - rendered)
+    return sample

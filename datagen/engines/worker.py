@@ -9,9 +9,11 @@ Messages to the worker: an index, or ``None`` to finish. From the worker:
 from __future__ import annotations
 
 import ctypes
+import json
 import logging
 import os
 import signal
+import time
 import traceback
 from multiprocessing.connection import Connection
 from typing import Any
@@ -22,6 +24,13 @@ from datagen.engines.transfer import SamplePublisher, SampleTooLarge
 
 log = logging.getLogger(__name__)
 _PR_SET_PDEATHSIG = 1
+STAGE_LOG_ENV = "DATAGEN_STAGE_LOG"  # a file: one JSON line of stage timings per sample
+
+
+def _log_stages(path: str, worker_id: int, index: int, timings: dict, sample) -> None:
+    record = {"worker": worker_id, "index": index, "bytes": sum(map(len, sample.parts.values()))}
+    with open(path, "a", encoding="utf-8") as f:  # one short write per line: appends interleave
+        f.write(json.dumps(record | timings) + "\n")
 
 
 def die_with_parent(sig: int = signal.SIGKILL) -> None:
@@ -60,8 +69,15 @@ def worker_main(
             max_message_bytes=int(config.transfer.max_sample_mb * 2**20),
             secret=secret,
         ) as publisher:
+            stage_log = os.environ.get(STAGE_LOG_ENV)
             while (index := conn.recv()) is not None:
-                publisher.publish(produce_sample(config, config.seed, index))
+                timings: dict[str, float] = {}
+                sample = produce_sample(config, config.seed, index, timings)
+                start = time.perf_counter()
+                publisher.publish(sample)
+                timings["publish_s"] = time.perf_counter() - start
+                if stage_log:
+                    _log_stages(stage_log, worker_id, index, timings, sample)
                 conn.send(("published", index))
         conn.send(("done", None))
     except (EOFError, BrokenPipeError):
