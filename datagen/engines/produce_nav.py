@@ -22,7 +22,8 @@ from datagen.navigation.map_image import episode_map, occupancy_image
 from datagen.navigation.planning import inflate
 from datagen.randomisers.navigation import sample_nav_scene
 from datagen.sample import Sample, sample_key
-from datagen.scenes.navigation import NAV_CLASSES, NavScene, build_nav_scene, fetch_urdf
+from datagen.scenes.assets import FETCH
+from datagen.scenes.navigation import NAV_CLASSES, NavScene, build_nav_scene
 
 NAV_FORMAT = "datagen.nav_episode/1"
 
@@ -173,7 +174,7 @@ def produce_nav_episode(config: BuildConfig, seed: int, index: int) -> Sample:
         "frames": frames,
         "robot": {
             "name": "fetch",
-            "description": f"mani_skill/assets/robots/{fetch_urdf().parent.name}/fetch.urdf",
+            "description": f"mani_skill/assets/{FETCH}",
             "radius": nav.robot_radius,
             "qpos_fixed": _round(scene.robot.get_qpos()[3:]),
             "joints": [j.name for j in scene.robot.get_active_joints()],

@@ -7,7 +7,6 @@ settled by physics before any camera renders.
 
 from __future__ import annotations
 
-import importlib.util
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -22,6 +21,7 @@ from datagen.randomisers.lighting import apply_lighting
 from datagen.randomisers.materials import render_material
 from datagen.randomisers.objects import add_objects
 from datagen.randomisers.robot import apply_robot
+from datagen.scenes.assets import PANDA, maniskill_asset
 from datagen.shapes import ObjectGeometry
 
 TABLE_TOP = 0.75  # metres
@@ -40,10 +40,7 @@ WRIST_CAMERA_POSE = sapien.Pose([0.0464982, -0.0200011, 0.0360011], [0, 0.707106
 
 
 def panda_urdf() -> Path:
-    spec = importlib.util.find_spec("mani_skill")
-    if spec is None or not spec.submodule_search_locations:
-        raise RuntimeError("mani-skill is not installed: it provides the Panda robot description")
-    return Path(spec.submodule_search_locations[0]) / "assets/robots/panda/panda_v2.urdf"
+    return maniskill_asset(PANDA)
 
 
 @dataclass

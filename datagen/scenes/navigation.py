@@ -8,7 +8,6 @@ origin and the floor top is z = 0. Fetch's base is driven through its three virt
 
 from __future__ import annotations
 
-import importlib.util
 import math
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -21,6 +20,7 @@ from datagen.config import BuildConfig
 from datagen.navigation.episode import Episode
 from datagen.randomisers.lighting import apply_lighting
 from datagen.randomisers.materials import render_material
+from datagen.scenes.assets import FETCH, maniskill_asset
 
 # Semantic classes; 0 is background (nothing rendered).
 NAV_CLASSES = ("background", "floor", "wall", "door", "obstacle", "goal_marker", "robot")
@@ -47,10 +47,7 @@ _X_TO_Z = sapien.Pose(q=[math.sqrt(0.5), 0.0, math.sqrt(0.5), 0.0])
 
 
 def fetch_urdf() -> Path:
-    spec = importlib.util.find_spec("mani_skill")
-    if spec is None or not spec.submodule_search_locations:
-        raise RuntimeError("mani-skill is not installed: it provides the Fetch robot description")
-    return Path(spec.submodule_search_locations[0]) / "assets/robots/fetch/fetch.urdf"
+    return maniskill_asset(FETCH)
 
 
 @dataclass
