@@ -165,7 +165,7 @@ def _parser() -> argparse.ArgumentParser:
     )
     export.add_argument("dataset", help="dataset directory (with manifest.json)")
     export.add_argument(
-        "--to", required=True, type=_sink_list, help="comma-separated formats: coco,hdf5"
+        "--to", required=True, type=_sink_list, help="comma-separated formats: coco,hdf5,pointcloud"
     )
     export.add_argument("--force", action="store_true", help="redo exports already done")
 

@@ -21,7 +21,7 @@ SHAPE_FAMILIES = ("box", "cylinder", "sphere", "capsule", "convex", "compound")
 SCENES = ("grasp_tabletop", "grasp_attempts", "navigation")
 NAV_FAMILIES = ("rooms", "corridor", "maze")
 GRASP_SAMPLERS = ("antipodal", "random")
-SINKS = ("webdataset", "coco", "hdf5")  # webdataset is the store the others are exported from
+SINKS = ("webdataset", "coco", "hdf5", "pointcloud")  # webdataset is the store the others are exported from
 
 
 class ConfigError(ValueError):

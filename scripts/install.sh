@@ -59,8 +59,8 @@ apt_install() {  # installs only the packages that are missing
 }
 
 # --- system packages ----------------------------------------------------------------------------
-say "system packages: mosquitto, mosquitto-clients, Vulkan loader"
-apt_install mosquitto mosquitto-clients libvulkan1 ca-certificates procps
+say "system packages: mosquitto, mosquitto-clients, Vulkan loader, libusb (Open3D loads it), libgomp"
+apt_install mosquitto mosquitto-clients libvulkan1 ca-certificates procps libusb-1.0-0 libgomp1
 if ! "$PYTHON" -m venv --help >/dev/null 2>&1; then apt_install python3-venv; fi
 
 pip_install() {  # quiet on success; on failure shows pip's output and stops
@@ -94,8 +94,8 @@ if [ "$(cat "$STAMP" 2>/dev/null)" != "$WANT" ]; then
 else
     say "python environment up to date ($VENV)"
 fi
-"$VENV/bin/python" -c "import cv2, numpy; assert numpy.__version__.startswith('1.')" \
-    || die "'import cv2' fails in $VENV: remove $STAMP and run this script again."
+"$VENV/bin/python" -c "import cv2, numpy, open3d, h5py, pycocotools.mask; assert numpy.__version__.startswith('1.')" \
+    || die "importing cv2, open3d, h5py or pycocotools fails in $VENV: remove $STAMP and run this script again."
 
 # --- rendering: a Vulkan device, or Mesa lavapipe from bookworm-backports ------------------------
 probe_render() { "$VENV/bin/python" -m datagen.engines.render_probe >/dev/null 2>&1; }

@@ -15,14 +15,15 @@ from torch.utils.data import DataLoader
 import datagen
 from datagen.build import run_build
 from datagen.config import BuildConfig, ConfigError, OutputConfig, RenderConfig, config_from_dict
-from datagen.loader import load, read_manifest
+from datagen.loader import decode_parts, load, read_manifest
+from datagen.pointcloud import read_ply
 
 SAMPLES = 8
 CONFIG = BuildConfig(
     num_samples=SAMPLES,
     seed=21,
     render=RenderConfig(width=160, height=120, wrist_camera=True),
-    output=OutputConfig(shard_size=3, sinks=("webdataset", "coco", "hdf5")),
+    output=OutputConfig(shard_size=3, sinks=("webdataset", "coco", "hdf5", "pointcloud")),
 )
 
 
@@ -78,7 +79,7 @@ def test_hdf5_round_trip(built):
 
 def test_exports_are_recorded_and_redone_after_an_interruption(built):
     manifest = read_manifest(built)
-    assert set(manifest["exports"]) == {"coco", "hdf5"}
+    assert set(manifest["exports"]) == {"coco", "hdf5", "pointcloud"}
     # a crash during the COCO export: its partial directory is left, nothing recorded
     annotations = (built / "coco" / "annotations.json").read_bytes()
     shutil.move(built / "coco", built / ".coco.partial")
@@ -89,7 +90,30 @@ def test_exports_are_recorded_and_redone_after_an_interruption(built):
     assert result.already_complete
     assert not (built / ".coco.partial").exists()
     assert (built / "coco" / "annotations.json").read_bytes() == annotations
-    assert set(read_manifest(built)["exports"]) == {"coco", "hdf5"}
+    assert set(read_manifest(built)["exports"]) == {"coco", "hdf5", "pointcloud"}
+
+
+def test_point_clouds_are_labelled_and_in_the_world_frame(built):
+    import open3d as o3d
+
+    dataset = load(built)
+    for i in range(SAMPLES):
+        item, path = dataset[i], built / "pointclouds" / f"{dataset.keys[i]}.ply"
+        cloud = read_ply(path)
+        wrist = decode_parts({"depth.png": dataset.raw(i)["wrist.depth.png"]})["depth"]
+        assert len(cloud["positions"]) == (item["depth"] > 0).sum() + (wrist > 0).sum()
+        assert len(o3d.io.read_point_cloud(str(path)).points) == len(cloud["positions"])
+        workspace = cloud["view"] == 0
+        np.testing.assert_array_equal(cloud["colors"][workspace], item["rgb"][item["depth"] > 0])
+        for obj in item["meta"]["objects"]:
+            # every point labelled with this object, from either camera, lies in its 3D box
+            points = cloud["positions"][cloud["instance"] == obj["instance_id"]]
+            box = np.asarray(obj["obb"]["pose_world"]["matrix"])
+            local = (points - box[:3, 3]) @ box[:3, :3]
+            assert (np.abs(local) <= np.asarray(obj["obb"]["extents"]) / 2 + 0.004).all(), obj["class"]  # fmt: skip
+        table = cloud["semantic"] == dataset.metadata(i)["classes"].index("table")
+        heights = np.abs(cloud["positions"][table, 2] - 0.75)  # the top seen from above
+        assert np.percentile(heights, 99) < 0.005
 
 
 def test_unknown_or_missing_sinks_are_config_errors():

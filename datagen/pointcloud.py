@@ -1,0 +1,82 @@
+"""Labelled point clouds from depth and intrinsics, per view or fused across a sample's views in
+the world frame, written as PLY files that Open3D reads (``open3d.t.io.read_point_cloud`` keeps
+the ``instance`` and ``semantic`` attributes; the legacy reader gets positions and colours)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from datagen.loader import decode_parts
+from datagen.sinks.views import labelled_views
+
+_IMAGE_PARTS = ("rgb.png", "depth.png", "seg.png", "semantic.png")
+
+
+def view_points(
+    depth_mm: np.ndarray, intrinsics, extrinsics, depth_scale: float = 0.001, stride: int = 1
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """World points (N, 3) of the pixels with depth, and their rows and columns (every
+    ``stride``-th pixel). Pixel (col, row) has its centre at (col + 0.5, row + 0.5)."""
+    rows, cols = np.nonzero(depth_mm[::stride, ::stride] > 0)
+    rows, cols = rows * stride, cols * stride
+    z = depth_mm[rows, cols].astype(np.float64) * depth_scale
+    rays = np.linalg.inv(np.asarray(intrinsics, float)) @ np.stack([cols + 0.5, rows + 0.5, np.ones_like(z)])  # fmt: skip
+    camera = np.vstack([rays * z, np.ones_like(z)])
+    world = (np.linalg.inv(np.asarray(extrinsics, float)) @ camera)[:3].T
+    return world, rows, cols
+
+
+def sample_point_cloud(
+    raw: dict[str, bytes], meta: dict[str, Any], stride: int = 1, fuse: bool = True
+) -> dict[str, np.ndarray] | list[dict[str, np.ndarray]]:
+    """The labelled cloud of every view of one stored sample (``dataset.raw(i)`` and its
+    metadata): fused into one (``fuse``) or one per view. Arrays: positions (N, 3) float32
+    metres (world), colors (N, 3) uint8, instance (N,) int32, semantic (N,) int32, view (N,)
+    int32 (the view's number)."""
+    clouds = []
+    for number, view in enumerate(labelled_views(meta)):
+        images = decode_parts({p: raw[view.prefix + p] for p in _IMAGE_PARTS if view.prefix + p in raw})  # fmt: skip
+        camera = view.camera
+        world, rows, cols = view_points(
+            images["depth"], camera["intrinsics"], camera["extrinsics_world_to_camera"],
+            camera.get("depth_scale", 0.001), stride,
+        )  # fmt: skip
+        clouds.append({
+            "positions": world.astype(np.float32),
+            "colors": images["rgb"][rows, cols],
+            "instance": images["seg"][rows, cols].astype(np.int32),
+            "semantic": images["semantic"][rows, cols].astype(np.int32),
+            "view": np.full(len(rows), number, np.int32),
+        })  # fmt: skip
+    if not fuse:
+        return clouds
+    return {k: np.concatenate([c[k] for c in clouds]) for k in clouds[0]}
+
+
+def write_ply(path: str | Path, cloud: dict[str, np.ndarray]) -> None:
+    import open3d as o3d
+
+    pcd = o3d.t.geometry.PointCloud()
+    pcd.point.positions = o3d.core.Tensor(cloud["positions"].astype(np.float32))
+    pcd.point.colors = o3d.core.Tensor(cloud["colors"].astype(np.float32) / 255.0)
+    for name in ("instance", "semantic", "view"):
+        pcd.point[name] = o3d.core.Tensor(cloud[name].astype(np.int32).reshape(-1, 1))
+    if not o3d.t.io.write_point_cloud(str(path), pcd):
+        raise OSError(f"Open3D could not write {path}")
+
+
+def read_ply(path: str | Path) -> dict[str, np.ndarray]:
+    import open3d as o3d
+
+    pcd = o3d.t.io.read_point_cloud(str(path))
+    out = {
+        "positions": pcd.point.positions.numpy(),
+        "colors": np.rint(pcd.point.colors.numpy() * 255).astype(np.uint8),
+    }
+    for name in ("instance", "semantic", "view"):
+        if name in pcd.point:
+            out[name] = pcd.point[name].numpy().reshape(-1).astype(np.int32)
+    return out
