@@ -165,7 +165,10 @@ def _parser() -> argparse.ArgumentParser:
     )
     export.add_argument("dataset", help="dataset directory (with manifest.json)")
     export.add_argument(
-        "--to", required=True, type=_sink_list, help="comma-separated formats: coco,hdf5,pointcloud"
+        "--to",
+        required=True,
+        type=_sink_list,
+        help="comma-separated formats: coco,hdf5,pointcloud,usd",
     )
     export.add_argument("--force", action="store_true", help="redo exports already done")
 

@@ -21,7 +21,13 @@ SHAPE_FAMILIES = ("box", "cylinder", "sphere", "capsule", "convex", "compound")
 SCENES = ("grasp_tabletop", "grasp_attempts", "navigation")
 NAV_FAMILIES = ("rooms", "corridor", "maze")
 GRASP_SAMPLERS = ("antipodal", "random")
-SINKS = ("webdataset", "coco", "hdf5", "pointcloud")  # webdataset is the store the others are exported from
+SINKS = (
+    "webdataset",
+    "coco",
+    "hdf5",
+    "pointcloud",
+    "usd",
+)  # webdataset is the store the others are exported from
 
 
 class ConfigError(ValueError):
@@ -358,6 +364,10 @@ def _check_semantics(config: BuildConfig, source: str) -> None:
         raise ConfigError(
             f"{source}: output.sinks: expected distinct names from {list(SINKS)} including "
             f"'webdataset' (the store the other formats are exported from), got {sinks}"
+        )
+    if "usd" in sinks and config.scene == "navigation":
+        raise ConfigError(
+            f"{source}: output.sinks: 'usd' exports grasp scenes only, not scene 'navigation'"
         )
     if config.navigation.family not in NAV_FAMILIES:
         raise ConfigError(

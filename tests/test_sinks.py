@@ -17,13 +17,14 @@ from datagen.build import run_build
 from datagen.config import BuildConfig, ConfigError, OutputConfig, RenderConfig, config_from_dict
 from datagen.loader import decode_parts, load, read_manifest
 from datagen.pointcloud import read_ply
+from datagen.shapes import build_geometry
 
 SAMPLES = 8
 CONFIG = BuildConfig(
     num_samples=SAMPLES,
     seed=21,
     render=RenderConfig(width=160, height=120, wrist_camera=True),
-    output=OutputConfig(shard_size=3, sinks=("webdataset", "coco", "hdf5", "pointcloud")),
+    output=OutputConfig(shard_size=3, sinks=("webdataset", "coco", "hdf5", "pointcloud", "usd")),
 )
 
 
@@ -79,7 +80,7 @@ def test_hdf5_round_trip(built):
 
 def test_exports_are_recorded_and_redone_after_an_interruption(built):
     manifest = read_manifest(built)
-    assert set(manifest["exports"]) == {"coco", "hdf5", "pointcloud"}
+    assert set(manifest["exports"]) == {"coco", "hdf5", "pointcloud", "usd"}
     # a crash during the COCO export: its partial directory is left, nothing recorded
     annotations = (built / "coco" / "annotations.json").read_bytes()
     shutil.move(built / "coco", built / ".coco.partial")
@@ -90,7 +91,7 @@ def test_exports_are_recorded_and_redone_after_an_interruption(built):
     assert result.already_complete
     assert not (built / ".coco.partial").exists()
     assert (built / "coco" / "annotations.json").read_bytes() == annotations
-    assert set(read_manifest(built)["exports"]) == {"coco", "hdf5", "pointcloud"}
+    assert set(read_manifest(built)["exports"]) == {"coco", "hdf5", "pointcloud", "usd"}
 
 
 def test_point_clouds_are_labelled_and_in_the_world_frame(built):
@@ -114,6 +115,40 @@ def test_point_clouds_are_labelled_and_in_the_world_frame(built):
         table = cloud["semantic"] == dataset.metadata(i)["classes"].index("table")
         heights = np.abs(cloud["positions"][table, 2] - 0.75)  # the top seen from above
         assert np.percentile(heights, 99) < 0.005
+
+
+def test_usd_scenes_validate_and_match_the_metadata(built):
+    from pxr import Usd, UsdGeom
+
+    from datagen.usd_export import camera_matrices, validation_errors
+
+    dataset = load(built)
+    for i in range(SAMPLES):
+        meta = dataset.metadata(i)
+        stage = Usd.Stage.Open(str(built / "usd" / f"{dataset.keys[i]}.usda"))
+        assert validation_errors(stage) == []
+        world = stage.GetDefaultPrim()
+        assert (
+            json.loads(world.GetCustomDataByKey("datagen:randomisation")) == meta["randomisation"]
+        )
+        for name, view in meta["views"].items():  # workspace and wrist
+            K, E = camera_matrices(stage, name)
+            np.testing.assert_allclose(K, view["camera"]["intrinsics"], atol=1e-4)
+            np.testing.assert_allclose(E, view["camera"]["extrinsics_world_to_camera"], atol=1e-6)
+        for obj in meta["objects"]:
+            prim = stage.GetPrimAtPath(f"/World/Objects/object_{obj['instance_id']}")
+            assert prim.GetCustomDataByKey("datagen:class") == obj["class"]
+            pose = np.asarray(UsdGeom.Xformable(prim).ComputeLocalToWorldTransform(0)).T
+            np.testing.assert_allclose(pose, obj["pose_world"]["matrix"], atol=1e-6)
+            # its meshes are the object's convex parts, in the object frame
+            parts = build_geometry(obj["shape"]).parts
+            meshes = [UsdGeom.Mesh(c) for c in prim.GetChildren()]
+            assert len(meshes) == len(parts)
+            for mesh, part in zip(meshes, parts, strict=True):
+                np.testing.assert_allclose(np.asarray(mesh.GetPointsAttr().Get()), part.vertices, atol=1e-6)  # fmt: skip
+                assert len(mesh.GetFaceVertexCountsAttr().Get()) == len(part.faces)
+    with pytest.raises(ConfigError, match="'usd' exports grasp scenes only"):
+        config_from_dict({"scene": "navigation", "output": {"sinks": ["webdataset", "usd"]}})
 
 
 def test_unknown_or_missing_sinks_are_config_errors():

@@ -15,13 +15,14 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
-from datagen.sinks import coco, hdf5, pointcloud
+from datagen.sinks import coco, hdf5, pointcloud, usd
 from datagen.sinks.webdataset import write_manifest
 
 EXPORTS: dict[str, tuple[str, Callable]] = {  # sink name -> (path in DIR, export function)
     coco.NAME: ("coco", coco.export),
     hdf5.NAME: ("episodes.h5", hdf5.export),
     pointcloud.NAME: ("pointclouds", pointcloud.export),
+    usd.NAME: ("usd", usd.export),
 }
 
 

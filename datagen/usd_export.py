@@ -1,0 +1,179 @@
+"""A grasp sample's randomised scene as a USD stage (usd-core), from its stored metadata alone.
+
+``/World`` (z up, metres; ``customData.datagen``: key, seed, scene, and every randomised value as
+JSON) holds ``Looks/`` (UsdPreviewSurface materials with the sampled colour, roughness and
+metallic), ``Floor``, ``Table``, ``Tray``, ``Objects/object_<k>`` (an Xform at the object's world
+pose, one Mesh per convex part, class and physical values in customData), ``Robot`` (an Xform at
+the base pose; its description file and joint positions in customData), ``Lights/`` (a DomeLight
+for the ambient level, a DistantLight for the key light, SphereLights shaped as spots) and
+``Cameras/<name>`` (a Camera whose transform and apertures reproduce the stored K and extrinsics;
+the exact matrices are also in customData).
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import trimesh
+from pxr import Gf, Sdf, Usd, UsdGeom, UsdLux, UsdShade, UsdValidation, Vt
+
+from datagen.scenes.grasp_tabletop import TABLE_HALF, TABLE_TOP, TRAY_CENTRE, tray_boxes
+from datagen.shapes import build_geometry
+
+APERTURE_PER_PIXEL = 0.01  # USD camera aperture units per image pixel (only ratios matter)
+FLOOR_HALF = 5.0  # metres
+_CV_TO_USD_CAMERA = np.diag(
+    [1.0, -1.0, -1.0, 1.0]
+)  # OpenCV (x right, y down, z fwd) -> USD (-z fwd, y up)
+
+
+def _matrix(m: np.ndarray) -> Gf.Matrix4d:
+    return Gf.Matrix4d(np.asarray(m, float).T.tolist())  # USD uses row vectors
+
+
+def _xform(stage, path: str, pose: np.ndarray | None = None) -> UsdGeom.Xform:
+    xform = UsdGeom.Xform.Define(stage, path)
+    if pose is not None:
+        xform.AddTransformOp().Set(_matrix(pose))
+    return xform
+
+
+def _mesh(stage, path: str, mesh: trimesh.Trimesh, material: UsdShade.Material) -> None:
+    usd_mesh = UsdGeom.Mesh.Define(stage, path)
+    usd_mesh.CreatePointsAttr(Vt.Vec3fArray([Gf.Vec3f(*map(float, v)) for v in mesh.vertices]))
+    usd_mesh.CreateFaceVertexCountsAttr(Vt.IntArray([3] * len(mesh.faces)))
+    usd_mesh.CreateFaceVertexIndicesAttr(Vt.IntArray([int(i) for i in mesh.faces.ravel()]))
+    usd_mesh.CreateSubdivisionSchemeAttr(UsdGeom.Tokens.none)
+    lo, hi = mesh.bounds
+    usd_mesh.CreateExtentAttr(Vt.Vec3fArray([Gf.Vec3f(*map(float, lo)), Gf.Vec3f(*map(float, hi))]))
+    UsdShade.MaterialBindingAPI.Apply(usd_mesh.GetPrim()).Bind(material)
+
+
+def _material(stage, name: str, values: dict[str, Any]) -> UsdShade.Material:
+    material = UsdShade.Material.Define(stage, f"/World/Looks/{name}")
+    shader = UsdShade.Shader.Define(stage, f"/World/Looks/{name}/PreviewSurface")
+    shader.CreateIdAttr("UsdPreviewSurface")
+    r, g, b = values["base_color"][:3]
+    shader.CreateInput("diffuseColor", Sdf.ValueTypeNames.Color3f).Set(Gf.Vec3f(r, g, b))
+    shader.CreateInput("roughness", Sdf.ValueTypeNames.Float).Set(float(values["roughness"]))
+    shader.CreateInput("metallic", Sdf.ValueTypeNames.Float).Set(float(values["metallic"]))
+    material.CreateSurfaceOutput().ConnectToSource(shader.ConnectableAPI(), "surface")
+    return material
+
+
+def _lights(stage, lighting: dict[str, Any]) -> None:
+    dome = UsdLux.DomeLight.Define(stage, "/World/Lights/ambient")
+    dome.CreateIntensityAttr(float(lighting["ambient"]))
+    for i, light in enumerate(lighting["lights"]):
+        colour = Gf.Vec3f(*map(float, light["colour"]))
+        direction = np.asarray(light["direction"], float)
+        # a rotation taking the light's -z axis onto its direction of travel
+        z = -direction / np.linalg.norm(direction)
+        x = np.cross([0.0, 1.0, 0.0] if abs(z[1]) < 0.9 else [1.0, 0.0, 0.0], z)
+        x /= np.linalg.norm(x)
+        pose = np.eye(4)
+        pose[:3, :3] = np.stack([x, np.cross(z, x), z], axis=1)
+        if light["type"] == "directional":
+            usd_light = UsdLux.DistantLight.Define(stage, f"/World/Lights/key_{i}")
+        else:
+            pose[:3, 3] = light["position"]
+            usd_light = UsdLux.SphereLight.Define(stage, f"/World/Lights/{light['type']}_{i}")
+            usd_light.CreateRadiusAttr(0.02)
+            shaping = UsdLux.ShapingAPI.Apply(usd_light.GetPrim())
+            shaping.CreateShapingConeAngleAttr(float(light["outer_fov_deg"]) / 2)
+        usd_light.CreateIntensityAttr(float(light["intensity"]))
+        usd_light.CreateColorAttr(colour)
+        usd_light.AddTransformOp().Set(_matrix(pose))
+        usd_light.GetPrim().SetCustomDataByKey("datagen:shadow", bool(light["shadow"]))
+
+
+def _camera(stage, name: str, camera: dict[str, Any]) -> None:
+    K, E = np.asarray(camera["intrinsics"]), np.asarray(camera["extrinsics_world_to_camera"])
+    usd_camera = UsdGeom.Camera.Define(stage, f"/World/Cameras/{name}")
+    usd_camera.AddTransformOp().Set(_matrix(np.linalg.inv(E) @ _CV_TO_USD_CAMERA))
+    w, h = camera["width"], camera["height"]
+    usd_camera.CreateHorizontalApertureAttr(w * APERTURE_PER_PIXEL)
+    usd_camera.CreateVerticalApertureAttr(h * APERTURE_PER_PIXEL)
+    usd_camera.CreateFocalLengthAttr(float(K[0, 0]) * APERTURE_PER_PIXEL)
+    usd_camera.CreateHorizontalApertureOffsetAttr((float(K[0, 2]) - w / 2) * APERTURE_PER_PIXEL)
+    usd_camera.CreateVerticalApertureOffsetAttr((h / 2 - float(K[1, 2])) * APERTURE_PER_PIXEL)
+    usd_camera.CreateClippingRangeAttr(Gf.Vec2f(camera["near"], camera["far"]))
+    prim = usd_camera.GetPrim()
+    prim.SetCustomDataByKey("datagen:intrinsics", json.dumps(camera["intrinsics"]))
+    prim.SetCustomDataByKey("datagen:extrinsics_world_to_camera", json.dumps(camera["extrinsics_world_to_camera"]))  # fmt: skip
+    prim.SetCustomDataByKey("datagen:resolution", Gf.Vec2i(w, h))
+
+
+def _box_mesh(half, centre) -> trimesh.Trimesh:
+    return trimesh.creation.box(extents=2 * np.asarray(half), transform=trimesh.transformations.translation_matrix(centre))  # fmt: skip
+
+
+def scene_stage(meta: dict[str, Any]) -> Usd.Stage:
+    """An in-memory stage of the sample's scene (grasp samples and attempts)."""
+    if "objects" not in meta:
+        raise ValueError(f"sample {meta.get('key')}: USD export covers grasp scenes only")
+    stage = Usd.Stage.CreateInMemory()
+    UsdGeom.SetStageUpAxis(stage, UsdGeom.Tokens.z)
+    UsdGeom.SetStageMetersPerUnit(stage, 1.0)
+    world = _xform(stage, "/World")
+    stage.SetDefaultPrim(world.GetPrim())
+    world.GetPrim().SetCustomDataByKey("datagen:key", meta["key"])
+    world.GetPrim().SetCustomDataByKey("datagen:seed", int(meta["seed"]))
+    world.GetPrim().SetCustomDataByKey("datagen:scene", meta["scene"])
+    world.GetPrim().SetCustomDataByKey("datagen:randomisation", json.dumps(meta["randomisation"], sort_keys=True))  # fmt: skip
+    materials = meta["randomisation"]["materials"]
+    looks = {n: _material(stage, n, materials[n]) for n in ("floor", "table", "tray")}
+    _mesh(stage, "/World/Floor", _box_mesh([FLOOR_HALF, FLOOR_HALF, 0.005], [0, 0, -0.005]), looks["floor"])  # fmt: skip
+    _xform(stage, "/World/Table")
+    _mesh(stage, "/World/Table/top", _box_mesh([*TABLE_HALF, 0.015], [0, 0, TABLE_TOP - 0.015]), looks["table"])  # fmt: skip
+    _xform(stage, "/World/Tray", np.asarray(trimesh.transformations.translation_matrix(TRAY_CENTRE)))  # fmt: skip
+    for j, (half, offset) in enumerate(tray_boxes()):
+        _mesh(stage, f"/World/Tray/part_{j}", _box_mesh(half, offset), looks["tray"])
+    _xform(stage, "/World/Objects")
+    for obj, material in zip(meta["objects"], materials["objects"], strict=True):
+        path = f"/World/Objects/object_{obj['instance_id']}"
+        xform = _xform(stage, path, np.asarray(obj["pose_world"]["matrix"]))
+        look = _material(stage, f"object_{obj['instance_id']}", material)
+        for j, part in enumerate(build_geometry(obj["shape"]).parts):
+            _mesh(stage, f"{path}/part_{j}", part, look)
+        prim = xform.GetPrim()
+        for key in ("class", "instance_id", "mass", "friction", "restitution", "density"):
+            prim.SetCustomDataByKey(f"datagen:{key}", obj[key])
+        prim.SetCustomDataByKey("datagen:shape", json.dumps(obj["shape"], sort_keys=True))
+    robot = _xform(stage, "/World/Robot", np.asarray(meta["robot"]["base_pose"]["matrix"]))
+    robot.GetPrim().SetCustomDataByKey("datagen:description", meta["robot"]["description"])
+    robot.GetPrim().SetCustomDataByKey("datagen:qpos", Vt.DoubleArray(meta["robot"]["qpos"]))
+    _xform(stage, "/World/Lights")
+    _lights(stage, meta["randomisation"]["lighting"])
+    _xform(stage, "/World/Cameras")
+    for name, view in meta["views"].items():
+        _camera(stage, name, view["camera"])
+    return stage
+
+
+def validation_errors(stage: Usd.Stage) -> list[str]:
+    """usd-core's validators (the rules of usdchecker) run on the stage."""
+    validators = UsdValidation.ValidationRegistry().GetOrLoadAllValidators()
+    errors = UsdValidation.ValidationContext(validators).Validate(stage)
+    return [f"{e.GetName()}: {e.GetMessage()}" for e in errors]
+
+
+def write_usd(meta: dict[str, Any], path: str | Path) -> Path:
+    stage = scene_stage(meta)
+    stage.GetRootLayer().Export(str(path))
+    return Path(path)
+
+
+def camera_matrices(stage: Usd.Stage, name: str) -> tuple[np.ndarray, np.ndarray]:
+    """(K, world-to-OpenCV-camera E) rebuilt from the Camera prim's transform and apertures."""
+    camera = UsdGeom.Camera(stage.GetPrimAtPath(f"/World/Cameras/{name}"))
+    w, h = stage.GetPrimAtPath(f"/World/Cameras/{name}").GetCustomDataByKey("datagen:resolution")
+    to_world = np.asarray(camera.ComputeLocalToWorldTransform(Usd.TimeCode.Default())).T
+    E = np.linalg.inv(to_world @ _CV_TO_USD_CAMERA)
+    f = camera.GetFocalLengthAttr().Get() / APERTURE_PER_PIXEL
+    cx = camera.GetHorizontalApertureOffsetAttr().Get() / APERTURE_PER_PIXEL + w / 2
+    cy = h / 2 - camera.GetVerticalApertureOffsetAttr().Get() / APERTURE_PER_PIXEL
+    return np.array([[f, 0, cx], [0, f, cy], [0, 0, 1.0]]), E
