@@ -151,6 +151,22 @@ def test_usd_scenes_validate_and_match_the_metadata(built):
         config_from_dict({"scene": "navigation", "output": {"sinks": ["webdataset", "usd"]}})
 
 
+def test_replay_from_the_usd_matches_the_stored_images(built, tmp_path):
+    from datagen.replay import replay
+
+    dataset = load(built)
+    for i in (0, SAMPLES - 1):
+        stored = dataset[i]
+        replayed = replay(built, dataset.keys[i])
+        wrist = decode_parts({"rgb.png": dataset.raw(i)["wrist.rgb.png"]})["rgb"]
+        for name, image in (("workspace", stored["rgb"]), ("wrist", wrist)):
+            diff = np.abs(image.astype(int) - replayed[name].astype(int)).max(axis=2)
+            assert (diff == 0).mean() > 0.999 and diff.max() <= 2, (dataset.keys[i], name)
+    shutil.copytree(built, tmp_path / "copy", ignore=shutil.ignore_patterns("usd"))
+    with pytest.raises(datagen.DatasetError, match=r"datagen export .* --to usd"):
+        replay(tmp_path / "copy", dataset.keys[0])
+
+
 def test_unknown_or_missing_sinks_are_config_errors():
     with pytest.raises(ConfigError, match=r"output.sinks: expected distinct names"):
         config_from_dict({"output": {"sinks": ["webdataset", "parquet"]}}, source="x.yaml")

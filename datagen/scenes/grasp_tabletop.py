@@ -118,8 +118,16 @@ def build_scene(config: BuildConfig, seed: int, index: int) -> GraspScene:
     """A fresh SAPIEN scene for sample ``index`` of the build, settled and ready to render."""
     tray_floor_top = (TRAY_CENTRE[0], TRAY_CENTRE[1], TRAY_CENTRE[2] + TRAY_FLOOR)
     params = sample_scene(config, seed, index, tray_floor_top, TRAY_INNER_HALF)
-    materials = params["materials"]
+    scene = construct_scene(config, params)
+    for _ in range(round(config.physics.settle_time / config.physics.timestep)):
+        scene.scene.step()
+    return scene
 
+
+def construct_scene(config: BuildConfig, params: dict[str, Any]) -> GraspScene:
+    """The scene described by ``params`` (the sampled values; objects at ``drop_poses``), not
+    yet settled. Replay passes the stored values with the settled poses instead."""
+    materials = params["materials"]
     scene = sapien.Scene()
     scene.set_timestep(config.physics.timestep)
     stuff: dict[int, str] = {}
@@ -154,7 +162,4 @@ def build_scene(config: BuildConfig, seed: int, index: int) -> GraspScene:
         cameras["wrist"] = scene.add_mounted_camera(
             "wrist", hand.entity, WRIST_CAMERA_POSE, r.width, r.height, np.deg2rad(70), 0.01, r.far
         )
-
-    for _ in range(round(config.physics.settle_time / config.physics.timestep)):
-        scene.step()
     return GraspScene(scene, cameras, objects, robot, params, stuff)

@@ -1,0 +1,54 @@
+"""``datagen replay DIR KEY``: rebuild a grasp sample's scene from its stored USD description
+(``DIR/usd/KEY.usda``: the randomised values, the settled object poses and the robot's joints)
+with the build's config from the manifest, and render it again with SAPIEN."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from datagen.config import config_from_dict
+from datagen.loader import DatasetError, read_manifest
+
+
+def stored_description(usd_path: Path) -> tuple[dict[str, Any], list[dict[str, Any]], list[float]]:
+    """(randomised values, settled object poses in instance order, robot joint positions)."""
+    from pxr import Usd, UsdGeom
+    from transforms3d.quaternions import mat2quat
+
+    stage = Usd.Stage.Open(str(usd_path))
+    params = json.loads(stage.GetDefaultPrim().GetCustomDataByKey("datagen:randomisation"))
+    poses = []
+    for k in range(1, len(params["objects"]) + 1):
+        prim = stage.GetPrimAtPath(f"/World/Objects/object_{k}")
+        if not prim.IsValid():
+            raise DatasetError(f"{usd_path}: no /World/Objects/object_{k}")
+        matrix = np.asarray(UsdGeom.Xformable(prim).ComputeLocalToWorldTransform(0)).T
+        poses.append({"position": matrix[:3, 3].tolist(), "quat_wxyz": mat2quat(matrix[:3, :3]).tolist()})  # fmt: skip
+    qpos = list(stage.GetPrimAtPath("/World/Robot").GetCustomDataByKey("datagen:qpos"))
+    return params, poses, qpos
+
+
+def replay(root: str | Path, key: str) -> dict[str, np.ndarray]:
+    """RGB image (H, W, 3) per camera of the replayed scene."""
+    from datagen.engines.render import capture, keep_renderer_alive
+    from datagen.scenes.grasp_tabletop import construct_scene
+
+    root = Path(root)
+    manifest = read_manifest(root)
+    usd_path = root / "usd" / f"{key}.usda"
+    if not usd_path.is_file():
+        raise DatasetError(
+            f"{usd_path} does not exist: add 'usd' to output.sinks, or run "
+            f"'datagen export {root} --to usd' first"
+        )
+    config = config_from_dict(manifest["config"], source=str(root / "manifest.json"))
+    params, poses, qpos = stored_description(usd_path)
+    keep_renderer_alive()
+    scene = construct_scene(config, params | {"drop_poses": poses})
+    scene.robot.set_qpos(np.asarray(qpos, np.float32))
+    scene.scene.update_render()
+    return {name: capture(camera).rgb for name, camera in scene.cameras.items()}
