@@ -39,7 +39,7 @@ from datagen.engines.transfer import AckCollector
 from datagen.engines.wire import SECRET_ENV, parse_secret
 from datagen.engines.wire import VERSION as WIRE_VERSION
 from datagen.engines.worker import die_with_parent
-from datagen.scenes.grasp_tabletop import CLASSES
+from datagen.scenes.grasp_tabletop import grasp_classes
 from datagen.scenes.navigation import NAV_CLASSES
 from datagen.schedule import Schedule
 from datagen.sinks.export import run_exports
@@ -173,11 +173,19 @@ def build_manifest(config: BuildConfig, build_id: str, workers: int) -> dict[str
         "seed": config.seed,
         "num_samples": config.num_samples,
         "workers": workers,
-        "classes": list(NAV_CLASSES if config.scene == "navigation" else CLASSES),
+        "classes": list(NAV_CLASSES if config.scene == "navigation" else grasp_classes(config)),
         "wire_format_version": WIRE_VERSION,
         "config": config.to_dict(),
         "versions": _versions(),
-    }
+    } | _asset_report(config)
+
+
+def _asset_report(config: BuildConfig) -> dict[str, Any]:
+    if config.objects.source != "folder":
+        return {}
+    from datagen.assets import load_library
+
+    return {"assets": load_library(config.objects.assets_dir).report()}
 
 
 def run_build(

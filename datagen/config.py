@@ -52,6 +52,8 @@ class RenderConfig:
 class ObjectsConfig:
     count: tuple[int, int] = field(default=(3, 12), metadata=_range(1, 32, "objects per scene"))
     families: tuple[str, ...] = SHAPE_FAMILIES
+    source: str = "procedural"  # or "folder": users' meshes from assets_dir
+    assets_dir: str = ""  # DIR/<class>/<mesh>; relative to the config file
     size: tuple[float, float] = field(
         default=(0.045, 0.1), metadata=_range(0.005, 0.5, "largest extent of an object, metres")
     )
@@ -290,6 +292,12 @@ def config_from_dict(data: Any, source: str = "<config>") -> BuildConfig:
         ) from None
     except dacite.DaciteError as exc:
         raise ConfigError(f"{source}: {exc}") from None
+    if config.objects.assets_dir and not Path(config.objects.assets_dir).is_absolute():
+        base = Path(source).parent if Path(source).is_file() else Path.cwd()
+        objects = dataclasses.replace(
+            config.objects, assets_dir=str((base / config.objects.assets_dir).resolve())
+        )
+        config = dataclasses.replace(config, objects=objects)
     _check_ranges(config, source, prefix="")
     _check_semantics(config, source)
     return config
@@ -345,6 +353,16 @@ def _check_ranges(obj: Any, source: str, prefix: str) -> None:
 def _check_semantics(config: BuildConfig, source: str) -> None:
     if config.scene not in SCENES:
         raise ConfigError(f"{source}: scene: expected one of {list(SCENES)}, got {config.scene!r}")
+    objects = config.objects
+    if objects.source not in ("procedural", "folder"):
+        raise ConfigError(
+            f"{source}: objects.source: expected 'procedural' or 'folder', got {objects.source!r}"
+        )
+    if objects.source == "folder" and not Path(objects.assets_dir).is_dir():
+        raise ConfigError(
+            f"{source}: objects.assets_dir: expected a folder of DIR/<class>/<mesh> files "
+            f"(objects.source is 'folder'), got {objects.assets_dir!r}"
+        )
     unknown = [f for f in config.objects.families if f not in SHAPE_FAMILIES]
     if unknown or not config.objects.families:
         raise ConfigError(

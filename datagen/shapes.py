@@ -47,6 +47,13 @@ def build_geometry(shape: dict[str, Any]) -> ObjectGeometry:
     """``shape`` is ``{"family": ..., "parts": [{"kind": ..., **params}, ...]}``."""
     parts = [_part(p["kind"], p) for p in shape["parts"]]
     visual = trimesh.util.concatenate(parts) if len(parts) > 1 else parts[0].copy()
+    if "asset" in shape:  # a user's mesh: drawn as itself, collides as its convex parts
+        from datagen.assets import load_library
+
+        asset = shape["asset"]
+        found = [a for a in load_library(asset["root"]).assets if a.path == asset["path"]]
+        if found:
+            visual = found[0].visual.copy().apply_scale(asset["scale"])
     if shape["family"] in ("box", "cylinder", "sphere", "capsule"):
         # primitives: the box aligned with the object frame is the tight oriented box
         lo, hi = visual.bounds

@@ -26,7 +26,7 @@ from datagen.engines.annotate import (
 from datagen.engines.render import DEPTH_SCALE, capture, keep_renderer_alive
 from datagen.geometry import pose_record
 from datagen.sample import Sample, sample_key
-from datagen.scenes.grasp_tabletop import CLASS_ID, CLASSES, GraspScene, build_scene
+from datagen.scenes.grasp_tabletop import GraspScene, build_scene, grasp_classes
 
 METADATA_FORMAT = "datagen.sample/1"
 
@@ -46,12 +46,12 @@ class AnnotatedSample:
     metadata: dict[str, Any]
 
 
-def _labelled_objects(scene: GraspScene) -> list[LabelledObject]:
+def _labelled_objects(scene: GraspScene, class_id: dict[str, int]) -> list[LabelledObject]:
     return [
         LabelledObject(
             instance_id=o.instance_id,
             class_name=o.class_name,
-            class_id=CLASS_ID[o.class_name],
+            class_id=class_id[o.class_name],
             entity_id=o.entity.per_scene_id,
             pose_world=np.asarray(o.entity.pose.to_transformation_matrix(), float),
             parts=[np.asarray(p.vertices, float) for p in o.geometry.parts],
@@ -72,8 +72,10 @@ def annotate_scene(
 ) -> AnnotatedSample:
     """Renders every camera of a built (settled) scene and annotates what they see."""
     scene.scene.update_render()
-    objects = _labelled_objects(scene)
-    stuff_class_ids = {entity_id: CLASS_ID[name] for entity_id, name in scene.stuff.items()}
+    classes = grasp_classes(config)
+    class_id = {name: i for i, name in enumerate(classes)}
+    objects = _labelled_objects(scene, class_id)
+    stuff_class_ids = {entity_id: class_id[name] for entity_id, name in scene.stuff.items()}
 
     views, view_meta = {}, {}
     for name, camera in scene.cameras.items():
@@ -115,7 +117,7 @@ def annotate_scene(
         "index": index,
         "seed": seed,
         "scene": config.scene,
-        "classes": list(CLASSES),
+        "classes": list(classes),
         "objects": objects_meta,
         "views": view_meta,
         "robot": {

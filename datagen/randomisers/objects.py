@@ -63,14 +63,35 @@ def sample_shape(rng: np.random.Generator, family: str, size: float) -> dict[str
     return {"family": family, "parts": parts}
 
 
+def sample_asset_shape(rng: np.random.Generator, assets_dir: str, size: float) -> dict[str, Any]:
+    """A user mesh (``objects.source: folder``), scaled so its largest extent is ``size``; the
+    family is its class folder. The convex parts are stored with the sample, so the collision
+    shape can be rebuilt from the metadata alone; the visual mesh is read from ``asset.path``."""
+    from datagen.assets import load_library
+
+    library = load_library(assets_dir)
+    asset = library.assets[int(rng.integers(len(library.assets)))]
+    return {
+        "family": asset.class_name,
+        "asset": {"root": assets_dir, "path": asset.path, "sha256": asset.sha256, "scale": size},
+        "parts": [
+            {"kind": "convex", "points": np.round(part * size, 6).tolist()} for part in asset.parts
+        ],
+    }
+
+
 def sample_objects(rng: np.random.Generator, cfg: ObjectsConfig) -> list[dict[str, Any]]:
     count = int(rng.integers(cfg.count[0], cfg.count[1] + 1))
     objects = []
     for _ in range(count):
-        family = str(rng.choice(list(cfg.families)))
+        if cfg.source == "folder":
+            shape = sample_asset_shape(rng, cfg.assets_dir, _uniform(rng, cfg.size))
+        else:
+            family = str(rng.choice(list(cfg.families)))
+            shape = sample_shape(rng, family, _uniform(rng, cfg.size))
         objects.append(
             {
-                "shape": sample_shape(rng, family, _uniform(rng, cfg.size)),
+                "shape": shape,
                 "density": _uniform(rng, cfg.density),
                 "friction": _uniform(rng, cfg.friction),
                 "restitution": _uniform(rng, cfg.restitution),

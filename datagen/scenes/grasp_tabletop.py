@@ -33,8 +33,21 @@ TRAY_WALL = (0.008, 0.07)  # thickness, height (metres)
 TRAY_FLOOR = 0.01  # floor thickness, metres
 
 # Semantic classes: 0 is background (nothing rendered), object classes are shape families.
-CLASSES = ("background", "floor", "table", "tray", "robot", *SHAPE_FAMILIES)
+STUFF_CLASSES = ("background", "floor", "table", "tray", "robot")
+CLASSES = (*STUFF_CLASSES, *SHAPE_FAMILIES)
 CLASS_ID = {name: i for i, name in enumerate(CLASSES)}
+
+
+def grasp_classes(config: BuildConfig) -> tuple[str, ...]:
+    """Semantic classes of a build: the shape families, or the class folders of the user's
+    meshes (``objects.source: folder``), after the surfaces."""
+    if config.objects.source == "folder":
+        from datagen.assets import load_library
+
+        return (*STUFF_CLASSES, *load_library(config.objects.assets_dir).classes)
+    return CLASSES
+
+
 # Wrist camera on the Panda hand, from ManiSkill's panda_wristcam (pose in the hand frame).
 WRIST_CAMERA_POSE = sapien.Pose([0.0464982, -0.0200011, 0.0360011], [0, 0.70710678, 0, 0.70710678])
 
