@@ -170,7 +170,8 @@ def _parser() -> argparse.ArgumentParser:
     )
 
     export = commands.add_parser(
-        "export", help="write a finished dataset's samples in other formats (COCO, HDF5)"
+        "export",
+        help="write a finished dataset's samples in other formats (COCO, HDF5, point clouds, USD)",
     )
     export.add_argument("dataset", help="dataset directory (with manifest.json)")
     export.add_argument(
