@@ -47,8 +47,12 @@ def _run(config, workers: int) -> dict:
                     pids.discard(pid)
             samples.append((time.monotonic(), progress["done"], rss))
 
+    started = 0
+
     def observer(kind: str, details: dict) -> None:
-        if kind == "worker" and "pid" in details:
+        nonlocal started
+        if kind == "worker":
+            started += 1
             pids.add(details["pid"])
 
     def on_progress(done: int, total: int) -> None:
@@ -57,11 +61,9 @@ def _run(config, workers: int) -> dict:
     out = Path(tempfile.mkdtemp(prefix="datagen-memory-"))
     thread = threading.Thread(target=sampler, daemon=True)
     thread.start()
-    started = []
     try:
         start = time.monotonic()
-        run_build(config, out, workers, on_progress=on_progress,
-                  observer=lambda k, d: (observer(k, d), started.append(k == "worker")))  # fmt: skip
+        run_build(config, out, workers, on_progress=on_progress, observer=observer)
         seconds = time.monotonic() - start
     finally:
         stop.set()
@@ -75,7 +77,7 @@ def _run(config, workers: int) -> dict:
         "seconds": round(seconds, 1),
         "frames_per_s": round(n / seconds, 2),
         "recycle_after": config.executor.recycle_after,
-        "workers_started": sum(started),
+        "workers_started": started,
         "rss_start_mib": round(sum(early) / len(early) / MIB, 1) if early else None,
         "rss_end_mib": round(sum(late) / len(late) / MIB, 1) if late else None,
         "rss_max_mib": round(max(r for _, _, rss in samples for r in rss) / MIB, 1),

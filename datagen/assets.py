@@ -44,6 +44,9 @@ class AssetLibrary:
     assets: list[Asset] = field(default_factory=list)
     skipped: list[tuple[str, str]] = field(default_factory=list)  # (relative path, reason)
 
+    def find(self, path: str) -> Asset | None:
+        return next((a for a in self.assets if a.path == path), None)
+
     @property
     def classes(self) -> list[str]:
         return sorted({a.class_name for a in self.assets})

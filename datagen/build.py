@@ -293,6 +293,7 @@ class _Coordinator:
         self.observer = observer or (lambda event, details: None)
         self.on_progress = on_progress
         self.executor_name, self.executor_options = executor, executor_options or {}
+        self.executor = None  # made in run(), once the broker URL is known
         self.workers: dict[int, int] = {}  # live worker id -> samples it has published
         self.retiring: set[int] = set()
         self.next_worker_id = 0
@@ -434,7 +435,7 @@ class _Coordinator:
         self._start_worker()
 
     def _stop_workers(self, graceful: bool) -> None:
-        if hasattr(self, "executor"):
+        if self.executor is not None:
             self.executor.stop(graceful)
         self.workers.clear()
 

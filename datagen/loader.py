@@ -174,6 +174,10 @@ class ShardDataset:
     def part_names(self, i: int) -> list[str]:
         return [member[3] for member in self._members[i]]
 
+    def location(self, i: int) -> tuple[int, int]:
+        """(shard number, byte offset) of item ``i``'s first member: its place in storage."""
+        return min(member[:2] for member in self._members[i])
+
     def metadata(self, i: int) -> dict[str, Any]:
         """Only the JSON metadata of item ``i`` (no image decoding)."""
         for shard, offset, size, part in self._members[i]:

@@ -51,9 +51,9 @@ def build_geometry(shape: dict[str, Any]) -> ObjectGeometry:
         from datagen.assets import load_library
 
         asset = shape["asset"]
-        found = [a for a in load_library(asset["root"]).assets if a.path == asset["path"]]
-        if found:
-            visual = found[0].visual.copy().apply_scale(asset["scale"])
+        found = load_library(asset["root"]).find(asset["path"])
+        if found is not None:
+            visual = found.visual.copy().apply_scale(asset["scale"])
     if shape["family"] in ("box", "cylinder", "sphere", "capsule"):
         # primitives: the box aligned with the object frame is the tight oriented box
         lo, hi = visual.bounds

@@ -50,7 +50,7 @@ class StreamingDataset(IterableDataset):
         self.parts, self.decode = parts, decode
         self.rank, self.world_size = rank, world_size
         self.epoch = 0
-        first = [min(m[:2] for m in members) for members in self.source._members]
+        first = [self.source.location(i) for i in range(len(self.source))]
         self._order = sorted(range(len(self.source)), key=first.__getitem__)  # storage order
         self._shard_of = [first[i][0] for i in range(len(self.source))]
 

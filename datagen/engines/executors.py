@@ -123,9 +123,6 @@ class LocalExecutor:
             conn.close()
         self.workers.clear()
 
-    def pids(self) -> list[int]:
-        return [p.pid for p, _ in self.workers.values()]
-
 
 def make_executor(name: str, spec: WorkerSpec, options: dict[str, Any]):
     if name == "local":

@@ -56,9 +56,6 @@ class SceneWorker:
         self.publisher.__exit__(None, None, None)
         return True
 
-    def pid(self) -> int:
-        return os.getpid()
-
 
 class RayExecutor:
     def __init__(
@@ -92,14 +89,11 @@ class RayExecutor:
         self.actors[worker_id] = actor
         return {"ray_actor": actor._actor_id.hex()}
 
-    def send(self, worker_id: int, index: int | None) -> bool:
+    def send(self, worker_id: int, index: int) -> bool:
         actor = self.actors.get(worker_id)
         if actor is None:
             return False
-        if index is None:
-            self.retire(worker_id)
-        else:
-            self.pending[actor.produce.remote(index)] = (worker_id, "produce", index)
+        self.pending[actor.produce.remote(index)] = (worker_id, "produce", index)
         return True
 
     def retire(self, worker_id: int) -> None:
@@ -157,6 +151,3 @@ class RayExecutor:
         self.pending.clear()
         if self._owns_ray:
             ray.shutdown()
-
-    def pids(self) -> list[int]:
-        return ray.get([a.pid.remote() for a in self.actors.values()], timeout=30)

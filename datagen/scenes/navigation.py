@@ -78,13 +78,6 @@ class NavScene:
         ids = np.minimum(entity_ids, len(self.class_lut) - 1)  # ids beyond the tables: nothing
         return self.instance_lut[ids], self.class_lut[ids]
 
-    def camera_in_base(self) -> np.ndarray:
-        """4x4 pose of the camera (SAPIEN frame) in Fetch's base frame, from the joint values."""
-        base = next(link for link in self.robot.get_links() if link.name == "base_link")
-        world_base = base.entity_pose.to_transformation_matrix()
-        world_cam = self.camera.global_pose.to_transformation_matrix()
-        return np.linalg.inv(world_base) @ world_cam
-
 
 def _static(scene, name, material, boxes=(), cylinders=(), spheres=()) -> sapien.Entity:
     """A visual-only static entity. boxes: (centre, half sizes); cylinders (z axis): (centre,

@@ -24,6 +24,7 @@ from datagen.loader import decode_parts
 NAME = "hdf5"
 FORMAT = "datagen.hdf5/1"
 _IMAGES = ("rgb", "depth", "seg", "semantic")
+_IMAGE_PARTS = {f"{n}.png" for n in _IMAGES}
 _FRAME_FIELDS = {  # per-frame record field -> dtype
     "pose": np.float64, "command": np.float64, "goal_in_robot": np.float64,
     "distance_to_goal": np.float64, "collision": np.bool_, "time_s": np.float64,
@@ -60,7 +61,7 @@ def _views(group: h5py.Group, item: dict[str, Any]) -> None:
     _images(group, item, stacked=False)
     for name, value in item.items():  # other cameras: "wrist.rgb.png" -> wrist/rgb
         prefix, _, part = name.partition(".")
-        if isinstance(value, bytes) and part in {f"{n}.png" for n in _IMAGES}:
+        if isinstance(value, bytes) and part in _IMAGE_PARTS:
             decoded = decode_parts({part: value})
             _images(group.require_group(prefix), decoded, stacked=False)
     attempt = item["meta"].get("attempt")
