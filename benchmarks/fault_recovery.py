@@ -22,9 +22,9 @@ import threading
 import time
 from pathlib import Path
 
-from datagen.build import run_build
+from datagen.build.coordinator import run_build
 from datagen.config import load_config
-from datagen.loader import load, verify
+from datagen.dataset.loader import load, verify
 
 REPO = Path(__file__).resolve().parents[1]
 

@@ -27,7 +27,7 @@ import webdataset as wds
 from torch.utils.data import DataLoader
 
 import datagen
-from datagen.build import run_build
+from datagen.build.coordinator import run_build
 from datagen.config import load_config
 
 REPO = Path(__file__).resolve().parents[1]
@@ -46,7 +46,7 @@ def cv2_decoder(key: str, data: bytes):
 
 
 def _sides(root: Path):
-    shards = [str(root / s["name"]) for s in datagen.loader.read_manifest(root)["shards"]]
+    shards = [str(root / s["name"]) for s in datagen.dataset.loader.read_manifest(root)["shards"]]
     parts = {*IMAGES, "json"}
 
     def web():

@@ -24,7 +24,7 @@ from pathlib import Path
 
 import psutil
 
-from datagen.build import run_build
+from datagen.build.coordinator import run_build
 from datagen.config import RenderConfig, load_config
 
 REPO = Path(__file__).resolve().parents[1]

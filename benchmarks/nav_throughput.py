@@ -26,10 +26,10 @@ import tempfile
 import time
 from pathlib import Path
 
-from datagen.build import run_build
+from datagen.build.coordinator import run_build
 from datagen.config import load_config
-from datagen.engines.produce_nav import produce_nav_episode
-from datagen.loader import load
+from datagen.dataset.loader import load
+from datagen.scenes.navigation import produce_nav_episode
 
 REPO = Path(__file__).resolve().parents[1]
 FAMILIES = ("rooms", "corridor", "maze")

@@ -43,8 +43,8 @@ from typing import Any
 
 from tqdm import tqdm
 
+from datagen.build.executors.local_processes import WORKER_ENV_DEFAULTS, default_env
 from datagen.config import BuildConfig, ConfigError, config_from_dict, load_config
-from datagen.engines.executors import WORKER_ENV_DEFAULTS, default_env
 
 ROOT = Path(__file__).resolve().parent.parent
 RESULTS = ROOT / "benchmarks" / "results" / "pipeline_vs_render.json"
@@ -57,7 +57,7 @@ DEFAULT_CONFIG = ROOT / "configs" / "grasp_tabletop.yaml"
 def _plain_worker(worker: int, workers: int, config_dict: dict[str, Any], events) -> None:
     """Spawned process: renders and annotates its share of the indices; reports each frame."""
     try:
-        from datagen.engines.produce import render_annotated
+        from datagen.scenes.grasp_tabletop import render_annotated
 
         config = config_from_dict(config_dict)
         for index in range(worker, config.num_samples, workers):
@@ -123,7 +123,7 @@ def run_plain(config: BuildConfig, workers: int) -> dict[str, Any]:
 
 
 def run_pipeline(config: BuildConfig, workers: int) -> dict[str, Any]:
-    from datagen.build import run_build
+    from datagen.build.coordinator import run_build
 
     # completion k (1-based) -> the first moment at least k samples were durable
     done_times: list[float] = []
@@ -197,7 +197,7 @@ def _warm_up(config_dict: dict[str, Any], answer) -> None:
     """Spawned process: one untimed frame (fills Mesa's shader cache); sends the device."""
     import sapien
 
-    from datagen.engines.produce import render_annotated
+    from datagen.scenes.grasp_tabletop import render_annotated
 
     config = config_from_dict(config_dict)
     render_annotated(config, config.seed, 0)

@@ -28,9 +28,9 @@ from pathlib import Path
 
 import ray
 
-from datagen.build import run_build
+from datagen.build.coordinator import run_build
+from datagen.build.worker import STAGE_LOG_ENV
 from datagen.config import load_config
-from datagen.engines.worker import STAGE_LOG_ENV
 
 REPO = Path(__file__).resolve().parents[1]
 

@@ -75,7 +75,7 @@ def maniskill_fps(
 
 
 def datagen_fps(frames: int, width: int, height: int, workers: int) -> dict:
-    from datagen.build import run_build
+    from datagen.build.coordinator import run_build
     from datagen.config import RenderConfig, load_config
 
     base = load_config(REPO / "configs/grasp_tabletop.yaml")

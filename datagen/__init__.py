@@ -9,14 +9,14 @@ Loading a dataset needs neither the simulator nor a broker::
 """
 
 from datagen.config import BuildConfig, ConfigError, load_config
-from datagen.loader import DatasetError, load, load_frames, verify
+from datagen.dataset.loader import DatasetError, load, load_frames, verify
 
 __version__ = "0.1.0"
 
 
 def stream(root, **options):
-    """An iterable dataset split across DataLoader workers and nodes (see datagen.streaming)."""
-    from datagen.streaming import StreamingDataset
+    """An iterable dataset split across DataLoader workers and nodes (see datagen.dataset.streaming)."""
+    from datagen.dataset.streaming import StreamingDataset
 
     return StreamingDataset(root, **options)
 

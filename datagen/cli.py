@@ -199,10 +199,10 @@ def main(argv: list[str] | None = None) -> int:
         level=logging.INFO if args.verbose else logging.WARNING,
         format="%(levelname)s %(name)s: %(message)s",
     )
-    from datagen.build import BuildError
-    from datagen.engines.broker import BrokerError
-    from datagen.engines.mqtt_client import MqttConnectError
-    from datagen.loader import DatasetError
+    from datagen.build.coordinator import BuildError
+    from datagen.dataset.loader import DatasetError
+    from datagen.engines.transfer.connection import MqttConnectError
+    from datagen.engines.transfer.mosquitto import BrokerError
 
     try:
         if args.command == "build":
@@ -267,7 +267,7 @@ def _print_campaign(out: Path) -> None:
 
 
 def _sink_list(text: str) -> list[str]:
-    from datagen.sinks.export import EXPORTS
+    from datagen.exports.runner import EXPORTS
 
     names = [n.strip() for n in text.split(",") if n.strip()]
     unknown = [n for n in names if n not in EXPORTS]
@@ -282,8 +282,8 @@ def _replay(args: argparse.Namespace) -> int:
     import cv2
     import numpy as np
 
-    from datagen.loader import load
-    from datagen.replay import replay
+    from datagen.dataset.loader import load
+    from datagen.tools.replay import replay
 
     dataset = load(args.dataset)
     if args.key not in dataset.keys:
@@ -306,7 +306,7 @@ def _replay(args: argparse.Namespace) -> int:
 
 
 def _export(args: argparse.Namespace) -> int:
-    from datagen.sinks.export import run_exports
+    from datagen.exports.runner import run_exports
 
     done = run_exports(args.dataset, args.to, force=args.force)
     for name in args.to:
@@ -319,7 +319,7 @@ def _export(args: argparse.Namespace) -> int:
 def _inspect(args: argparse.Namespace) -> int:
     import json
 
-    from datagen.inspect import inspect_dataset
+    from datagen.tools.inspection import inspect_dataset
 
     summary, files = inspect_dataset(args.dataset)
     print(summary_table(summary))
@@ -347,8 +347,8 @@ def summary_table(summary: dict, indent: int = 0) -> str:
 def _build(args: argparse.Namespace, config=None) -> int:
     from tqdm import tqdm
 
-    from datagen.build import run_build
-    from datagen.preview import write_preview
+    from datagen.build.coordinator import run_build
+    from datagen.tools.preview import write_preview
 
     config = config or load_config(args.config)
     overrides = {}
@@ -400,7 +400,7 @@ def _build(args: argparse.Namespace, config=None) -> int:
                 f"datagen: recovered from faults: restarts {recovered or 'none'}, "
                 f"samples issued again {result.reissued}"
             )
-    from datagen.loader import read_manifest
+    from datagen.dataset.loader import read_manifest
 
     for name, record in read_manifest(out).get("exports", {}).items():
         print(f"datagen: {name} export: {out / record['path']}")
@@ -411,7 +411,7 @@ def _build(args: argparse.Namespace, config=None) -> int:
 
 
 def _broker(args: argparse.Namespace) -> int:
-    from datagen.engines.broker import run_broker_forever
+    from datagen.engines.transfer.mosquitto import run_broker_forever
 
     password = args.password or os.environ.get("DATAGEN_BROKER_PASSWORD")
 
@@ -434,7 +434,7 @@ def _broker(args: argparse.Namespace) -> int:
 
 
 def _preview(args: argparse.Namespace) -> int:
-    from datagen.preview import write_preview
+    from datagen.tools.preview import write_preview
 
     out = Path(args.out) if args.out else Path(args.dataset) / "preview.png"
     path = write_preview(Path(args.dataset), out, count=args.count)

@@ -48,7 +48,7 @@ def build_geometry(shape: dict[str, Any]) -> ObjectGeometry:
     parts = [_part(p["kind"], p) for p in shape["parts"]]
     visual = trimesh.util.concatenate(parts) if len(parts) > 1 else parts[0].copy()
     if "asset" in shape:  # a user's mesh: drawn as itself, collides as its convex parts
-        from datagen.assets import load_library
+        from datagen.mesh_library import load_library
 
         asset = shape["asset"]
         found = load_library(asset["root"]).find(asset["path"])

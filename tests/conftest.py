@@ -15,9 +15,9 @@ import cv2
 import numpy as np
 import pytest
 
-from datagen.engines.broker import ManagedBroker
+from datagen.engines.transfer.mosquitto import ManagedBroker
 from datagen.sample import Sample
-from datagen.sinks.webdataset import ShardWriter, journal_path, keys_sha256, write_manifest
+from datagen.shards import ShardWriter, journal_path, keys_sha256, write_manifest
 
 REPO = Path(__file__).resolve().parents[1]
 

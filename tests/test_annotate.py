@@ -2,8 +2,8 @@
 
 import numpy as np
 
-from datagen.engines.annotate import LabelledObject, label_maps, object_view_records, project
-from datagen.engines.render import Frame
+from datagen.engines.sim.annotate import LabelledObject, label_maps, object_view_records, project
+from datagen.engines.sim.render import Frame
 from datagen.geometry import look_at, world_to_cv_camera
 
 

@@ -10,11 +10,11 @@ import pytest
 import trimesh
 from pxr import Usd, UsdGeom
 
-from datagen.assets import AssetError, load_library
-from datagen.build import run_build
+from datagen.build.coordinator import run_build
 from datagen.config import BuildConfig as Config
 from datagen.config import ConfigError, ObjectsConfig, RenderConfig, config_from_dict
-from datagen.loader import load, verify
+from datagen.dataset.loader import load, verify
+from datagen.mesh_library import AssetError, load_library
 
 
 def _usd_cube(path):

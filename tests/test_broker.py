@@ -13,16 +13,16 @@ from pathlib import Path
 
 import pytest
 
-from datagen.engines.broker import BrokerError, ManagedBroker, parse_broker_url
-from datagen.engines.mqtt_client import MqttConnectError, MqttConnection
-from datagen.engines.transfer import (
+from datagen.engines.transfer.collector import (
     AckCollector,
     PublishRefused,
     PublishTimeout,
     SamplePublisher,
     topics,
 )
-from datagen.engines.wire import decode_sample, encode_sample
+from datagen.engines.transfer.connection import MqttConnectError, MqttConnection
+from datagen.engines.transfer.mosquitto import BrokerError, ManagedBroker, parse_broker_url
+from datagen.engines.transfer.wire import decode_sample, encode_sample
 
 
 def test_parse_broker_url():
@@ -270,7 +270,7 @@ def test_a_wrong_password_is_refused_clearly(broker):
 
 def _run_broker_process(port, data_dir):
     code = (
-        "from datagen.engines.broker import run_broker_forever\n"
+        "from datagen.engines.transfer.mosquitto import run_broker_forever\n"
         f"raise SystemExit(run_broker_forever(port={port}, data_dir={str(data_dir)!r}, "
         "on_ready=lambda b: print(b.public_url, flush=True)))"
     )
@@ -334,7 +334,7 @@ def test_a_parent_death_signal_survives_mosquitto_dropping_root():
     user mosquitto itself. Here the parent is SIGKILLed and mosquitto must go with it."""
     code = (
         "import ctypes, signal, time\n"
-        "from datagen.engines.broker import ManagedBroker\n"
+        "from datagen.engines.transfer.mosquitto import ManagedBroker\n"
         "def die(): ctypes.CDLL('libc.so.6').prctl(1, signal.SIGKILL)\n"  # PR_SET_PDEATHSIG
         "b = ManagedBroker(preexec_fn=die)\n"
         "b.start()\n"

@@ -10,10 +10,10 @@ import json
 import numpy as np
 import pytest
 
-from datagen.build import run_build
+from datagen.build.coordinator import run_build
 from datagen.config import BuildConfig, RenderConfig
-from datagen.loader import load, verify
-from datagen.scenes.grasp_tabletop import CLASS_ID, TABLE_TOP, TRAY_CENTRE, TRAY_FLOOR
+from datagen.dataset.loader import load, verify
+from datagen.worlds.tabletop import CLASS_ID, TABLE_TOP, TRAY_CENTRE, TRAY_FLOOR
 
 NUM_SAMPLES = 20
 CONFIG = BuildConfig(num_samples=NUM_SAMPLES, seed=7, render=RenderConfig(width=192, height=144))

@@ -13,10 +13,10 @@ import numpy as np
 import pytest
 import yaml
 
-from datagen.build import run_build
+from datagen.build.coordinator import run_build
 from datagen.config import BuildConfig, CampaignConfig, OutputConfig, RenderConfig
+from datagen.dataset.loader import load, verify
 from datagen.grasping import FAILURE_MODES
-from datagen.loader import load, verify
 
 REPO = Path(__file__).resolve().parents[1]
 ATTEMPTS = 10

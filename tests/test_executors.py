@@ -10,9 +10,9 @@ import signal
 import psutil
 import pytest
 
-from datagen.build import run_build
+from datagen.build.coordinator import run_build
 from datagen.config import BuildConfig, ExecutorConfig, RenderConfig
-from datagen.loader import load, verify
+from datagen.dataset.loader import load, verify
 
 SAMPLES = 10
 CONFIG = BuildConfig(num_samples=SAMPLES, seed=4, render=RenderConfig(width=128, height=96))

@@ -21,12 +21,12 @@ import psutil
 import pytest
 import yaml
 
-from datagen.build import run_build
+from datagen.build.coordinator import run_build
 from datagen.config import BuildConfig, RenderConfig, TransferConfig
-from datagen.engines.broker import parse_broker_url
-from datagen.engines.transfer import SamplePublisher, topics
-from datagen.engines.wire import encode_sample
-from datagen.loader import load, verify
+from datagen.dataset.loader import load, verify
+from datagen.engines.transfer.collector import SamplePublisher, topics
+from datagen.engines.transfer.mosquitto import parse_broker_url
+from datagen.engines.transfer.wire import encode_sample
 from datagen.sample import Sample
 
 REPO = Path(__file__).resolve().parents[1]
@@ -119,7 +119,7 @@ def test_broker_restart_mid_build(tmp_path, sig):
 
 
 def _produce(index: int) -> Sample:
-    from datagen.engines.produce import produce_sample
+    from datagen.scenes.grasp_tabletop import produce_sample
 
     return produce_sample(CONFIG, CONFIG.seed, index)
 

@@ -11,7 +11,7 @@ import sapien
 from datagen.config import BuildConfig, ObjectsConfig
 from datagen.grasping import GraspCandidate
 from datagen.grasping.execute import ExecutionParams, execute_grasp
-from datagen.scenes.grasp_tabletop import TRAY_CENTRE, TRAY_FLOOR, GraspScene, build_scene
+from datagen.worlds.tabletop import TRAY_CENTRE, TRAY_FLOOR, GraspScene, build_scene
 
 PARAMS = ExecutionParams()
 CONFIG = BuildConfig(objects=ObjectsConfig(count=(1, 1), families=("box",), size=(0.05, 0.06)))

@@ -1,4 +1,4 @@
-"""Shards (datagen.sinks.webdataset) and reading them back (datagen.loader)."""
+"""Shards (datagen.shards) and reading them back (datagen.dataset.loader)."""
 
 from __future__ import annotations
 
@@ -9,15 +9,9 @@ import tarfile
 import numpy as np
 import pytest
 
-from datagen.loader import DatasetError, load, verify
+from datagen.dataset.loader import DatasetError, load, verify
 from datagen.sample import Sample
-from datagen.sinks.finalize import (
-    FinalizeError,
-    combine,
-    drop_copies_held_by_smaller,
-    write_part,
-)
-from datagen.sinks.webdataset import (
+from datagen.shards import (
     ShardWriter,
     WriterLock,
     WriterLocked,
@@ -29,6 +23,12 @@ from datagen.sinks.webdataset import (
     recover,
     remove_keys,
     scan_members,
+)
+from datagen.sinks.finalize import (
+    FinalizeError,
+    combine,
+    drop_copies_held_by_smaller,
+    write_part,
 )
 
 

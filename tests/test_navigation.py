@@ -14,15 +14,15 @@ import numpy as np
 import pytest
 from pycocotools.coco import COCO
 
-from datagen.build import run_build
+from datagen.build.coordinator import run_build
 from datagen.config import BuildConfig, NavigationConfig, OutputConfig, RenderConfig, load_config
-from datagen.engines.produce_nav import planar_pose, produce_nav_episode
-from datagen.inspect import inspect_dataset
-from datagen.loader import load, load_frames, verify
+from datagen.dataset.loader import load, load_frames, verify
 from datagen.navigation.episode import plan_episode
 from datagen.navigation.planning import footprint_collides, inflate
-from datagen.preview import write_preview
-from datagen.scenes.navigation import NAV_CLASS_ID
+from datagen.scenes.navigation import planar_pose, produce_nav_episode
+from datagen.tools.inspection import inspect_dataset
+from datagen.tools.preview import write_preview
+from datagen.worlds.floorplan import NAV_CLASS_ID
 
 REPO = Path(__file__).resolve().parents[1]
 FAMILIES = ("rooms", "corridor", "maze")

@@ -8,7 +8,7 @@ import nbformat
 import pytest
 from nbclient import NotebookClient
 
-from datagen.build import run_build
+from datagen.build.coordinator import run_build
 from datagen.config import BuildConfig, OutputConfig, RenderConfig
 
 NOTEBOOKS = Path(__file__).resolve().parents[1] / "notebooks"

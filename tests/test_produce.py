@@ -8,9 +8,9 @@ import numpy as np
 import pytest
 
 from datagen.config import BuildConfig, RenderConfig
-from datagen.engines.produce import render_annotated, to_sample
-from datagen.engines.render import capture
-from datagen.scenes.grasp_tabletop import build_scene
+from datagen.engines.sim.render import capture
+from datagen.scenes.grasp_tabletop import render_annotated, to_sample
+from datagen.worlds.tabletop import build_scene
 
 CONFIG = BuildConfig(render=RenderConfig(width=160, height=120, wrist_camera=True))
 

@@ -13,10 +13,10 @@ from pycocotools.coco import COCO
 from torch.utils.data import DataLoader
 
 import datagen
-from datagen.build import run_build
+from datagen.build.coordinator import run_build
 from datagen.config import BuildConfig, ConfigError, OutputConfig, RenderConfig, config_from_dict
-from datagen.loader import decode_parts, load, read_manifest
-from datagen.pointcloud import read_ply
+from datagen.dataset.loader import decode_parts, load, read_manifest
+from datagen.dataset.pointcloud import read_ply
 from datagen.shapes import build_geometry
 
 SAMPLES = 8
@@ -74,7 +74,7 @@ def test_hdf5_round_trip(built):
             for name in ("rgb", "depth", "seg", "semantic"):
                 np.testing.assert_array_equal(group[name][()], item[name])
             wrist = load(built).raw(i)["wrist.depth.png"]
-            assert group["wrist/depth"].shape == datagen.loader.decode_parts({"depth.png": wrist})["depth"].shape  # fmt: skip
+            assert group["wrist/depth"].shape == datagen.dataset.loader.decode_parts({"depth.png": wrist})["depth"].shape  # fmt: skip
             assert json.loads(group.attrs["meta"]) == item["meta"]
 
 
@@ -120,7 +120,7 @@ def test_point_clouds_are_labelled_and_in_the_world_frame(built):
 def test_usd_scenes_validate_and_match_the_metadata(built):
     from pxr import Usd, UsdGeom
 
-    from datagen.usd_export import camera_matrices, validation_errors
+    from datagen.exports.usd_stage import camera_matrices, validation_errors
 
     dataset = load(built)
     for i in range(SAMPLES):
@@ -152,7 +152,7 @@ def test_usd_scenes_validate_and_match_the_metadata(built):
 
 
 def test_replay_from_the_usd_matches_the_stored_images(built, tmp_path):
-    from datagen.replay import replay
+    from datagen.tools.replay import replay
 
     dataset = load(built)
     for i in (0, SAMPLES - 1):

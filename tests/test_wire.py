@@ -8,8 +8,8 @@ from pathlib import Path
 
 import pytest
 
-from datagen.engines.transfer import ack_indices, topics
-from datagen.engines.wire import MAGIC, WireError, decode_sample, encode_sample
+from datagen.engines.transfer.collector import ack_indices, topics
+from datagen.engines.transfer.wire import MAGIC, WireError, decode_sample, encode_sample
 from datagen.sample import Sample
 
 REPO = Path(__file__).resolve().parents[1]
@@ -156,7 +156,7 @@ def test_topics_of_a_build():
 
 
 def test_signed_samples_verify_only_with_the_builds_secret():
-    from datagen.engines.wire import FLAG_SIGNED
+    from datagen.engines.transfer.wire import FLAG_SIGNED
 
     secret, other = b"s" * 32, b"o" * 32
     sample = Sample(5, {"json": b'{"a":1}', "rgb.png": b"\x89PNG..."})

@@ -12,13 +12,13 @@ import zlib
 
 import pytest
 
-from datagen.engines.broker import ManagedBroker
-from datagen.engines.mqtt_client import MqttConnection
-from datagen.engines.transfer import AckCollector, SamplePublisher, SampleTooLarge, topics
-from datagen.engines.wire import encode_sample
-from datagen.loader import load, verify
+from datagen.dataset.loader import load, verify
+from datagen.engines.transfer.collector import AckCollector, SamplePublisher, SampleTooLarge, topics
+from datagen.engines.transfer.connection import MqttConnection
+from datagen.engines.transfer.mosquitto import ManagedBroker
+from datagen.engines.transfer.wire import encode_sample
 from datagen.sample import Sample
-from datagen.sinks.webdataset import durable_keys, journal_path, read_keys
+from datagen.shards import durable_keys, journal_path, read_keys
 
 TIMEOUT_S = 60
 

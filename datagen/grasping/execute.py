@@ -18,7 +18,7 @@ import sapien
 
 from datagen.grasping import PANDA_MAX_WIDTH, GraspCandidate, GraspOutcome
 from datagen.grasping.planner import make_planner, plan_straight, plan_transit, remove_obstacles
-from datagen.scenes.grasp_tabletop import GraspScene
+from datagen.worlds.tabletop import GraspScene
 
 N_ARM = 7
 FINGERS = ("panda_leftfinger", "panda_rightfinger")

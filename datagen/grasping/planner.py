@@ -19,7 +19,7 @@ import sapien
 from mplib.pymp.collision_detection import fcl
 
 from datagen.randomisers.robot import READY_POSE
-from datagen.scenes.grasp_tabletop import SceneObject, panda_urdf
+from datagen.worlds.tabletop import SceneObject, panda_urdf
 
 log = logging.getLogger(__name__)
 

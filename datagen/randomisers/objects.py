@@ -67,7 +67,7 @@ def sample_asset_shape(rng: np.random.Generator, assets_dir: str, size: float) -
     """A user mesh (``objects.source: folder``), scaled so its largest extent is ``size``; the
     family is its class folder. The convex parts are stored with the sample, so the collision
     shape can be rebuilt from the metadata alone; the visual mesh is read from ``asset.path``."""
-    from datagen.assets import load_library
+    from datagen.mesh_library import load_library
 
     library = load_library(assets_dir)
     asset = library.assets[int(rng.integers(len(library.assets)))]

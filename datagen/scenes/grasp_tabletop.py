@@ -1,178 +1,187 @@
-"""Grasping scene: ManiSkill's Panda on a table before a tray of procedurally generated objects.
+"""Sample ``index`` of a build: build the scene, render every camera, annotate, encode.
 
-World frame: z up, metres; the table top is at z = TABLE_TOP, the robot base stands on its
-edge at negative x and the tray lies in front of it. Objects are dropped into the tray and
-settled by physics before any camera renders.
+``render_annotated`` is the simulator-side work (arrays + metadata); ``to_sample`` encodes it
+into the named parts of a :class:`~datagen.sample.Sample`. The benchmark's plain render loop
+calls the first alone.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
-from pathlib import Path
+import json
+import time
+from dataclasses import dataclass
 from typing import Any
 
+import cv2
 import numpy as np
 import sapien
 
-from datagen.config import SHAPE_FAMILIES, BuildConfig
-from datagen.randomisers import sample_scene
-from datagen.randomisers.camera import apply_camera
-from datagen.randomisers.lighting import apply_lighting
-from datagen.randomisers.materials import render_material
-from datagen.randomisers.objects import add_objects
-from datagen.randomisers.robot import apply_robot
-from datagen.scenes.assets import PANDA, maniskill_asset
-from datagen.shapes import ObjectGeometry
+from datagen.config import BuildConfig
+from datagen.engines.sim.annotate import (
+    LabelledObject,
+    label_maps,
+    object_view_records,
+    object_world_record,
+)
+from datagen.engines.sim.render import DEPTH_SCALE, capture, keep_renderer_alive
+from datagen.geometry import pose_record
+from datagen.sample import Sample, sample_key
+from datagen.worlds.tabletop import GraspScene, build_scene, grasp_classes
 
-TABLE_TOP = 0.75  # metres
-TABLE_HALF = (0.6, 0.75)
-ROBOT_BASE = (-0.62, 0.0, TABLE_TOP)
-TRAY_CENTRE = (0.08, 0.0, TABLE_TOP)  # centre of the tray's bottom face
-TRAY_INNER_HALF = (0.2, 0.26)  # metres
-TRAY_WALL = (0.008, 0.07)  # thickness, height (metres)
-TRAY_FLOOR = 0.01  # floor thickness, metres
-
-# Semantic classes: 0 is background (nothing rendered), object classes are shape families.
-STUFF_CLASSES = ("background", "floor", "table", "tray", "robot")
-CLASSES = (*STUFF_CLASSES, *SHAPE_FAMILIES)
-CLASS_ID = {name: i for i, name in enumerate(CLASSES)}
-
-
-def grasp_classes(config: BuildConfig) -> tuple[str, ...]:
-    """Semantic classes of a build: the shape families, or the class folders of the user's
-    meshes (``objects.source: folder``), after the surfaces."""
-    if config.objects.source == "folder":
-        from datagen.assets import load_library
-
-        return (*STUFF_CLASSES, *load_library(config.objects.assets_dir).classes)
-    return CLASSES
-
-
-# Wrist camera on the Panda hand, from ManiSkill's panda_wristcam (pose in the hand frame).
-WRIST_CAMERA_POSE = sapien.Pose([0.0464982, -0.0200011, 0.0360011], [0, 0.70710678, 0, 0.70710678])
-
-
-def panda_urdf() -> Path:
-    return maniskill_asset(PANDA)
+METADATA_FORMAT = "datagen.sample/1"
 
 
 @dataclass
-class SceneObject:
-    instance_id: int  # 1..K in the instance map
-    class_name: str
-    entity: sapien.Entity
-    geometry: ObjectGeometry
-    spec: dict[str, Any]
+class View:
+    rgb: np.ndarray  # (H, W, 3) uint8, RGB
+    depth: np.ndarray  # (H, W) uint16 millimetres
+    instance: np.ndarray  # (H, W) uint16
+    semantic: np.ndarray  # (H, W) uint8
 
 
 @dataclass
-class GraspScene:
-    scene: sapien.Scene
-    cameras: dict[str, sapien.render.RenderCameraComponent]
-    objects: list[SceneObject]
-    robot: sapien.physx.PhysxArticulation
-    params: dict[str, Any]
-    # per_scene_id of every rendered entity that is not an object -> class name
-    stuff: dict[int, str] = field(default_factory=dict)
+class AnnotatedSample:
+    index: int
+    views: dict[str, View]
+    metadata: dict[str, Any]
 
 
-def _static_box(scene, name, half_size, position, material_values) -> sapien.Entity:
-    builder = scene.create_actor_builder()
-    builder.add_box_collision(half_size=half_size)
-    builder.add_box_visual(half_size=half_size, material=render_material(material_values))
-    entity = builder.build_static(name=name)
-    entity.set_pose(sapien.Pose(position))
-    return entity
-
-
-def _add_table(scene, material) -> list[sapien.Entity]:
-    thickness = 0.03
-    parts = [
-        _static_box(
-            scene,
-            "table",
-            [*TABLE_HALF, thickness / 2],
-            [0, 0, TABLE_TOP - thickness / 2],
-            material,
-        )
-    ]
-    leg = (TABLE_TOP - thickness) / 2
-    for sx in (-1, 1):
-        for sy in (-1, 1):
-            position = [sx * (TABLE_HALF[0] - 0.05), sy * (TABLE_HALF[1] - 0.05), leg]
-            parts.append(_static_box(scene, "table_leg", [0.025, 0.025, leg], position, material))
-    return parts
-
-
-def tray_boxes() -> list[tuple[list[float], list[float]]]:
-    """The tray as (half size, centre offset from TRAY_CENTRE) boxes: floor and four walls."""
-    (ix, iy), (t, h) = TRAY_INNER_HALF, TRAY_WALL
+def _labelled_objects(scene: GraspScene, class_id: dict[str, int]) -> list[LabelledObject]:
     return [
-        ([ix + t, iy + t, TRAY_FLOOR / 2], [0, 0, TRAY_FLOOR / 2]),
-        ([t / 2, iy + t, h / 2], [ix + t / 2, 0, h / 2]),
-        ([t / 2, iy + t, h / 2], [-ix - t / 2, 0, h / 2]),
-        ([ix + t, t / 2, h / 2], [0, iy + t / 2, h / 2]),
-        ([ix + t, t / 2, h / 2], [0, -iy - t / 2, h / 2]),
-    ]
-
-
-def _add_tray(scene, material) -> sapien.Entity:
-    builder = scene.create_actor_builder()
-    mat = render_material(material)
-    for half_size, offset in tray_boxes():
-        builder.add_box_collision(sapien.Pose(offset), half_size=half_size)
-        builder.add_box_visual(sapien.Pose(offset), half_size=half_size, material=mat)
-    tray = builder.build_static(name="tray")
-    tray.set_pose(sapien.Pose(TRAY_CENTRE))
-    return tray
-
-
-def build_scene(config: BuildConfig, seed: int, index: int) -> GraspScene:
-    """A fresh SAPIEN scene for sample ``index`` of the build, settled and ready to render."""
-    tray_floor_top = (TRAY_CENTRE[0], TRAY_CENTRE[1], TRAY_CENTRE[2] + TRAY_FLOOR)
-    params = sample_scene(config, seed, index, tray_floor_top, TRAY_INNER_HALF)
-    scene = construct_scene(config, params)
-    for _ in range(round(config.physics.settle_time / config.physics.timestep)):
-        scene.scene.step()
-    return scene
-
-
-def construct_scene(config: BuildConfig, params: dict[str, Any]) -> GraspScene:
-    """The scene described by ``params`` (the sampled values; objects at ``drop_poses``), not
-    yet settled. Replay passes the stored values with the settled poses instead."""
-    materials = params["materials"]
-    scene = sapien.Scene()
-    scene.set_timestep(config.physics.timestep)
-    stuff: dict[int, str] = {}
-
-    ground = scene.add_ground(0.0, render_material=render_material(materials["floor"]))
-    stuff[ground.per_scene_id] = "floor"
-    for entity in _add_table(scene, materials["table"]):
-        stuff[entity.per_scene_id] = "table"
-    stuff[_add_tray(scene, materials["tray"]).per_scene_id] = "tray"
-
-    loader = scene.create_urdf_loader()
-    loader.fix_root_link = True
-    robot = loader.load(str(panda_urdf()))
-    robot.set_root_pose(sapien.Pose(ROBOT_BASE))
-    apply_robot(robot, params["robot"])
-    for link in robot.get_links():
-        stuff[link.entity.per_scene_id] = "robot"
-
-    added = add_objects(scene, params["objects"], params["drop_poses"], materials["objects"])
-    objects = [
-        SceneObject(i + 1, spec["shape"]["family"], entity, geometry, spec)
-        for i, ((entity, geometry), spec) in enumerate(zip(added, params["objects"], strict=True))
-    ]
-    apply_lighting(scene, params["lighting"], config.render.shadow_map_size)
-
-    r = config.render
-    workspace = scene.add_camera("workspace", r.width, r.height, 1.0, r.near, r.far)
-    apply_camera(workspace, params["camera"])
-    cameras = {"workspace": workspace}
-    if r.wrist_camera:
-        hand = next(link for link in robot.get_links() if link.name == "panda_hand")
-        cameras["wrist"] = scene.add_mounted_camera(
-            "wrist", hand.entity, WRIST_CAMERA_POSE, r.width, r.height, np.deg2rad(70), 0.01, r.far
+        LabelledObject(
+            instance_id=o.instance_id,
+            class_name=o.class_name,
+            class_id=class_id[o.class_name],
+            entity_id=o.entity.per_scene_id,
+            pose_world=np.asarray(o.entity.pose.to_transformation_matrix(), float),
+            parts=[np.asarray(p.vertices, float) for p in o.geometry.parts],
+            obb_transform=o.geometry.obb_transform,
+            obb_extents=o.geometry.obb_extents,
         )
-    return GraspScene(scene, cameras, objects, robot, params, stuff)
+        for o in scene.objects
+    ]
+
+
+def render_annotated(config: BuildConfig, seed: int, index: int) -> AnnotatedSample:
+    keep_renderer_alive()
+    return annotate_scene(build_scene(config, seed, index), config, seed, index)
+
+
+def annotate_scene(
+    scene: GraspScene, config: BuildConfig, seed: int, index: int
+) -> AnnotatedSample:
+    """Renders every camera of a built (settled) scene and annotates what they see."""
+    scene.scene.update_render()
+    classes = grasp_classes(config)
+    class_id = {name: i for i, name in enumerate(classes)}
+    objects = _labelled_objects(scene, class_id)
+    stuff_class_ids = {entity_id: class_id[name] for entity_id, name in scene.stuff.items()}
+
+    views, view_meta = {}, {}
+    for name, camera in scene.cameras.items():
+        frame = capture(camera)
+        instance, semantic = label_maps(frame, objects, stuff_class_ids)
+        views[name] = View(frame.rgb, frame.depth, instance, semantic)
+        view_meta[name] = {
+            "camera": {
+                "width": int(camera.width),
+                "height": int(camera.height),
+                "fovy_deg": round(float(np.rad2deg(camera.fovy)), 6),
+                "near": round(float(camera.near), 6),
+                "far": round(float(camera.far), 6),
+                "intrinsics": np.round(frame.intrinsics, 6).tolist(),
+                "extrinsics_world_to_camera": np.round(frame.extrinsics, 7).tolist(),
+                "convention": "opencv",
+                "depth_scale": DEPTH_SCALE,
+            },
+            "objects": object_view_records(frame, instance, objects, float(camera.near)),
+        }
+
+    objects_meta = []
+    for obj, record in zip(scene.objects, map(object_world_record, objects), strict=True):
+        spec = obj.spec
+        body = obj.entity.find_component_by_type(sapien.physx.PhysxRigidDynamicComponent)
+        objects_meta.append(
+            record
+            | {
+                "shape": spec["shape"],
+                "density": spec["density"],
+                "mass": round(float(body.mass), 7),
+                "friction": spec["friction"],
+                "restitution": spec["restitution"],
+            }
+        )
+    metadata = {
+        "format": METADATA_FORMAT,
+        "key": sample_key(index),
+        "index": index,
+        "seed": seed,
+        "scene": config.scene,
+        "classes": list(classes),
+        "objects": objects_meta,
+        "views": view_meta,
+        "robot": {
+            "name": "panda",
+            "description": "mani_skill/assets/robots/panda/panda_v2.urdf",
+            "base_pose": pose_record(
+                np.asarray(scene.robot.root_pose.to_transformation_matrix(), float)
+            ),
+            "qpos": np.round(scene.robot.get_qpos(), 6).tolist(),
+        },
+        "randomisation": scene.params,
+    }
+    return AnnotatedSample(index, views, metadata)
+
+
+def png_bytes(image: np.ndarray) -> bytes:
+    ok, encoded = cv2.imencode(".png", image)
+    if not ok:
+        raise RuntimeError(f"PNG encoding failed for an image of shape {image.shape}")
+    return encoded.tobytes()
+
+
+def encode_view(view: View, prefix: str = "") -> dict[str, bytes]:
+    """``<prefix>rgb.png depth.png seg.png semantic.png`` of one rendered view."""
+    return {
+        f"{prefix}rgb.png": png_bytes(cv2.cvtColor(view.rgb, cv2.COLOR_RGB2BGR)),
+        f"{prefix}depth.png": png_bytes(view.depth),
+        f"{prefix}seg.png": png_bytes(view.instance),
+        f"{prefix}semantic.png": png_bytes(view.semantic),
+    }
+
+
+def metadata_bytes(metadata: dict[str, Any]) -> bytes:
+    return json.dumps(metadata, sort_keys=True, separators=(",", ":")).encode()
+
+
+def to_sample(annotated: AnnotatedSample) -> Sample:
+    """Parts: ``rgb.png depth.png seg.png semantic.png`` for the workspace camera, the same
+    names prefixed ``<camera>.`` for any other camera, and ``json`` for the metadata."""
+    parts: dict[str, bytes] = {}
+    for name, view in annotated.views.items():
+        parts |= encode_view(view, "" if name == "workspace" else f"{name}.")
+    parts["json"] = metadata_bytes(annotated.metadata)
+    return Sample(annotated.index, parts)
+
+
+def produce_sample(
+    config: BuildConfig, seed: int, index: int, timings: dict[str, float] | None = None
+) -> Sample:
+    """Sample ``index`` of the build: an annotated frame, a grasp attempt in a campaign, or a
+    navigation episode. ``timings`` (grasp_tabletop only) receives ``render_s`` (scene, physics,
+    render, annotate) and ``encode_s`` (PNG and JSON), for the stage benchmark."""
+    if config.scene == "grasp_attempts":
+        from datagen.scenes.grasp_attempts import produce_attempt
+
+        return produce_attempt(config, seed, index)
+    if config.scene == "navigation":
+        from datagen.scenes.navigation import produce_nav_episode
+
+        return produce_nav_episode(config, seed, index)
+    start = time.perf_counter()
+    annotated = render_annotated(config, seed, index)
+    rendered = time.perf_counter()
+    sample = to_sample(annotated)
+    if timings is not None:
+        timings.update(render_s=rendered - start, encode_s=time.perf_counter() - rendered)
+    return sample

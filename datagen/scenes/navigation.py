@@ -1,202 +1,185 @@
-"""Navigation scene: a floor plan from ``datagen.navigation`` built in SAPIEN, with ManiSkill's
-Fetch as the mobile robot and an RGB-D camera on its head.
+"""Episode ``index`` of a navigation build: plan, build the scene, drive Fetch along the expert
+trajectory and render its head camera at the frame rate; one sample per episode.
 
-World frame: z up, metres; the floor plan's grid origin (see ``datagen.navigation``) is the world
-origin and the floor top is z = 0. Fetch's base is driven through its three virtual root joints
-(x, y, yaw) to each pose of the expert trajectory; nothing else moves, so no physics is stepped.
+Parts: ``fNNNN.rgb.png fNNNN.depth.png fNNNN.seg.png fNNNN.semantic.png`` per frame (NNNN = frame
+number from 0), ``map.png`` (top-down picture with the paths), ``occupancy.png`` (the grid, one
+pixel per cell, 255 = occupied) and ``json`` (see README, "Navigation episodes").
 """
 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
-from pathlib import Path
 from typing import Any
 
 import numpy as np
-import sapien
+from scipy import ndimage
 
 from datagen.config import BuildConfig
-from datagen.navigation.episode import Episode
-from datagen.randomisers.lighting import apply_lighting
-from datagen.randomisers.materials import render_material
-from datagen.scenes.assets import FETCH, maniskill_asset
+from datagen.engines.sim.render import DEPTH_SCALE, capture, keep_renderer_alive
+from datagen.navigation.episode import Episode, frame_steps, plan_episode
+from datagen.navigation.map_image import episode_map, occupancy_image
+from datagen.navigation.planning import inflate
+from datagen.randomisers.navigation import sample_nav_scene
+from datagen.sample import Sample, sample_key
+from datagen.scenes.grasp_tabletop import View, encode_view, metadata_bytes, png_bytes
+from datagen.worlds.floorplan import NAV_CLASSES, NavScene, build_nav_scene
+from datagen.worlds.robots import FETCH
 
-# Semantic classes; 0 is background (nothing rendered).
-NAV_CLASSES = ("background", "floor", "wall", "door", "obstacle", "goal_marker", "robot")
-NAV_CLASS_ID = {name: i for i, name in enumerate(NAV_CLASSES)}
-FLOOR_THICKNESS = 0.05  # metres
-FLOOR_MARGIN = 1.0  # metres of floor beyond the floor plan on every side
-THRESHOLD_HEIGHT = 0.004  # metres: the door's floor strip, drawn so doors show in the labels
-GOAL_DISK = (0.22, 0.01)  # radius, thickness (metres)
-GOAL_POLE = (0.025, 1.2)  # radius, height (metres)
-# Fetch's standard tucked arm (keeps the arm out of the head camera's view), radians
-TUCKED_ARM = {
-    "shoulder_pan_joint": 1.32,
-    "shoulder_lift_joint": 1.40,
-    "upperarm_roll_joint": -0.2,
-    "elbow_flex_joint": 1.72,
-    "forearm_roll_joint": 0.0,
-    "wrist_flex_joint": 1.66,
-    "wrist_roll_joint": 0.0,
-}
-CAMERA_LINK = "head_camera_link"  # SAPIEN camera frame: x forward, y left, z up
-BASE_JOINTS = ("root_x_axis_joint", "root_y_axis_joint", "root_z_rotation_joint")
-# A z-axis cylinder from SAPIEN's x-axis one: 90 degrees about y.
-_X_TO_Z = sapien.Pose(q=[math.sqrt(0.5), 0.0, math.sqrt(0.5), 0.0])
+NAV_FORMAT = "datagen.nav_episode/1"
 
 
-def fetch_urdf() -> Path:
-    return maniskill_asset(FETCH)
+def frame_prefix(frame: int) -> str:
+    return f"f{frame:04d}."
 
 
-@dataclass
-class Thing:
-    """A labelled instance: one or more entities under one instance id."""
-
-    instance_id: int
-    class_name: str
-    name: str
-    entities: list[sapien.Entity] = field(default_factory=list)
+def planar_pose(x: float, y: float, yaw: float) -> np.ndarray:
+    """4x4 world pose of the robot frame: origin on the floor under the base, x forward."""
+    c, s = math.cos(yaw), math.sin(yaw)
+    return np.array([[c, -s, 0, x], [s, c, 0, y], [0, 0, 1, 0], [0, 0, 0, 1]], float)
 
 
-@dataclass
-class NavScene:
-    scene: sapien.Scene
-    camera: sapien.render.RenderCameraComponent
-    robot: sapien.physx.PhysxArticulation
-    things: list[Thing]
-    instance_lut: np.ndarray  # per_scene_id -> instance id (uint16); walls and floor are 0
-    class_lut: np.ndarray  # per_scene_id -> semantic class id (uint8)
-
-    def set_base(self, x: float, y: float, yaw: float) -> None:
-        qpos = self.robot.get_qpos()
-        qpos[:3] = (x, y, yaw)
-        self.robot.set_qpos(qpos)
-
-    def label_maps(self, entity_ids: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        ids = np.minimum(entity_ids, len(self.class_lut) - 1)  # ids beyond the tables: nothing
-        return self.instance_lut[ids], self.class_lut[ids]
-
-
-def _static(scene, name, material, boxes=(), cylinders=(), spheres=()) -> sapien.Entity:
-    """A visual-only static entity. boxes: (centre, half sizes); cylinders (z axis): (centre,
-    radius, height); spheres: (centre, radius); metres."""
-    builder = scene.create_actor_builder()
-    for centre, half in boxes:
-        builder.add_box_visual(sapien.Pose(centre), half_size=half, material=material)
-    for centre, radius, height in cylinders:
-        pose = sapien.Pose(centre) * _X_TO_Z
-        builder.add_cylinder_visual(pose, radius=radius, half_length=height / 2, material=material)
-    for centre, radius in spheres:
-        builder.add_sphere_visual(sapien.Pose(centre), radius=radius, material=material)
-    return builder.build_static(name=name)
+def _things_in_view(scene: NavScene, instance: np.ndarray) -> list[dict[str, Any]]:
+    """2-D boxes of the labelled instances the camera sees (the robot itself excluded)."""
+    out = []
+    slices = ndimage.find_objects(instance)
+    for thing in scene.things:
+        box = slices[thing.instance_id - 1] if thing.instance_id <= len(slices) else None
+        if box is None or thing.class_name == "robot":
+            continue
+        rows, cols = box
+        out.append({
+            "instance_id": thing.instance_id,
+            "class": thing.class_name,
+            "name": thing.name,
+            "bbox_xyxy": [cols.start, rows.start, cols.stop - 1, rows.stop - 1],  # inclusive
+            "pixels": int((instance[box] == thing.instance_id).sum()),
+        })  # fmt: skip
+    return out
 
 
-def _rect_centre_half(rect, z0: float, z1: float) -> tuple[list[float], list[float]]:
-    x0, y0, x1, y1 = rect
-    return [(x0 + x1) / 2, (y0 + y1) / 2, (z0 + z1) / 2], [(x1 - x0) / 2, (y1 - y0) / 2, (z1 - z0) / 2]  # fmt: skip
+def _round(a, digits: int = 6) -> list:
+    return np.round(np.asarray(a, float), digits).tolist()
 
 
-def _walls_and_doors(scene, episode: Episode, values) -> tuple[list[sapien.Entity], list[Thing]]:
-    layout, h, top = episode.layout, values["wall_height"], values["door_top"]
-    wall_material = render_material(values["materials"]["walls"])
-    door_material = render_material(values["materials"]["doors"])
-    walls = [
-        _static(scene, f"wall_{i}", wall_material, boxes=[_rect_centre_half(rect, 0.0, h)])
-        for i, rect in enumerate(layout.walls)
-    ]
-    doors = []
-    for i, rect in enumerate(layout.doors):
-        lintel = _rect_centre_half(rect, top, h)
-        threshold = _rect_centre_half(rect, 0.0, THRESHOLD_HEIGHT)
-        entity = _static(scene, f"door_{i}", door_material, boxes=[lintel, threshold])
-        doors.append(Thing(0, "door", f"door_{i}", [entity]))
-    return walls, doors
-
-
-def _obstacles(scene, episode: Episode, values) -> list[Thing]:
-    things = []
-    specs = zip(episode.layout.obstacles, values["obstacles"], values["materials"]["obstacles"], strict=True)  # fmt: skip
-    for i, (rect, spec, material) in enumerate(specs):
-        centre, half = _rect_centre_half(rect, 0.0, spec["height"])
-        if spec["shape"] == "cylinder":  # inscribed in the footprint, so inside the occupied cells
-            shapes = {"cylinders": [(centre, min(half[:2]), spec["height"])]}
-        else:
-            shapes = {"boxes": [(centre, half)]}
-        entity = _static(scene, f"obstacle_{i}", render_material(material), **shapes)
-        things.append(Thing(0, "obstacle", f"obstacle_{i}", [entity]))
-    return things
-
-
-def _goal_marker(scene, episode: Episode, values) -> Thing:
-    gx, gy = episode.goal
-    (disk_r, disk_t), (pole_r, pole_h) = GOAL_DISK, GOAL_POLE
-    entity = _static(
-        scene,
-        "goal_marker",
-        render_material(values["materials"]["goal_marker"]),
-        cylinders=[([gx, gy, disk_t / 2], disk_r, disk_t), ([gx, gy, pole_h / 2], pole_r, pole_h)],
-        spheres=[([gx, gy, pole_h], 0.07)],
-    )
-    return Thing(0, "goal_marker", "goal_marker", [entity])
-
-
-def _fetch(scene: sapien.Scene, camera_values: dict[str, Any]) -> sapien.physx.PhysxArticulation:
-    loader = scene.create_urdf_loader()
-    loader.fix_root_link = True
-    robot = loader.load(str(fetch_urdf()))
-    targets = TUCKED_ARM | {
-        "torso_lift_joint": camera_values["torso_lift"],
-        "head_tilt_joint": math.radians(camera_values["pitch_deg"]),  # positive tilts down
+def render_episode(
+    config: BuildConfig, episode: Episode, scene: NavScene, steps: list[int]
+) -> tuple[dict[str, bytes], list[dict[str, Any]], dict[str, Any]]:
+    """Encoded frame parts, per-frame records and the camera record."""
+    traj = episode.trajectory
+    parts: dict[str, bytes] = {}
+    records = []
+    camera_in_robot = None
+    for k, step in enumerate(steps):
+        x, y, yaw = (float(v) for v in traj.poses[step])
+        scene.set_base(x, y, yaw)
+        scene.scene.update_render()
+        frame = capture(scene.camera)
+        instance, semantic = scene.label_maps(frame.entity_ids)
+        parts |= encode_view(View(frame.rgb, frame.depth, instance, semantic), frame_prefix(k))
+        if camera_in_robot is None:  # fixed mount: the same in every frame
+            camera_in_robot = np.linalg.inv(planar_pose(x, y, yaw)) @ np.linalg.inv(
+                frame.extrinsics
+            )
+            intrinsics = frame.intrinsics
+        command = traj.commands[step] if step < len(traj.commands) else (0.0, 0.0)
+        records.append({
+            "frame": k,
+            "step": step,
+            "time_s": round(step * traj.dt, 6),
+            "pose": _round([x, y, yaw]),
+            "command": _round(command),
+            "goal_in_robot": _round(traj.goal_in_robot[step]),
+            "distance_to_goal": round(float(traj.distance_to_goal[step]), 6),
+            "collision": bool(traj.collision[step]),
+            "extrinsics_world_to_camera": _round(frame.extrinsics, 7),
+            "things": _things_in_view(scene, instance),
+        })  # fmt: skip
+    forward = camera_in_robot[:3, 2]  # OpenCV z axis = viewing direction
+    r = config.render
+    camera = {
+        "width": r.width,
+        "height": r.height,
+        "fovy_deg": round(math.degrees(scene.camera.fovy), 6),
+        "near": r.near,
+        "far": r.far,
+        "intrinsics": _round(intrinsics),
+        "camera_in_robot": _round(camera_in_robot, 7),
+        "height_m": round(float(camera_in_robot[2, 3]), 6),
+        "pitch_down_deg": round(math.degrees(-math.asin(float(forward[2]))), 6),
+        "convention": "opencv",
+        "depth_scale": DEPTH_SCALE,
     }
-    qpos = np.zeros(robot.dof)
-    for i, joint in enumerate(robot.get_active_joints()):
-        qpos[i] = targets.get(joint.name, 0.0)
-        lo, hi = joint.limits[0]
-        if np.isfinite(lo) and not lo - 1e-6 <= qpos[i] <= hi + 1e-6:
-            raise ValueError(f"Fetch joint {joint.name}: {qpos[i]} outside [{lo}, {hi}]")
-    robot.set_qpos(qpos)
-    names = [j.name for j in robot.get_active_joints()[:3]]
-    if tuple(names) != BASE_JOINTS:
-        raise RuntimeError(f"unexpected Fetch description: first joints are {names}")
-    return robot
+    return parts, records, camera
 
 
-def build_nav_scene(config: BuildConfig, episode: Episode, values: dict[str, Any]) -> NavScene:
-    scene = sapien.Scene()
+def episode_record(config: BuildConfig, episode: Episode, steps: list[int]) -> dict[str, Any]:
+    traj, layout = episode.trajectory, episode.layout
+    shortest, travelled = episode.shortest_path_m, episode.travelled_m
+    return {
+        "success": bool(traj.success),
+        "path_length_m": round(travelled, 6),
+        "shortest_path_m": round(shortest, 6),
+        "astar_path_m": round(episode.astar_length_m, 6),
+        "spl": round(float(traj.success) * shortest / max(travelled, shortest, 1e-9), 6),
+        "steps": len(traj.commands),
+        "duration_s": round(len(traj.commands) * traj.dt, 6),
+        "frames": len(steps),
+        "collision_steps": int(traj.collision.sum()),
+        "start": _round(episode.start),
+        "goal": _round(episode.goal),
+        "start_cell": list(episode.start_cell),
+        "goal_cell": list(episode.goal_cell),
+        "inflation_m": round(episode.inflation, 6),
+        "planned_path": _round(episode.path, 5),
+        "trajectory": traj.to_dict(),
+        "layout": {
+            "family": layout.family,
+            "resolution": layout.resolution,
+            "size_m": _round(layout.size_m),
+            "grid_shape": list(layout.grid.shape),
+            "walls": [list(w) for w in layout.walls],
+            "doors": [list(d) for d in layout.doors],
+            "obstacles": [list(o) for o in layout.obstacles],
+            "params": layout.params,
+        },
+    }
+
+
+def produce_nav_episode(config: BuildConfig, seed: int, index: int) -> Sample:
+    keep_renderer_alive()
+    nav = config.navigation
+    episode = plan_episode(nav, seed, index)
+    values = sample_nav_scene(config, seed, index, episode.layout)
+    scene = build_nav_scene(config, episode, values)
+    steps = frame_steps(episode.trajectory, nav.frame_rate_hz)
+    parts, frames, camera = render_episode(config, episode, scene, steps)
     layout = episode.layout
-    width, depth = layout.size_m
-    half = [width / 2 + FLOOR_MARGIN, depth / 2 + FLOOR_MARGIN, FLOOR_THICKNESS / 2]
-    floor = _static(
-        scene,
-        "floor",
-        render_material(values["materials"]["floor"]),
-        boxes=[([width / 2, depth / 2, -FLOOR_THICKNESS / 2], half)],
-    )
-    walls, doors = _walls_and_doors(scene, episode, values)
-    things = [*_obstacles(scene, episode, values), *doors, _goal_marker(scene, episode, values)]
-    robot = _fetch(scene, values["camera"])
-    things.append(Thing(0, "robot", "fetch", [link.entity for link in robot.get_links()]))
-    for i, thing in enumerate(things):
-        thing.instance_id = i + 1
-
-    size = 1 + max(e.per_scene_id for t in things for e in t.entities)
-    size = max(size, 1 + max(e.per_scene_id for e in [floor, *walls]))
-    instance_lut = np.zeros(size, np.uint16)
-    class_lut = np.zeros(size, np.uint8)
-    class_lut[floor.per_scene_id] = NAV_CLASS_ID["floor"]
-    for wall in walls:
-        class_lut[wall.per_scene_id] = NAV_CLASS_ID["wall"]
-    for thing in things:
-        for entity in thing.entities:
-            instance_lut[entity.per_scene_id] = thing.instance_id
-            class_lut[entity.per_scene_id] = NAV_CLASS_ID[thing.class_name]
-
-    apply_lighting(scene, values["lighting"], config.render.shadow_map_size)
-    r, cam = config.render, values["camera"]
-    head = next(link for link in robot.get_links() if link.name == CAMERA_LINK)
-    camera = scene.add_mounted_camera(
-        "head", head.entity, sapien.Pose(), r.width, r.height, math.radians(cam["fovy_deg"]), r.near, r.far
-    )  # fmt: skip
-    return NavScene(scene, camera, robot, things, instance_lut, class_lut)
+    inflated = inflate(layout.grid, episode.inflation, layout.resolution)
+    parts["map.png"] = png_bytes(episode_map(episode, inflated, steps))
+    parts["occupancy.png"] = png_bytes(occupancy_image(layout.grid))
+    metadata = {
+        "format": NAV_FORMAT,
+        "key": sample_key(index),
+        "index": index,
+        "seed": seed,
+        "scene": config.scene,
+        "family": nav.family,
+        "classes": list(NAV_CLASSES),
+        "things": [
+            {"instance_id": t.instance_id, "class": t.class_name, "name": t.name}
+            for t in scene.things
+        ],
+        "episode": episode_record(config, episode, steps),
+        "camera": camera,
+        "frames": frames,
+        "robot": {
+            "name": "fetch",
+            "description": f"mani_skill/assets/{FETCH}",
+            "radius": nav.robot_radius,
+            "qpos_fixed": _round(scene.robot.get_qpos()[3:]),
+            "joints": [j.name for j in scene.robot.get_active_joints()],
+        },
+        "randomisation": values,
+    }
+    parts["json"] = metadata_bytes(metadata)
+    return Sample(index, parts)

@@ -19,7 +19,7 @@ import logging
 from pathlib import Path
 from typing import Any
 
-from datagen.sinks.webdataset import (
+from datagen.shards import (
     ShardInfo,
     append_journal,
     keys_sha256,

@@ -38,9 +38,9 @@ from typing import Any
 import paho.mqtt.client as mqtt
 from paho.mqtt.subscribeoptions import SubscribeOptions
 
-from datagen.engines.mqtt_client import CA_FILE_ENV, MqttConnectError, MqttConnection
-from datagen.engines.transfer import ack_indices, topics, valid_build_id
-from datagen.engines.wire import (
+from datagen.engines.transfer.collector import ack_indices, topics, valid_build_id
+from datagen.engines.transfer.connection import CA_FILE_ENV, MqttConnectError, MqttConnection
+from datagen.engines.transfer.wire import (
     DEFAULT_MAX_MESSAGE_BYTES,
     SECRET_ENV,
     WireError,
@@ -48,14 +48,7 @@ from datagen.engines.wire import (
     parse_secret,
 )
 from datagen.sample import Sample, sample_key
-from datagen.sinks.finalize import (
-    FinalizeError,
-    combine,
-    drop_copies_held_by_smaller,
-    part_path,
-    write_part,
-)
-from datagen.sinks.webdataset import (
+from datagen.shards import (
     ShardInfo,
     ShardWriter,
     WriterLock,
@@ -66,6 +59,13 @@ from datagen.sinks.webdataset import (
     shards_by_writer,
     valid_writer_id,
     write_manifest,
+)
+from datagen.sinks.finalize import (
+    FinalizeError,
+    combine,
+    drop_copies_held_by_smaller,
+    part_path,
+    write_part,
 )
 
 log = logging.getLogger("datagen.writer")

@@ -11,7 +11,7 @@ from typing import Any
 import numpy as np
 
 from datagen.config import config_from_dict
-from datagen.loader import DatasetError, read_manifest
+from datagen.dataset.loader import DatasetError, read_manifest
 
 
 def stored_description(usd_path: Path) -> tuple[dict[str, Any], list[dict[str, Any]], list[float]]:
@@ -34,8 +34,8 @@ def stored_description(usd_path: Path) -> tuple[dict[str, Any], list[dict[str, A
 
 def replay(root: str | Path, key: str) -> dict[str, np.ndarray]:
     """RGB image (H, W, 3) per camera of the replayed scene."""
-    from datagen.engines.render import capture, keep_renderer_alive
-    from datagen.scenes.grasp_tabletop import construct_scene
+    from datagen.engines.sim.render import capture, keep_renderer_alive
+    from datagen.worlds.tabletop import construct_scene
 
     root = Path(root)
     manifest = read_manifest(root)

@@ -17,7 +17,7 @@ import numpy as np
 from pycocotools import mask as mask_utils
 from tqdm import tqdm
 
-from datagen.sinks.views import labelled_views, thing_classes
+from datagen.dataset.views import labelled_views, thing_classes
 
 NAME = "coco"
 

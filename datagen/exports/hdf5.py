@@ -19,7 +19,7 @@ import h5py
 import numpy as np
 from tqdm import tqdm
 
-from datagen.loader import decode_parts
+from datagen.dataset.loader import decode_parts
 
 NAME = "hdf5"
 FORMAT = "datagen.hdf5/1"

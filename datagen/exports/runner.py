@@ -15,8 +15,8 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
-from datagen.sinks import coco, hdf5, pointcloud, usd
-from datagen.sinks.webdataset import write_manifest
+from datagen.exports import coco, hdf5, pointcloud, usd
+from datagen.shards import write_manifest
 
 EXPORTS: dict[str, tuple[str, Callable]] = {  # sink name -> (path in DIR, export function)
     coco.NAME: ("coco", coco.export),
@@ -34,7 +34,7 @@ def _size(path: Path) -> int:
 
 def run_exports(root: str | os.PathLike, sinks, force: bool = False) -> dict[str, dict[str, Any]]:
     """Exports each of ``sinks`` (other than webdataset) not yet recorded in the manifest."""
-    from datagen.loader import load, read_manifest
+    from datagen.dataset.loader import load, read_manifest
 
     root = Path(root)
     manifest = read_manifest(root)

@@ -9,8 +9,8 @@ from typing import Any
 
 import numpy as np
 
-from datagen.loader import decode_parts
-from datagen.sinks.views import labelled_views
+from datagen.dataset.loader import decode_parts
+from datagen.dataset.views import labelled_views
 
 _IMAGE_PARTS = ("rgb.png", "depth.png", "seg.png", "semantic.png")
 

@@ -32,18 +32,18 @@ from importlib import metadata
 from pathlib import Path
 from typing import Any
 
+from datagen.build.executors.local_processes import WorkerSpec, make_executor
+from datagen.build.schedule import Schedule
+from datagen.build.worker import die_with_parent
 from datagen.config import BuildConfig
-from datagen.engines.broker import ManagedBroker
-from datagen.engines.executors import WorkerSpec, make_executor
-from datagen.engines.transfer import AckCollector
-from datagen.engines.wire import SECRET_ENV, parse_secret
-from datagen.engines.wire import VERSION as WIRE_VERSION
-from datagen.engines.worker import die_with_parent
-from datagen.scenes.grasp_tabletop import grasp_classes
-from datagen.scenes.navigation import NAV_CLASSES
-from datagen.schedule import Schedule
-from datagen.sinks.export import run_exports
-from datagen.sinks.webdataset import MANIFEST, write_manifest
+from datagen.engines.transfer.collector import AckCollector
+from datagen.engines.transfer.mosquitto import ManagedBroker
+from datagen.engines.transfer.wire import SECRET_ENV, parse_secret
+from datagen.engines.transfer.wire import VERSION as WIRE_VERSION
+from datagen.exports.runner import run_exports
+from datagen.shards import MANIFEST, write_manifest
+from datagen.worlds.floorplan import NAV_CLASSES
+from datagen.worlds.tabletop import grasp_classes
 
 log = logging.getLogger(__name__)
 BUILD_STATE = "build.json"
@@ -183,7 +183,7 @@ def build_manifest(config: BuildConfig, build_id: str, workers: int) -> dict[str
 def _asset_report(config: BuildConfig) -> dict[str, Any]:
     if config.objects.source != "folder":
         return {}
-    from datagen.assets import load_library
+    from datagen.mesh_library import load_library
 
     return {"assets": load_library(config.objects.assets_dir).report()}
 
@@ -246,8 +246,8 @@ def run_build(
 
 def _add_campaign_stats(out_dir: Path, made: int, seconds: float) -> None:
     """Campaign statistics go into the manifest (the writers know nothing of grasps)."""
+    from datagen.dataset.loader import load
     from datagen.grasping.stats import campaign_stats
-    from datagen.loader import load
 
     dataset = load(out_dir)
     stats = campaign_stats(dataset.metadata(i)["attempt"] for i in range(len(dataset)))

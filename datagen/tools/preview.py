@@ -9,7 +9,7 @@ from typing import Any
 import cv2
 import numpy as np
 
-from datagen.engines.annotate import project
+from datagen.engines.sim.annotate import project
 
 # (i, j) corner pairs of the 8 box corners ordered x-major, then y, then z (see annotate.py)
 _BOX_EDGES = [
@@ -229,7 +229,7 @@ def tile_grid(tiles: list[np.ndarray], columns: int = 4, max_width: int = 2400) 
 
 def write_preview(dataset_dir: Path, out_path: Path, count: int = 8, columns: int = 4) -> Path:
     """A grid of the first ``count`` samples, drawn by :func:`sample_tile`."""
-    from datagen.loader import load
+    from datagen.dataset.loader import load
 
     dataset = load(dataset_dir)
     tiles = [sample_tile(dataset[i]) for i in range(min(count, len(dataset)))]

@@ -26,8 +26,8 @@ from typing import Any
 
 import paho.mqtt.client as mqtt
 
-from datagen.engines.mqtt_client import MqttConnection
-from datagen.engines.wire import DEFAULT_MAX_MESSAGE_BYTES, encode_sample
+from datagen.engines.transfer.connection import MqttConnection
+from datagen.engines.transfer.wire import DEFAULT_MAX_MESSAGE_BYTES, encode_sample
 from datagen.sample import KEY_DIGITS, Sample, sample_key
 
 log = logging.getLogger(__name__)

@@ -13,14 +13,15 @@ import numpy as np
 import trimesh
 
 from datagen.config import BuildConfig
-from datagen.engines.produce import annotate_scene, to_sample
-from datagen.engines.render import keep_renderer_alive
+from datagen.engines.sim.render import keep_renderer_alive
 from datagen.geometry import pose_record
 from datagen.grasping import GraspOutcome
 from datagen.grasping.execute import ExecutionParams, execute_grasp
 from datagen.grasping.samplers import GraspTarget, Obstacles, make_sampler
 from datagen.sample import Sample
-from datagen.scenes.grasp_tabletop import (
+from datagen.scenes.grasp_tabletop import annotate_scene, to_sample
+from datagen.seeding import sample_rng
+from datagen.worlds.tabletop import (
     TABLE_TOP,
     TRAY_CENTRE,
     TRAY_INNER_HALF,
@@ -30,7 +31,6 @@ from datagen.scenes.grasp_tabletop import (
     build_scene,
     tray_boxes,
 )
-from datagen.seeding import sample_rng
 
 MIN_VISIBLE_FRACTION = 0.3  # targets are objects the camera sees well enough to learn from
 

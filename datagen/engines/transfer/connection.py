@@ -27,7 +27,7 @@ from paho.mqtt.packettypes import PacketTypes
 from paho.mqtt.properties import Properties
 from paho.mqtt.subscribeoptions import SubscribeOptions
 
-from datagen.engines.broker import parse_broker_url
+from datagen.engines.transfer.mosquitto import parse_broker_url
 
 log = logging.getLogger(__name__)
 

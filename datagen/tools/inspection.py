@@ -14,9 +14,9 @@ from typing import Any
 import cv2
 import numpy as np
 
+from datagen.dataset.loader import load
 from datagen.grasping.stats import campaign_stats
-from datagen.loader import load
-from datagen.preview import sample_tile, tile_grid
+from datagen.tools.preview import sample_tile, tile_grid
 
 GRID_SAMPLES = 12
 

@@ -22,7 +22,7 @@ from typing import Any
 import cv2
 import numpy as np
 
-from datagen.sinks.webdataset import (
+from datagen.shards import (
     MANIFEST,
     file_sha256,
     keys_sha256,

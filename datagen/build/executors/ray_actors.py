@@ -17,7 +17,7 @@ from typing import Any
 import ray
 from ray.exceptions import GetTimeoutError, RayActorError, RayTaskError
 
-from datagen.engines.executors import Event, WorkerSpec, worker_env
+from datagen.build.executors.local_processes import Event, WorkerSpec, worker_env
 
 log = logging.getLogger(__name__)
 CLOSE_TIMEOUT_S = 30.0
@@ -28,7 +28,7 @@ class SceneWorker:
 
     def __init__(self, worker_id: int, spec: WorkerSpec):
         from datagen.config import config_from_dict
-        from datagen.engines.transfer import SamplePublisher
+        from datagen.engines.transfer.collector import SamplePublisher
 
         logging.basicConfig(
             level=os.environ.get("DATAGEN_LOG_LEVEL", "WARNING"),
@@ -46,7 +46,7 @@ class SceneWorker:
         self.publisher.__enter__()
 
     def produce(self, index: int) -> int:
-        from datagen.engines.produce import produce_sample
+        from datagen.scenes.grasp_tabletop import produce_sample
 
         self.publisher.publish(produce_sample(self.config, self.config.seed, index))
         return index

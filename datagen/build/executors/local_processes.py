@@ -17,7 +17,7 @@ from dataclasses import dataclass
 from multiprocessing.connection import wait as wait_connections
 from typing import Any
 
-from datagen.engines.worker import worker_main
+from datagen.build.worker import worker_main
 
 log = logging.getLogger(__name__)
 Event = tuple[int, str, Any]
@@ -51,7 +51,7 @@ class WorkerSpec:
 
 class LocalExecutor:
     """Workers as processes of this machine ("spawn": SAPIEN, Vulkan and paho are not
-    fork-safe), each with its own duplex pipe (see datagen/engines/worker.py)."""
+    fork-safe), each with its own duplex pipe (see datagen/build/worker.py)."""
 
     def __init__(self, spec: WorkerSpec):
         self.spec = spec
@@ -128,7 +128,7 @@ def make_executor(name: str, spec: WorkerSpec, options: dict[str, Any]):
     if name == "local":
         return LocalExecutor(spec)
     if name == "ray":
-        from datagen.engines.ray_executor import RayExecutor
+        from datagen.build.executors.ray_actors import RayExecutor
 
         return RayExecutor(spec, **options)
     raise ValueError(f"unknown executor {name!r}; expected one of {list(EXECUTORS)}")

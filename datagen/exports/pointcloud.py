@@ -1,6 +1,6 @@
 """Labelled point clouds: ``DIR/pointclouds/<key>.ply``, one per sample, fused in the world frame
 across its views (grasp: workspace and wrist cameras; navigation: every frame of the episode,
-every ``SEQUENCE_STRIDE``-th pixel). See ``datagen/pointcloud.py``."""
+every ``SEQUENCE_STRIDE``-th pixel). See ``datagen/dataset/pointcloud.py``."""
 
 from __future__ import annotations
 
@@ -9,7 +9,7 @@ from typing import Any
 
 from tqdm import tqdm
 
-from datagen.pointcloud import sample_point_cloud, write_ply
+from datagen.dataset.pointcloud import sample_point_cloud, write_ply
 
 NAME = "pointcloud"
 SEQUENCE_STRIDE = 4  # pixels: an episode's many frames would make clouds of millions of points

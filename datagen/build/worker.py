@@ -19,8 +19,8 @@ from multiprocessing.connection import Connection
 from typing import Any
 
 from datagen.config import config_from_dict
-from datagen.engines.produce import produce_sample
-from datagen.engines.transfer import SamplePublisher, SampleTooLarge
+from datagen.engines.transfer.collector import SamplePublisher, SampleTooLarge
+from datagen.scenes.grasp_tabletop import produce_sample
 
 log = logging.getLogger(__name__)
 _PR_SET_PDEATHSIG = 1

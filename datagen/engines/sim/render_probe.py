@@ -1,4 +1,4 @@
-"""`python -m datagen.engines.render_probe`: exits 0 and names the device when SAPIEN can render."""
+"""`python -m datagen.engines.sim.render_probe`: exits 0 and names the device when SAPIEN can render."""
 
 import sys
 

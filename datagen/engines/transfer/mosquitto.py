@@ -30,7 +30,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from urllib.parse import quote, unquote, urlsplit
 
-from datagen.engines.wire import DEFAULT_MAX_MESSAGE_BYTES
+from datagen.engines.transfer.wire import DEFAULT_MAX_MESSAGE_BYTES
 
 log = logging.getLogger(__name__)
 

@@ -16,7 +16,7 @@ import numpy as np
 from datagen.geometry import pose_record
 
 if TYPE_CHECKING:  # only for annotations: drawing and tests need no simulator
-    from datagen.engines.render import Frame
+    from datagen.engines.sim.render import Frame
 
 _BOX_CORNERS = np.array([[x, y, z] for x in (-0.5, 0.5) for y in (-0.5, 0.5) for z in (-0.5, 0.5)])
 

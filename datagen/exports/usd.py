@@ -1,5 +1,5 @@
 """USD scene descriptions: ``DIR/usd/<key>.usda``, one per grasp sample or attempt, built from
-its metadata by ``datagen/usd_export.py`` and checked with usd-core's validators."""
+its metadata by ``datagen/exports/usd_stage.py`` and checked with usd-core's validators."""
 
 from __future__ import annotations
 
@@ -12,7 +12,7 @@ NAME = "usd"
 
 
 def export(dataset, manifest: dict[str, Any], out: Path) -> list[Path]:
-    from datagen.usd_export import scene_stage, validation_errors
+    from datagen.exports.usd_stage import scene_stage, validation_errors
 
     out.mkdir(parents=True)
     files = []

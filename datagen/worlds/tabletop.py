@@ -1,0 +1,178 @@
+"""Grasping scene: ManiSkill's Panda on a table before a tray of procedurally generated objects.
+
+World frame: z up, metres; the table top is at z = TABLE_TOP, the robot base stands on its
+edge at negative x and the tray lies in front of it. Objects are dropped into the tray and
+settled by physics before any camera renders.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import sapien
+
+from datagen.config import SHAPE_FAMILIES, BuildConfig
+from datagen.randomisers import sample_scene
+from datagen.randomisers.camera import apply_camera
+from datagen.randomisers.lighting import apply_lighting
+from datagen.randomisers.materials import render_material
+from datagen.randomisers.objects import add_objects
+from datagen.randomisers.robot import apply_robot
+from datagen.shapes import ObjectGeometry
+from datagen.worlds.robots import PANDA, maniskill_asset
+
+TABLE_TOP = 0.75  # metres
+TABLE_HALF = (0.6, 0.75)
+ROBOT_BASE = (-0.62, 0.0, TABLE_TOP)
+TRAY_CENTRE = (0.08, 0.0, TABLE_TOP)  # centre of the tray's bottom face
+TRAY_INNER_HALF = (0.2, 0.26)  # metres
+TRAY_WALL = (0.008, 0.07)  # thickness, height (metres)
+TRAY_FLOOR = 0.01  # floor thickness, metres
+
+# Semantic classes: 0 is background (nothing rendered), object classes are shape families.
+STUFF_CLASSES = ("background", "floor", "table", "tray", "robot")
+CLASSES = (*STUFF_CLASSES, *SHAPE_FAMILIES)
+CLASS_ID = {name: i for i, name in enumerate(CLASSES)}
+
+
+def grasp_classes(config: BuildConfig) -> tuple[str, ...]:
+    """Semantic classes of a build: the shape families, or the class folders of the user's
+    meshes (``objects.source: folder``), after the surfaces."""
+    if config.objects.source == "folder":
+        from datagen.mesh_library import load_library
+
+        return (*STUFF_CLASSES, *load_library(config.objects.assets_dir).classes)
+    return CLASSES
+
+
+# Wrist camera on the Panda hand, from ManiSkill's panda_wristcam (pose in the hand frame).
+WRIST_CAMERA_POSE = sapien.Pose([0.0464982, -0.0200011, 0.0360011], [0, 0.70710678, 0, 0.70710678])
+
+
+def panda_urdf() -> Path:
+    return maniskill_asset(PANDA)
+
+
+@dataclass
+class SceneObject:
+    instance_id: int  # 1..K in the instance map
+    class_name: str
+    entity: sapien.Entity
+    geometry: ObjectGeometry
+    spec: dict[str, Any]
+
+
+@dataclass
+class GraspScene:
+    scene: sapien.Scene
+    cameras: dict[str, sapien.render.RenderCameraComponent]
+    objects: list[SceneObject]
+    robot: sapien.physx.PhysxArticulation
+    params: dict[str, Any]
+    # per_scene_id of every rendered entity that is not an object -> class name
+    stuff: dict[int, str] = field(default_factory=dict)
+
+
+def _static_box(scene, name, half_size, position, material_values) -> sapien.Entity:
+    builder = scene.create_actor_builder()
+    builder.add_box_collision(half_size=half_size)
+    builder.add_box_visual(half_size=half_size, material=render_material(material_values))
+    entity = builder.build_static(name=name)
+    entity.set_pose(sapien.Pose(position))
+    return entity
+
+
+def _add_table(scene, material) -> list[sapien.Entity]:
+    thickness = 0.03
+    parts = [
+        _static_box(
+            scene,
+            "table",
+            [*TABLE_HALF, thickness / 2],
+            [0, 0, TABLE_TOP - thickness / 2],
+            material,
+        )
+    ]
+    leg = (TABLE_TOP - thickness) / 2
+    for sx in (-1, 1):
+        for sy in (-1, 1):
+            position = [sx * (TABLE_HALF[0] - 0.05), sy * (TABLE_HALF[1] - 0.05), leg]
+            parts.append(_static_box(scene, "table_leg", [0.025, 0.025, leg], position, material))
+    return parts
+
+
+def tray_boxes() -> list[tuple[list[float], list[float]]]:
+    """The tray as (half size, centre offset from TRAY_CENTRE) boxes: floor and four walls."""
+    (ix, iy), (t, h) = TRAY_INNER_HALF, TRAY_WALL
+    return [
+        ([ix + t, iy + t, TRAY_FLOOR / 2], [0, 0, TRAY_FLOOR / 2]),
+        ([t / 2, iy + t, h / 2], [ix + t / 2, 0, h / 2]),
+        ([t / 2, iy + t, h / 2], [-ix - t / 2, 0, h / 2]),
+        ([ix + t, t / 2, h / 2], [0, iy + t / 2, h / 2]),
+        ([ix + t, t / 2, h / 2], [0, -iy - t / 2, h / 2]),
+    ]
+
+
+def _add_tray(scene, material) -> sapien.Entity:
+    builder = scene.create_actor_builder()
+    mat = render_material(material)
+    for half_size, offset in tray_boxes():
+        builder.add_box_collision(sapien.Pose(offset), half_size=half_size)
+        builder.add_box_visual(sapien.Pose(offset), half_size=half_size, material=mat)
+    tray = builder.build_static(name="tray")
+    tray.set_pose(sapien.Pose(TRAY_CENTRE))
+    return tray
+
+
+def build_scene(config: BuildConfig, seed: int, index: int) -> GraspScene:
+    """A fresh SAPIEN scene for sample ``index`` of the build, settled and ready to render."""
+    tray_floor_top = (TRAY_CENTRE[0], TRAY_CENTRE[1], TRAY_CENTRE[2] + TRAY_FLOOR)
+    params = sample_scene(config, seed, index, tray_floor_top, TRAY_INNER_HALF)
+    scene = construct_scene(config, params)
+    for _ in range(round(config.physics.settle_time / config.physics.timestep)):
+        scene.scene.step()
+    return scene
+
+
+def construct_scene(config: BuildConfig, params: dict[str, Any]) -> GraspScene:
+    """The scene described by ``params`` (the sampled values; objects at ``drop_poses``), not
+    yet settled. Replay passes the stored values with the settled poses instead."""
+    materials = params["materials"]
+    scene = sapien.Scene()
+    scene.set_timestep(config.physics.timestep)
+    stuff: dict[int, str] = {}
+
+    ground = scene.add_ground(0.0, render_material=render_material(materials["floor"]))
+    stuff[ground.per_scene_id] = "floor"
+    for entity in _add_table(scene, materials["table"]):
+        stuff[entity.per_scene_id] = "table"
+    stuff[_add_tray(scene, materials["tray"]).per_scene_id] = "tray"
+
+    loader = scene.create_urdf_loader()
+    loader.fix_root_link = True
+    robot = loader.load(str(panda_urdf()))
+    robot.set_root_pose(sapien.Pose(ROBOT_BASE))
+    apply_robot(robot, params["robot"])
+    for link in robot.get_links():
+        stuff[link.entity.per_scene_id] = "robot"
+
+    added = add_objects(scene, params["objects"], params["drop_poses"], materials["objects"])
+    objects = [
+        SceneObject(i + 1, spec["shape"]["family"], entity, geometry, spec)
+        for i, ((entity, geometry), spec) in enumerate(zip(added, params["objects"], strict=True))
+    ]
+    apply_lighting(scene, params["lighting"], config.render.shadow_map_size)
+
+    r = config.render
+    workspace = scene.add_camera("workspace", r.width, r.height, 1.0, r.near, r.far)
+    apply_camera(workspace, params["camera"])
+    cameras = {"workspace": workspace}
+    if r.wrist_camera:
+        hand = next(link for link in robot.get_links() if link.name == "panda_hand")
+        cameras["wrist"] = scene.add_mounted_camera(
+            "wrist", hand.entity, WRIST_CAMERA_POSE, r.width, r.height, np.deg2rad(70), 0.01, r.far
+        )
+    return GraspScene(scene, cameras, objects, robot, params, stuff)
