@@ -44,7 +44,8 @@ from typing import Any
 from tqdm import tqdm
 
 from datagen.build.executors.local_processes import WORKER_ENV_DEFAULTS, default_env
-from datagen.config import BuildConfig, ConfigError, config_from_dict, load_config
+from datagen.config import BuildConfig, config_from_dict, load_config
+from datagen.errors import ConfigError
 
 ROOT = Path(__file__).resolve().parent.parent
 RESULTS = ROOT / "benchmarks" / "results" / "pipeline_vs_render.json"

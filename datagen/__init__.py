@@ -8,8 +8,9 @@ Loading a dataset needs neither the simulator nor a broker::
     stream = datagen.stream("datasets/grasp_tabletop", shuffle=True)  # torch IterableDataset
 """
 
-from datagen.config import BuildConfig, ConfigError, load_config
+from datagen.config import BuildConfig, load_config
 from datagen.dataset.loader import DatasetError, load, load_frames, verify
+from datagen.errors import ConfigError
 
 __version__ = "0.1.0"
 

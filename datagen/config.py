@@ -16,6 +16,8 @@ from typing import Any
 import dacite
 import yaml
 
+from datagen.errors import ConfigError
+
 CONFIG_VERSION = 1
 SHAPE_FAMILIES = ("box", "cylinder", "sphere", "capsule", "convex", "compound")
 SCENES = ("grasp_tabletop", "grasp_attempts", "navigation")
@@ -28,10 +30,6 @@ SINKS = (
     "pointcloud",
     "usd",
 )  # webdataset is the store the others are exported from
-
-
-class ConfigError(ValueError):
-    """A user's configuration is wrong; the message says where and why."""
 
 
 def _range(lo: float, hi: float, doc: str) -> Any:

@@ -12,8 +12,9 @@ from pxr import Usd, UsdGeom
 
 from datagen.build.coordinator import run_build
 from datagen.config import BuildConfig as Config
-from datagen.config import ConfigError, ObjectsConfig, RenderConfig, config_from_dict
+from datagen.config import ObjectsConfig, RenderConfig, config_from_dict
 from datagen.dataset.loader import load, verify
+from datagen.errors import ConfigError
 from datagen.mesh_library import AssetError, load_library
 
 

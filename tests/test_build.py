@@ -13,7 +13,8 @@ import pytest
 from datagen.build.coordinator import run_build
 from datagen.config import BuildConfig, RenderConfig
 from datagen.dataset.loader import load, verify
-from datagen.worlds.tabletop import CLASS_ID, TABLE_TOP, TRAY_CENTRE, TRAY_FLOOR
+from datagen.tabletop_layout import TABLE_TOP, TRAY_CENTRE, TRAY_FLOOR
+from datagen.worlds.tabletop import CLASS_ID
 
 NUM_SAMPLES = 20
 CONFIG = BuildConfig(num_samples=NUM_SAMPLES, seed=7, render=RenderConfig(width=192, height=144))

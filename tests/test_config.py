@@ -2,7 +2,8 @@
 
 import pytest
 
-from datagen.config import BuildConfig, ConfigError, load_config
+from datagen.config import BuildConfig, load_config
+from datagen.errors import ConfigError
 
 
 def write(tmp_path, text):

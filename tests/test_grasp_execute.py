@@ -11,7 +11,8 @@ import sapien
 from datagen.config import BuildConfig, ObjectsConfig
 from datagen.grasping import GraspCandidate
 from datagen.grasping.execute import ExecutionParams, execute_grasp
-from datagen.worlds.tabletop import TRAY_CENTRE, TRAY_FLOOR, GraspScene, build_scene
+from datagen.tabletop_layout import TRAY_CENTRE, TRAY_FLOOR
+from datagen.worlds.tabletop import GraspScene, build_scene
 
 PARAMS = ExecutionParams()
 CONFIG = BuildConfig(objects=ObjectsConfig(count=(1, 1), families=("box",), size=(0.05, 0.06)))

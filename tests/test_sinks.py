@@ -14,9 +14,10 @@ from torch.utils.data import DataLoader
 
 import datagen
 from datagen.build.coordinator import run_build
-from datagen.config import BuildConfig, ConfigError, OutputConfig, RenderConfig, config_from_dict
+from datagen.config import BuildConfig, OutputConfig, RenderConfig, config_from_dict
 from datagen.dataset.loader import decode_parts, load, read_manifest
 from datagen.dataset.pointcloud import read_ply
+from datagen.errors import ConfigError
 from datagen.shapes import build_geometry
 
 SAMPLES = 8

@@ -21,7 +21,7 @@ import trimesh
 from pxr import Gf, Sdf, Usd, UsdGeom, UsdLux, UsdShade, UsdValidation, Vt
 
 from datagen.shapes import build_geometry
-from datagen.worlds.tabletop import TABLE_HALF, TABLE_TOP, TRAY_CENTRE, tray_boxes
+from datagen.tabletop_layout import TABLE_HALF, TABLE_TOP, TRAY_CENTRE, tray_boxes
 
 APERTURE_PER_PIXEL = 0.01  # USD camera aperture units per image pixel (only ratios matter)
 FLOOR_HALF = 5.0  # metres

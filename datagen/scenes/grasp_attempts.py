@@ -21,16 +21,8 @@ from datagen.grasping.samplers import GraspTarget, Obstacles, make_sampler
 from datagen.sample import Sample
 from datagen.scenes.grasp_tabletop import annotate_scene, to_sample
 from datagen.seeding import sample_rng
-from datagen.worlds.tabletop import (
-    TABLE_TOP,
-    TRAY_CENTRE,
-    TRAY_INNER_HALF,
-    TRAY_WALL,
-    GraspScene,
-    SceneObject,
-    build_scene,
-    tray_boxes,
-)
+from datagen.tabletop_layout import TABLE_TOP, TRAY_CENTRE, TRAY_INNER_HALF, TRAY_WALL, tray_boxes
+from datagen.worlds.tabletop import GraspScene, SceneObject, build_scene
 
 MIN_VISIBLE_FRACTION = 0.3  # targets are objects the camera sees well enough to learn from
 

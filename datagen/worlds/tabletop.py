@@ -22,15 +22,16 @@ from datagen.randomisers.materials import render_material
 from datagen.randomisers.objects import add_objects
 from datagen.randomisers.robot import apply_robot
 from datagen.shapes import ObjectGeometry
+from datagen.tabletop_layout import (
+    ROBOT_BASE,
+    TABLE_HALF,
+    TABLE_TOP,
+    TRAY_CENTRE,
+    TRAY_FLOOR,
+    TRAY_INNER_HALF,
+    tray_boxes,
+)
 from datagen.worlds.robots import PANDA, maniskill_asset
-
-TABLE_TOP = 0.75  # metres
-TABLE_HALF = (0.6, 0.75)
-ROBOT_BASE = (-0.62, 0.0, TABLE_TOP)
-TRAY_CENTRE = (0.08, 0.0, TABLE_TOP)  # centre of the tray's bottom face
-TRAY_INNER_HALF = (0.2, 0.26)  # metres
-TRAY_WALL = (0.008, 0.07)  # thickness, height (metres)
-TRAY_FLOOR = 0.01  # floor thickness, metres
 
 # Semantic classes: 0 is background (nothing rendered), object classes are shape families.
 STUFF_CLASSES = ("background", "floor", "table", "tray", "robot")
@@ -102,18 +103,6 @@ def _add_table(scene, material) -> list[sapien.Entity]:
             position = [sx * (TABLE_HALF[0] - 0.05), sy * (TABLE_HALF[1] - 0.05), leg]
             parts.append(_static_box(scene, "table_leg", [0.025, 0.025, leg], position, material))
     return parts
-
-
-def tray_boxes() -> list[tuple[list[float], list[float]]]:
-    """The tray as (half size, centre offset from TRAY_CENTRE) boxes: floor and four walls."""
-    (ix, iy), (t, h) = TRAY_INNER_HALF, TRAY_WALL
-    return [
-        ([ix + t, iy + t, TRAY_FLOOR / 2], [0, 0, TRAY_FLOOR / 2]),
-        ([t / 2, iy + t, h / 2], [ix + t / 2, 0, h / 2]),
-        ([t / 2, iy + t, h / 2], [-ix - t / 2, 0, h / 2]),
-        ([ix + t, t / 2, h / 2], [0, iy + t / 2, h / 2]),
-        ([ix + t, t / 2, h / 2], [0, -iy - t / 2, h / 2]),
-    ]
 
 
 def _add_tray(scene, material) -> sapien.Entity:

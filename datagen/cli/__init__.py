@@ -1,0 +1,65 @@
+"""The ``datagen`` command line: one parser, one module per group of commands. The CLI owns the
+terminal (progress bars, messages, exit codes); library code only logs and reports through
+callbacks.
+
+Each command module has ``add_parsers(commands)`` (its sub-commands, each with
+``set_defaults(run=...)``) and the ``run`` functions that return the exit code.
+"""
+
+from __future__ import annotations
+
+import argparse
+import logging
+import signal
+import sys
+
+from datagen.cli import build_commands, dataset_commands, service_commands
+from datagen.cli.common import EXIT_INTERRUPTED, EXIT_USER_ERROR
+from datagen.errors import ConfigError
+
+COMMAND_MODULES = (build_commands, service_commands, dataset_commands)
+
+
+def parser() -> argparse.ArgumentParser:
+    root = argparse.ArgumentParser(
+        prog="datagen",
+        description="Synthetic, annotated, reproducible datasets for robot learning.",
+    )
+    root.add_argument("-v", "--verbose", action="store_true", help="log what every part does")
+    commands = root.add_subparsers(dest="command", metavar="COMMAND", required=True)
+    for module in COMMAND_MODULES:
+        module.add_parsers(commands)
+    return root
+
+
+def main(argv: list[str] | None = None) -> int:
+    # a parent may hand us SIGINT blocked (it is then never delivered): Ctrl-C must work
+    signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGINT})
+    args = parser().parse_args(argv)
+    logging.basicConfig(
+        level=logging.INFO if args.verbose else logging.WARNING,
+        format="%(levelname)s %(name)s: %(message)s",
+    )
+    from datagen.build.coordinator import BuildError
+    from datagen.dataset.loader import DatasetError
+    from datagen.engines.transfer.connection import MqttConnectError
+    from datagen.engines.transfer.mosquitto import BrokerError
+
+    try:
+        return args.run(args)
+    except ConfigError as exc:
+        print(f"datagen: config error: {exc}", file=sys.stderr)
+        return EXIT_USER_ERROR
+    except (BuildError, BrokerError, MqttConnectError, DatasetError) as exc:
+        print(f"datagen: {args.command} failed: {exc}", file=sys.stderr)
+        return 1
+    except KeyboardInterrupt:
+        hint = ""
+        if args.command in ("build", "campaign"):
+            command = "build" if args.command == "build" else "campaign grasp"
+            hint = f" Finish it with: datagen {command} {args.config} --out {args.out} --resume"
+        print(
+            f"\ndatagen: interrupted; the output is incomplete (no manifest).{hint}",
+            file=sys.stderr,
+        )
+        return EXIT_INTERRUPTED
