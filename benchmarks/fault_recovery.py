@@ -22,7 +22,7 @@ import threading
 import time
 from pathlib import Path
 
-from datagen.build.coordinator import run_build
+from datagen.build.run import run_build
 from datagen.config import load_config
 from datagen.dataset.loader import load, verify
 

@@ -20,7 +20,7 @@ import tempfile
 import time
 from pathlib import Path
 
-from datagen.build.coordinator import run_build
+from datagen.build.run import run_build
 from datagen.config import load_config
 
 REPO = Path(__file__).resolve().parents[1]

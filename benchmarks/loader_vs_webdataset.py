@@ -27,7 +27,7 @@ import webdataset as wds
 from torch.utils.data import DataLoader
 
 import datagen
-from datagen.build.coordinator import run_build
+from datagen.build.run import run_build
 from datagen.config import load_config
 
 REPO = Path(__file__).resolve().parents[1]

@@ -24,8 +24,9 @@ from pathlib import Path
 
 import psutil
 
-from datagen.build.coordinator import run_build
-from datagen.config import RenderConfig, load_config
+from datagen.build.run import run_build
+from datagen.config import load_config
+from datagen.config.sections import RenderConfig
 
 REPO = Path(__file__).resolve().parents[1]
 MIB = 2**20

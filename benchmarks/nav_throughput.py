@@ -7,7 +7,7 @@ the plain in-process episode loop on the same episodes for comparison.
 Per family (configs/nav_<family>.yaml, same seed and indices on both sides):
   pipeline: run_build with W workers, then with 1 (Mosquitto, writer, manifest), wall time as a
             user sees it, start-up included
-  plain:    produce_nav_episode(config, seed, i) in this process, one after another (plan, build
+  plain:    produce(config, seed, i) in this process, one after another (plan, build
             the scene, render, label, encode; no transfer), after one untimed warm-up episode
 
 Lavapipe renders with one thread per core, so a single process already keeps both cores of a
@@ -26,10 +26,10 @@ import tempfile
 import time
 from pathlib import Path
 
-from datagen.build.coordinator import run_build
+from datagen.build.run import run_build
 from datagen.config import load_config
 from datagen.dataset.loader import load
-from datagen.scenes.navigation import produce_nav_episode
+from datagen.scenes.navigation import produce
 
 REPO = Path(__file__).resolve().parents[1]
 FAMILIES = ("rooms", "corridor", "maze")
@@ -50,10 +50,10 @@ def _pipeline(config, workers: int) -> dict:
 
 
 def _plain(config) -> dict:
-    produce_nav_episode(config, config.seed + 1, 0)  # warm-up: shaders, Fetch meshes
+    produce(config, config.seed + 1, 0)  # warm-up: shaders, Fetch meshes
     start, frames = time.monotonic(), 0
     for i in range(config.num_samples):
-        sample = produce_nav_episode(config, config.seed, i)
+        sample = produce(config, config.seed, i)
         frames += sum(name.endswith(".rgb.png") for name in sample.parts)
     return {"seconds": time.monotonic() - start, "frames": frames}
 

@@ -28,7 +28,7 @@ from pathlib import Path
 
 import ray
 
-from datagen.build.coordinator import run_build
+from datagen.build.run import run_build
 from datagen.build.worker import STAGE_LOG_ENV
 from datagen.config import load_config
 

@@ -75,8 +75,9 @@ def maniskill_fps(
 
 
 def datagen_fps(frames: int, width: int, height: int, workers: int) -> dict:
-    from datagen.build.coordinator import run_build
-    from datagen.config import RenderConfig, load_config
+    from datagen.build.run import run_build
+    from datagen.config import load_config
+    from datagen.config.sections import RenderConfig
 
     base = load_config(REPO / "configs/grasp_tabletop.yaml")
     config = base.replace(

@@ -5,3 +5,7 @@ from __future__ import annotations
 
 class ConfigError(ValueError):
     """A user's configuration is wrong; the message says where and why."""
+
+
+class BuildError(RuntimeError):
+    """The build cannot finish; the message says what is missing and why."""

@@ -44,3 +44,14 @@ def pose_record(transform: np.ndarray) -> dict[str, list]:
         "position": np.round(transform[:3, 3], 7).tolist(),
         "quat_wxyz": np.round(tq.mat2quat(transform[:3, :3]), 7).tolist(),
     }
+
+
+def project(
+    points_world: np.ndarray, intrinsics: np.ndarray, extrinsics: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
+    """World points (N, 3) -> pixel coordinates (N, 2) (pixel centres at integers) and depth (N,)."""
+    cam = points_world @ extrinsics[:3, :3].T + extrinsics[:3, 3]
+    uvw = cam @ intrinsics.T
+    with np.errstate(divide="ignore", invalid="ignore"):
+        uv = uvw[:, :2] / uvw[:, 2:3] - 0.5
+    return uv, cam[:, 2]

@@ -133,7 +133,7 @@ def choices(registry: Registry) -> Callable[[str], str]:
 
         if text not in registry:
             raise argparse.ArgumentTypeError(
-                f"unknown {registry.kind} {text!r}; expected one of {registry.names()}"
+                f"expected one of {registry.names()} ({registry.kind}), got {text!r}"
             )
         return text
 

@@ -17,7 +17,9 @@ import pytest
 
 from datagen.engines.transfer.mosquitto import ManagedBroker
 from datagen.sample import Sample
-from datagen.shards import ShardWriter, journal_path, keys_sha256, write_manifest
+from datagen.shards import keys_sha256, write_manifest
+from datagen.sinks.journal import journal_path
+from datagen.sinks.shard_writer import ShardWriter
 
 REPO = Path(__file__).resolve().parents[1]
 
@@ -105,7 +107,7 @@ def make_dataset() -> Callable[..., Path]:
 
 
 class WriterProcess:
-    """``python -m datagen.sinks.writer`` as a subprocess, its log in ``log_path``."""
+    """``datagen writer`` as a subprocess, its log in ``log_path``."""
 
     def __init__(
         self,
@@ -118,7 +120,7 @@ class WriterProcess:
         args: Sequence[str] = (),
     ):
         self.out, self.writer_id, self.log_path = out, writer_id, log_path
-        cmd = [sys.executable, "-m", "datagen.sinks.writer", "--build-id", build_id]
+        cmd = [sys.executable, "-m", "datagen.cli", "writer", "--build-id", build_id]
         cmd += ["--out", str(out), "--writer-id", writer_id, "--shard-size", str(shard_size)]
         with open(log_path, "ab") as log:
             self.proc = subprocess.Popen(

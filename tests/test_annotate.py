@@ -2,9 +2,9 @@
 
 import numpy as np
 
-from datagen.engines.sim.annotate import LabelledObject, label_maps, object_view_records, project
+from datagen.engines.sim.annotate import LabelledObject, label_maps, object_view_records
 from datagen.engines.sim.render import Frame
-from datagen.geometry import look_at, world_to_cv_camera
+from datagen.geometry import look_at, project, world_to_cv_camera
 
 
 def frame_looking_down(width=64, height=48, f=50.0):

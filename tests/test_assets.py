@@ -10,9 +10,10 @@ import pytest
 import trimesh
 from pxr import Usd, UsdGeom
 
-from datagen.build.coordinator import run_build
+from datagen.build.run import run_build
 from datagen.config import BuildConfig as Config
-from datagen.config import ObjectsConfig, RenderConfig, config_from_dict
+from datagen.config import config_from_dict
+from datagen.config.sections import ObjectsConfig, RenderConfig
 from datagen.dataset.loader import load, verify
 from datagen.errors import ConfigError
 from datagen.mesh_library import AssetError, load_library
@@ -69,6 +70,9 @@ def test_no_usable_mesh_is_a_clear_error(tmp_path):
         config_from_dict({"objects": {"source": "folder", "assets_dir": str(tmp_path / "none")}})
 
 
+@pytest.mark.sim
+@pytest.mark.mqtt
+@pytest.mark.slow
 def test_build_with_user_meshes(assets, tmp_path):
     config = Config(
         num_samples=4,

@@ -13,15 +13,12 @@ from pathlib import Path
 
 import pytest
 
-from datagen.engines.transfer.collector import (
-    AckCollector,
-    PublishRefused,
-    PublishTimeout,
-    SamplePublisher,
-    topics,
-)
-from datagen.engines.transfer.connection import MqttConnectError, MqttConnection
-from datagen.engines.transfer.mosquitto import BrokerError, ManagedBroker, parse_broker_url
+from datagen.engines.transfer.broker_url import broker_url, parse_broker_url, redact
+from datagen.engines.transfer.collector import AckCollector
+from datagen.engines.transfer.connection import MqttConnectError, MqttConnection, broker_answers
+from datagen.engines.transfer.mosquitto import BrokerError, ManagedBroker
+from datagen.engines.transfer.publisher import PublishRefused, PublishTimeout, SamplePublisher
+from datagen.engines.transfer.topics import topics
 from datagen.engines.transfer.wire import decode_sample, encode_sample
 
 
@@ -55,6 +52,46 @@ def test_parse_broker_url_rejects(url, reason):
         parse_broker_url(url)
 
 
+@pytest.mark.parametrize(
+    ("url", "printed"),
+    [
+        ("mqtt://u%40x:p%2Fw%3A@127.0.0.1:1999", "mqtt://u%40x:***@127.0.0.1:1999"),
+        ("mqtts://user:pa@ss@[::1]:8883/", "mqtts://user:***@[::1]:8883/"),
+        ("mqtt://u:secret@h:port", "mqtt://u:***@h:port"),  # malformed, still redacted
+        ("mqtt://user@h:1883", "mqtt://user@h:1883"),
+        ("mqtt://h", "mqtt://h"),
+        ("not a url", "not a url"),
+    ],
+)
+def test_redact_hides_the_password(url, printed):
+    assert redact(url) == printed
+
+
+def test_broker_url_round_trips_through_the_parser():
+    url = broker_url("mqtts", "u@x", "p/w:", "::1", 8883)
+    assert url == "mqtts://u%40x:p%2Fw%3A@[::1]:8883"
+    a = parse_broker_url(url)
+    assert (a.host, a.port, a.username, a.password, a.tls) == ("::1", 8883, "u@x", "p/w:", True)
+
+
+@pytest.mark.mqtt
+def test_broker_answers_any_connack_and_nothing_else(broker):
+    a = parse_broker_url(broker.url)
+    assert broker_answers(a.host, a.port, a.username, a.password, 2.0)
+    assert broker_answers(a.host, a.port, a.username, "wrong", 2.0)  # a refusal is an answer
+    with socket.socket() as closed:
+        closed.bind(("127.0.0.1", 0))
+        port = closed.getsockname()[1]
+    assert not broker_answers("127.0.0.1", port, "u", "p", 0.5)  # nothing listens
+    with socket.socket() as silent:  # listens, never answers
+        silent.bind(("127.0.0.1", 0))
+        silent.listen()
+        t0 = time.monotonic()
+        assert not broker_answers("127.0.0.1", silent.getsockname()[1], "u", "p", 0.3)
+        assert time.monotonic() - t0 < 2.0
+
+
+@pytest.mark.mqtt
 def test_broker_requires_its_credentials(broker):
     conn = MqttConnection(broker.url, "test-auth-ok")
     conn.close()
@@ -67,6 +104,7 @@ def test_broker_requires_its_credentials(broker):
             MqttConnection(url, "test-auth-bad")
 
 
+@pytest.mark.mqtt
 def test_config_raises_limits_and_files_belong_to_the_broker_user(broker):
     conf = (broker.dir / "mosquitto.conf").read_text()
     for line in (
@@ -92,6 +130,7 @@ def test_missing_executable_is_a_clear_error():
         pass
 
 
+@pytest.mark.mqtt
 def test_failed_start_reports_the_log_tail():
     with socket.socket() as taken:
         taken.bind(("127.0.0.1", 0))
@@ -103,6 +142,7 @@ def test_failed_start_reports_the_log_tail():
     assert b.dir is None  # temp dir removed
 
 
+@pytest.mark.mqtt
 def test_stop_removes_the_temp_dir():
     with ManagedBroker() as b:
         d = b.dir
@@ -110,6 +150,7 @@ def test_stop_removes_the_temp_dir():
     assert not d.exists() and not b.running
 
 
+@pytest.mark.mqtt
 def test_persistent_session_gets_messages_queued_across_a_broker_restart(make_sample):
     got: list[bytes] = []
     three = threading.Semaphore(0)
@@ -142,6 +183,7 @@ def test_persistent_session_gets_messages_queued_across_a_broker_restart(make_sa
     assert sorted(decode_sample(p)[1].index for p in got) == [0, 1, 2]
 
 
+@pytest.mark.mqtt
 def test_mosquitto_sub_hex_capture_decodes_per_spec(broker, build_id, make_sample):
     """A retained sample is delivered on subscribe, so no race with mosquitto_sub's start."""
     t = topics(build_id)
@@ -200,6 +242,7 @@ def tls_broker(tls_files):
         yield b
 
 
+@pytest.mark.mqtt
 def test_tls_publish_and_receive_and_a_writer_over_mqtts(
     tls_broker, tls_files, build_id, start_writer, make_sample
 ):
@@ -225,11 +268,13 @@ def test_tls_publish_and_receive_and_a_writer_over_mqtts(
     assert w.wait() == 0
 
 
+@pytest.mark.mqtt
 def test_the_ca_file_can_come_from_the_environment(tls_broker, tls_files, monkeypatch):
     monkeypatch.setenv("DATAGEN_MQTT_CA_FILE", str(tls_files / "ca.crt"))
     MqttConnection(tls_broker.tls_url, "tls-env").close()
 
 
+@pytest.mark.mqtt
 def test_tls_errors_say_what_went_wrong(tls_broker, tls_files):
     a = parse_broker_url(tls_broker.tls_url)
     ca, other = str(tls_files / "ca.crt"), str(tls_files / "other-ca.crt")
@@ -259,6 +304,7 @@ def test_an_unreachable_broker_is_a_clear_error():
         MqttConnection(f"mqtt://u:p@127.0.0.1:{port}", "nobody-home", timeout_s=1)
 
 
+@pytest.mark.mqtt
 def test_a_wrong_password_is_refused_clearly(broker):
     a = parse_broker_url(broker.url)
     with pytest.raises(MqttConnectError, match=f"broker refused the credentials .*{a.username}"):
@@ -282,6 +328,7 @@ def _run_broker_process(port, data_dir):
     return proc, url
 
 
+@pytest.mark.mqtt
 def test_run_broker_forever_keeps_state_and_credentials_in_its_data_dir(tmp_path):
     with socket.socket() as s:
         s.bind(("127.0.0.1", 0))
@@ -313,6 +360,7 @@ def test_run_broker_forever_keeps_state_and_credentials_in_its_data_dir(tmp_path
         proc.wait(30)
 
 
+@pytest.mark.mqtt
 def test_an_acl_confines_a_user_to_its_build_and_refusals_are_errors(tmp_path, make_sample):
     acl = tmp_path / "acl"
     acl.write_text("pattern readwrite datagen/%u/#\n")  # user "b1" may use build b1 only
@@ -328,6 +376,7 @@ def test_an_acl_confines_a_user_to_its_build_and_refusals_are_errors(tmp_path, m
                 pub.flush()
 
 
+@pytest.mark.mqtt
 def test_a_parent_death_signal_survives_mosquitto_dropping_root():
     """The coordinator passes a preexec_fn asking for SIGKILL when it dies (PR_SET_PDEATHSIG);
     a process that changes its user loses that, so as root ManagedBroker starts mosquitto as

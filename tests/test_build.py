@@ -10,11 +10,14 @@ import json
 import numpy as np
 import pytest
 
-from datagen.build.coordinator import run_build
-from datagen.config import BuildConfig, RenderConfig
+from datagen.build.run import run_build
+from datagen.config import BuildConfig
+from datagen.config.sections import RenderConfig
 from datagen.dataset.loader import load, verify
 from datagen.tabletop_layout import TABLE_TOP, TRAY_CENTRE, TRAY_FLOOR
 from datagen.worlds.tabletop import CLASS_ID
+
+pytestmark = [pytest.mark.sim, pytest.mark.mqtt, pytest.mark.slow]  # real builds
 
 NUM_SAMPLES = 20
 CONFIG = BuildConfig(num_samples=NUM_SAMPLES, seed=7, render=RenderConfig(width=192, height=144))

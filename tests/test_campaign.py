@@ -13,10 +13,13 @@ import numpy as np
 import pytest
 import yaml
 
-from datagen.build.coordinator import run_build
-from datagen.config import BuildConfig, CampaignConfig, OutputConfig, RenderConfig
+from datagen.build.run import run_build
+from datagen.config import BuildConfig
+from datagen.config.sections import CampaignConfig, OutputConfig, RenderConfig
 from datagen.dataset.loader import load, verify
 from datagen.grasping import FAILURE_MODES
+
+pytestmark = [pytest.mark.sim, pytest.mark.mqtt, pytest.mark.slow]  # real builds
 
 REPO = Path(__file__).resolve().parents[1]
 ATTEMPTS = 10

@@ -9,6 +9,8 @@ import sys
 import time
 from pathlib import Path
 
+import pytest
+
 REPO = Path(__file__).resolve().parents[1]
 
 
@@ -64,6 +66,9 @@ def _children_named(name: str) -> list[str]:
     return out.split()
 
 
+@pytest.mark.sim
+@pytest.mark.mqtt
+@pytest.mark.slow
 def test_ctrl_c_stops_the_build_cleanly(tmp_path):
     brokers_before = set(_children_named("mosquitto -c"))
     process = subprocess.Popen(

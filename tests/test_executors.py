@@ -10,9 +10,12 @@ import signal
 import psutil
 import pytest
 
-from datagen.build.coordinator import run_build
-from datagen.config import BuildConfig, ExecutorConfig, RenderConfig
+from datagen.build.run import run_build
+from datagen.config import BuildConfig
+from datagen.config.sections import ExecutorConfig, RenderConfig
 from datagen.dataset.loader import load, verify
+
+pytestmark = [pytest.mark.sim, pytest.mark.mqtt, pytest.mark.slow]  # real builds
 
 SAMPLES = 10
 CONFIG = BuildConfig(num_samples=SAMPLES, seed=4, render=RenderConfig(width=128, height=96))
@@ -42,6 +45,7 @@ def test_recycled_workers_make_exactly_n_samples(recycled_local):
     assert result.restarts["worker"] == 0  # recycling is not a fault
 
 
+@pytest.mark.ray
 def test_ray_executor_builds_the_same_dataset(recycled_local, tmp_path):
     out = tmp_path / "ray"
     events = []
@@ -62,6 +66,7 @@ def _ray_workers() -> list[psutil.Process]:
     return found
 
 
+@pytest.mark.ray
 def test_a_killed_ray_worker_is_replaced(tmp_path):
     killed = []
 

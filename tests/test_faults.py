@@ -21,13 +21,17 @@ import psutil
 import pytest
 import yaml
 
-from datagen.build.coordinator import run_build
-from datagen.config import BuildConfig, RenderConfig, TransferConfig
+from datagen.build.run import run_build
+from datagen.config import BuildConfig
+from datagen.config.sections import RenderConfig, TransferConfig
 from datagen.dataset.loader import load, verify
-from datagen.engines.transfer.collector import SamplePublisher, topics
-from datagen.engines.transfer.mosquitto import parse_broker_url
+from datagen.engines.transfer.broker_url import parse_broker_url
+from datagen.engines.transfer.publisher import SamplePublisher
+from datagen.engines.transfer.topics import topics
 from datagen.engines.transfer.wire import encode_sample
 from datagen.sample import Sample
+
+pytestmark = [pytest.mark.sim, pytest.mark.mqtt, pytest.mark.slow]  # real builds
 
 REPO = Path(__file__).resolve().parents[1]
 N = 30
@@ -119,9 +123,9 @@ def test_broker_restart_mid_build(tmp_path, sig):
 
 
 def _produce(index: int) -> Sample:
-    from datagen.scenes.grasp_tabletop import produce_sample
+    from datagen.scenes.grasp_tabletop import produce
 
-    return produce_sample(CONFIG, CONFIG.seed, index)
+    return produce(CONFIG, CONFIG.seed, index)
 
 
 def test_injected_duplicates_are_written_once(tmp_path):

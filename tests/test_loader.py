@@ -11,25 +11,16 @@ import pytest
 
 from datagen.dataset.loader import DatasetError, load, verify
 from datagen.sample import Sample
-from datagen.shards import (
-    ShardWriter,
-    WriterLock,
-    WriterLocked,
-    durable_keys,
-    file_sha256,
-    journal_path,
-    keys_sha256,
-    read_keys,
-    recover,
-    remove_keys,
-    scan_members,
-)
+from datagen.shards import file_sha256, keys_sha256, read_keys, scan_members
 from datagen.sinks.finalize import (
     FinalizeError,
     combine,
     drop_copies_held_by_smaller,
     write_part,
 )
+from datagen.sinks.journal import durable_keys, journal_path, recover
+from datagen.sinks.lock import WriterLock, WriterLocked
+from datagen.sinks.shard_writer import ShardWriter, remove_keys
 
 
 def test_items_are_decoded_arrays(tmp_path, make_sample, make_arrays, make_dataset):

@@ -9,7 +9,6 @@ import pytest
 from scipy import ndimage
 
 from datagen.navigation import (
-    FAMILIES,
     Layout,
     PlanningError,
     astar,
@@ -23,6 +22,7 @@ from datagen.navigation import (
     smooth_path,
 )
 from datagen.navigation.grid import free_components
+from datagen.registries import LAYOUTS
 from datagen.seeding import sample_rng
 
 ROBOT, CLEARANCE = 0.25, 0.35  # robot radius; planning inflation = radius + 0.1 m margin
@@ -41,10 +41,10 @@ def episode(family: str, seed: int):
 
 @pytest.fixture(scope="module")
 def episodes():
-    return {(f, s): episode(f, s) for f in FAMILIES for s in SEEDS}
+    return {(f, s): episode(f, s) for f in LAYOUTS for s in SEEDS}
 
 
-@pytest.mark.parametrize("family", sorted(FAMILIES))
+@pytest.mark.parametrize("family", sorted(LAYOUTS))
 def test_layouts_connected_and_described(family, episodes):
     for seed in SEEDS:
         layout = episodes[family, seed][0]
@@ -69,7 +69,7 @@ def test_layouts_connected_and_described(family, episodes):
         assert min(widths) >= 0.9 and max(widths) <= 1.2
 
 
-@pytest.mark.parametrize("family", sorted(FAMILIES))
+@pytest.mark.parametrize("family", sorted(LAYOUTS))
 def test_paths_and_following(family, episodes):
     for seed in SEEDS:
         layout, start, goal, occupied, cells, traj = episodes[family, seed]
@@ -95,7 +95,7 @@ def test_paths_and_following(family, episodes):
         assert np.allclose(world, path_to_world([goal], layout.resolution)[0])
 
 
-@pytest.mark.parametrize("family", sorted(FAMILIES))
+@pytest.mark.parametrize("family", sorted(LAYOUTS))
 def test_reproducible_and_seed_dependent(family, episodes):
     again = episode(family, 3)
     first = episodes[family, 3]

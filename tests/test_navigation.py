@@ -14,12 +14,14 @@ import numpy as np
 import pytest
 from pycocotools.coco import COCO
 
-from datagen.build.coordinator import run_build
-from datagen.config import BuildConfig, NavigationConfig, OutputConfig, RenderConfig, load_config
+from datagen.build.run import run_build
+from datagen.config import BuildConfig, load_config
+from datagen.config.sections import NavigationConfig, OutputConfig, RenderConfig
 from datagen.dataset.loader import load, load_frames, verify
 from datagen.navigation.episode import plan_episode
-from datagen.navigation.planning import footprint_collides, inflate
-from datagen.scenes.navigation import planar_pose, produce_nav_episode
+from datagen.navigation.planning import footprint_collides
+from datagen.navigation.grid import inflate
+from datagen.scenes.navigation import planar_pose, produce
 from datagen.tools.inspection import inspect_dataset
 from datagen.tools.preview import write_preview
 from datagen.worlds.floorplan import NAV_CLASS_ID
@@ -78,10 +80,11 @@ def _distance_to_rects(points: np.ndarray, rects: list) -> np.ndarray:
 
 @pytest.fixture(scope="module")
 def rendered():
-    return {family: produce_nav_episode(nav_config(family), 3, 1) for family in FAMILIES}
+    return {family: produce(nav_config(family), 3, 1) for family in FAMILIES}
 
 
 @pytest.mark.parametrize("family", FAMILIES)
+@pytest.mark.sim
 def test_frames_agree_with_the_robot_pose_and_the_layout(rendered, family):
     sample = rendered[family]
     meta = json.loads(sample.parts["json"])
@@ -118,8 +121,9 @@ def test_frames_agree_with_the_robot_pose_and_the_layout(rendered, family):
     assert {NAV_CLASS_ID["floor"], NAV_CLASS_ID["wall"]} <= seen
 
 
+@pytest.mark.sim
 def test_same_seed_same_episode(rendered):
-    again = produce_nav_episode(nav_config("maze"), 3, 1)
+    again = produce(nav_config("maze"), 3, 1)
     assert again.parts == rendered["maze"].parts
     other = plan_episode(nav_config("maze").navigation, 3, 2)
     assert not np.array_equal(other.trajectory.poses[:5], plan_episode(nav_config("maze").navigation, 3, 1).trajectory.poses[:5])  # fmt: skip
@@ -143,6 +147,9 @@ def nav_build(tmp_path_factory):
     return out
 
 
+@pytest.mark.sim
+@pytest.mark.mqtt
+@pytest.mark.slow
 def test_build_loads_as_episodes_and_as_frames(nav_build):
     root = nav_build / "two"
     manifest = verify(root)
@@ -169,6 +176,9 @@ def test_build_loads_as_episodes_and_as_frames(nav_build):
     assert item["meta"] == last["frames"][-1]["meta"]
 
 
+@pytest.mark.sim
+@pytest.mark.mqtt
+@pytest.mark.slow
 def test_build_is_the_same_whatever_the_number_of_workers(nav_build):
     two, one = load(nav_build / "two"), load(nav_build / "one")
     assert two.keys == one.keys
@@ -176,6 +186,9 @@ def test_build_is_the_same_whatever_the_number_of_workers(nav_build):
         assert two.raw(i) == one.raw(i)
 
 
+@pytest.mark.sim
+@pytest.mark.mqtt
+@pytest.mark.slow
 def test_inspect_summarises_episodes(nav_build):
     summary, files = inspect_dataset(nav_build / "two")
     assert summary["episodes"] == EPISODES and summary["families"] == {"maze": EPISODES}
@@ -186,6 +199,9 @@ def test_inspect_summarises_episodes(nav_build):
     assert preview.shape[1] == 4 * RENDER.width  # one column per episode: frame above map
 
 
+@pytest.mark.sim
+@pytest.mark.mqtt
+@pytest.mark.slow
 def test_episodes_export_to_hdf5_and_coco(nav_build):
     root = nav_build / "one"
     episodes = load(root)

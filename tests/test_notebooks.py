@@ -8,8 +8,11 @@ import nbformat
 import pytest
 from nbclient import NotebookClient
 
-from datagen.build.coordinator import run_build
-from datagen.config import BuildConfig, OutputConfig, RenderConfig
+from datagen.build.run import run_build
+from datagen.config import BuildConfig
+from datagen.config.sections import OutputConfig, RenderConfig
+
+pytestmark = [pytest.mark.sim, pytest.mark.mqtt, pytest.mark.slow]  # a real build, then a kernel
 
 NOTEBOOKS = Path(__file__).resolve().parents[1] / "notebooks"
 

@@ -7,10 +7,13 @@ import json
 import numpy as np
 import pytest
 
-from datagen.config import BuildConfig, RenderConfig
+from datagen.config import BuildConfig
+from datagen.config.sections import RenderConfig
 from datagen.engines.sim.render import capture
 from datagen.scenes.grasp_tabletop import render_annotated, to_sample
 from datagen.worlds.tabletop import build_scene
+
+pytestmark = pytest.mark.sim
 
 CONFIG = BuildConfig(render=RenderConfig(width=160, height=120, wrist_camera=True))
 

@@ -4,7 +4,8 @@ import json
 
 import numpy as np
 
-from datagen.config import BuildConfig, ObjectsConfig
+from datagen.config import BuildConfig
+from datagen.config.sections import ObjectsConfig
 from datagen.randomisers import sample_scene
 from datagen.randomisers.objects import sample_objects
 from datagen.seeding import sample_rng

@@ -13,11 +13,14 @@ from pycocotools.coco import COCO
 from torch.utils.data import DataLoader
 
 import datagen
-from datagen.build.coordinator import run_build
-from datagen.config import BuildConfig, OutputConfig, RenderConfig, config_from_dict
+from datagen.build.run import run_build
+from datagen.config import BuildConfig, config_from_dict
+from datagen.config.sections import OutputConfig, RenderConfig
 from datagen.dataset.loader import decode_parts, load, read_manifest
 from datagen.dataset.pointcloud import read_ply
+from datagen.dataset.views import is_sequence, labelled_views
 from datagen.errors import ConfigError
+from datagen.exports.runner import run_exports
 from datagen.shapes import build_geometry
 
 SAMPLES = 8
@@ -36,6 +39,9 @@ def built(tmp_path_factory):
     return out
 
 
+@pytest.mark.sim
+@pytest.mark.mqtt
+@pytest.mark.slow
 def test_coco_loads_in_pycocotools_and_matches_the_samples(built):
     coco = COCO(str(built / "coco" / "annotations.json"))
     dataset = load(built)
@@ -65,6 +71,9 @@ def test_coco_loads_in_pycocotools_and_matches_the_samples(built):
     assert checked > SAMPLES  # several objects per scene
 
 
+@pytest.mark.sim
+@pytest.mark.mqtt
+@pytest.mark.slow
 def test_hdf5_round_trip(built):
     dataset = load(built)
     with h5py.File(built / "episodes.h5", "r") as f:
@@ -79,6 +88,9 @@ def test_hdf5_round_trip(built):
             assert json.loads(group.attrs["meta"]) == item["meta"]
 
 
+@pytest.mark.sim
+@pytest.mark.mqtt
+@pytest.mark.slow
 def test_exports_are_recorded_and_redone_after_an_interruption(built):
     manifest = read_manifest(built)
     assert set(manifest["exports"]) == {"coco", "hdf5", "pointcloud", "usd"}
@@ -95,6 +107,9 @@ def test_exports_are_recorded_and_redone_after_an_interruption(built):
     assert set(read_manifest(built)["exports"]) == {"coco", "hdf5", "pointcloud", "usd"}
 
 
+@pytest.mark.sim
+@pytest.mark.mqtt
+@pytest.mark.slow
 def test_point_clouds_are_labelled_and_in_the_world_frame(built):
     import open3d as o3d
 
@@ -118,6 +133,9 @@ def test_point_clouds_are_labelled_and_in_the_world_frame(built):
         assert np.percentile(heights, 99) < 0.005
 
 
+@pytest.mark.sim
+@pytest.mark.mqtt
+@pytest.mark.slow
 def test_usd_scenes_validate_and_match_the_metadata(built):
     from pxr import Usd, UsdGeom
 
@@ -148,10 +166,13 @@ def test_usd_scenes_validate_and_match_the_metadata(built):
             for mesh, part in zip(meshes, parts, strict=True):
                 np.testing.assert_allclose(np.asarray(mesh.GetPointsAttr().Get()), part.vertices, atol=1e-6)  # fmt: skip
                 assert len(mesh.GetFaceVertexCountsAttr().Get()) == len(part.faces)
-    with pytest.raises(ConfigError, match="'usd' exports grasp scenes only"):
+    with pytest.raises(ConfigError, match="'usd' exports scenes of the tabletop world only"):
         config_from_dict({"scene": "navigation", "output": {"sinks": ["webdataset", "usd"]}})
 
 
+@pytest.mark.sim
+@pytest.mark.mqtt
+@pytest.mark.slow
 def test_replay_from_the_usd_matches_the_stored_images(built, tmp_path):
     from datagen.tools.replay import replay
 
@@ -168,6 +189,53 @@ def test_replay_from_the_usd_matches_the_stored_images(built, tmp_path):
         replay(tmp_path / "copy", dataset.keys[0])
 
 
+@pytest.mark.sim
+@pytest.mark.mqtt
+@pytest.mark.slow
+def test_exports_report_progress_and_rewrite_the_same_bytes(built):
+    before = (built / "episodes.h5").read_bytes()
+    calls = []
+    done = run_exports(built, ["hdf5"], force=True, on_progress=lambda *a: calls.append(a))
+    assert calls == [("hdf5", n, SAMPLES) for n in range(1, SAMPLES + 1)]
+    assert done["hdf5"]["path"] == "episodes.h5"
+    assert (built / "episodes.h5").read_bytes() == before  # nothing time-dependent inside
+
+
+def test_exports_refuse_scenes_outside_their_worlds(tmp_path):
+    (tmp_path / "manifest.json").write_text(json.dumps({"shards": [], "scene": "navigation"}))
+    with pytest.raises(datagen.DatasetError, match=r"'usd'.* tabletop world only.*'navigation' \(floorplan world\)"):  # fmt: skip
+        run_exports(tmp_path, ["webdataset", "usd"])
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["manifest.json"]  # refused up front
+    with pytest.raises(datagen.DatasetError, match=r"unknown export format 'parquet'"):
+        run_exports(tmp_path, ["parquet"])
+
+
+def test_labelled_views_follow_the_metadata_format_not_the_family():
+    camera = {"intrinsics": [[100, 0, 32], [0, 100, 24], [0, 0, 1]], "width": 64, "height": 48}
+    seen = {"instance_id": 1, "class": "box", "bbox_xyxy": [0, 0, 3, 3], "visible_fraction": 0.5}
+    sample = {
+        "format": "datagen.sample/1",
+        "views": {
+            "workspace": {"camera": camera, "objects": [seen | {"visible": True}]},
+            "wrist": {"camera": camera, "objects": [seen | {"visible": False}]},
+        },
+    }
+    views = labelled_views(sample)
+    assert [(v.name, v.prefix, v.time_index, len(v.instances)) for v in views] == [
+        ("", "", None, 1),
+        ("wrist", "wrist.", None, 0),
+    ]
+    assert not is_sequence(views)
+    frames = [{"frame": k, "extrinsics_world_to_camera": np.eye(4).tolist(), "things": []} for k in range(3)]  # fmt: skip
+    episode = {"format": "datagen.nav_episode/1", "camera": camera, "frames": frames}
+    views = labelled_views(episode)
+    assert [(v.name, v.prefix, v.time_index) for v in views] == [(f"f{k:04d}", f"f{k:04d}.", k) for k in range(3)]  # fmt: skip
+    assert is_sequence(views) and views[2].record is frames[2]
+    assert views[0].camera["extrinsics_world_to_camera"] == frames[0]["extrinsics_world_to_camera"]
+    with pytest.raises(datagen.DatasetError, match=r"sample 000000007: unknown metadata format 'x/1'"):  # fmt: skip
+        labelled_views({"format": "x/1", "key": "000000007"})
+
+
 def test_unknown_or_missing_sinks_are_config_errors():
     with pytest.raises(ConfigError, match=r"output.sinks: expected distinct names"):
         config_from_dict({"output": {"sinks": ["webdataset", "parquet"]}}, source="x.yaml")
@@ -181,6 +249,9 @@ def _keys(dataset, workers: int) -> list[str]:
 
 @pytest.mark.parametrize("workers", [0, 2, 3])
 @pytest.mark.filterwarnings("ignore:This DataLoader will create:UserWarning")
+@pytest.mark.sim
+@pytest.mark.mqtt
+@pytest.mark.slow
 def test_stream_sees_every_sample_once_per_epoch(built, workers):
     stream = datagen.stream(built, shuffle=True, buffer_size=4, seed=1, parts={"json", "rgb.png"})
     orders = []
@@ -194,6 +265,9 @@ def test_stream_sees_every_sample_once_per_epoch(built, workers):
     assert set(item) == {"meta", "rgb", "key"}  # only the parts asked for are read and decoded
 
 
+@pytest.mark.sim
+@pytest.mark.mqtt
+@pytest.mark.slow
 def test_stream_splits_across_nodes(built):
     per_node = [
         _keys(datagen.stream(built, shuffle=True, seed=3, rank=r, world_size=2), 2) for r in (0, 1)

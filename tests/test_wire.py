@@ -8,7 +8,7 @@ from pathlib import Path
 
 import pytest
 
-from datagen.engines.transfer.collector import ack_indices, topics
+from datagen.engines.transfer.topics import ack_indices, topics
 from datagen.engines.transfer.wire import MAGIC, WireError, decode_sample, encode_sample
 from datagen.sample import Sample
 

@@ -13,12 +13,17 @@ import zlib
 import pytest
 
 from datagen.dataset.loader import load, verify
-from datagen.engines.transfer.collector import AckCollector, SamplePublisher, SampleTooLarge, topics
+from datagen.engines.transfer.collector import AckCollector
 from datagen.engines.transfer.connection import MqttConnection
 from datagen.engines.transfer.mosquitto import ManagedBroker
+from datagen.engines.transfer.publisher import SamplePublisher, SampleTooLarge
+from datagen.engines.transfer.topics import topics
 from datagen.engines.transfer.wire import encode_sample
 from datagen.sample import Sample
-from datagen.shards import durable_keys, journal_path, read_keys
+from datagen.shards import read_keys
+from datagen.sinks.journal import durable_keys, journal_path
+
+pytestmark = pytest.mark.mqtt
 
 TIMEOUT_S = 60
 

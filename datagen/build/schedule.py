@@ -52,6 +52,13 @@ class Schedule:
         for indices in self.published.values():
             indices.pop(index, None)
 
+    def on_given_up(self, worker: int, index: int) -> None:
+        """Producing ``index`` failed on every allowed attempt: it is no longer waited for (the
+        coordinator reports it when everything else is durable)."""
+        if index in self.assigned.get(worker, []):
+            self.assigned[worker].remove(index)
+        self.remaining.discard(index)
+
     def on_worker_lost(self, worker: int, keep_published: bool = False) -> list[int]:
         """The worker died: everything it held and nobody acknowledged is issued again. A worker
         that finished cleanly (``keep_published``) hands its published samples over to the

@@ -3,7 +3,10 @@
 Each worker has its own duplex pipe to the coordinator (not a queue shared by all workers: a
 worker killed while reading a shared queue would leave its lock held and stall the others).
 Messages to the worker: an index, or ``None`` to finish. From the worker:
-``("published", index)`` once the broker has the sample, ``("done", None)``, ``("error", text)``.
+``("published", index)`` once the broker has the sample, ``("retried", {"index", "attempt",
+"failures"})`` before that when the sample needed retries, ``("failed", {"index", "failures"})``
+when every attempt allowed by ``build.on_sample_error: retry`` failed (the worker goes on with
+its next index), ``("done", None)``, ``("error", text)`` (the build cannot go on).
 """
 
 from __future__ import annotations
@@ -18,9 +21,9 @@ import traceback
 from multiprocessing.connection import Connection
 from typing import Any
 
+from datagen.build.production import SampleFailed, produce_with_policy
 from datagen.config import config_from_dict
-from datagen.engines.transfer.collector import SamplePublisher, SampleTooLarge
-from datagen.scenes.grasp_tabletop import produce_sample
+from datagen.engines.transfer.publisher import SamplePublisher, SampleTooLarge
 
 log = logging.getLogger(__name__)
 _PR_SET_PDEATHSIG = 1
@@ -71,19 +74,31 @@ def worker_main(
         ) as publisher:
             stage_log = os.environ.get(STAGE_LOG_ENV)
             while (index := conn.recv()) is not None:
-                timings: dict[str, float] = {}
-                sample = produce_sample(config, config.seed, index, timings)
                 start = time.perf_counter()
-                publisher.publish(sample)
+                try:
+                    produced = produce_with_policy(config, index)
+                except SampleFailed as exc:
+                    if config.build.on_sample_error != "retry":
+                        raise
+                    conn.send(("failed", {"index": index, "failures": exc.failures}))
+                    continue
+                timings = {"produce_s": time.perf_counter() - start}
+                start = time.perf_counter()
+                publisher.publish(produced.sample)
                 timings["publish_s"] = time.perf_counter() - start
                 if stage_log:
-                    _log_stages(stage_log, worker_id, index, timings, sample)
+                    _log_stages(stage_log, worker_id, index, timings, produced.sample)
+                if produced.failures:
+                    conn.send(("retried", {"index": index, "attempt": produced.attempt, "failures": produced.failures}))  # fmt: skip
                 conn.send(("published", index))
         conn.send(("done", None))
     except (EOFError, BrokenPipeError):
         pass  # the coordinator is gone
     except SampleTooLarge as exc:
         conn.send(("error", f"{exc} (raise transfer.max_sample_mb in the config to allow it)"))
+        raise SystemExit(1) from None
+    except SampleFailed as exc:
+        conn.send(("error", f"worker {worker_id}: {exc} (build.on_sample_error: fail)"))
         raise SystemExit(1) from None
     except Exception:
         where = f"sample {index}" if index is not None else "start-up"

@@ -134,7 +134,7 @@ def _print_campaign(out: Path) -> None:
 def run_build_command(args: argparse.Namespace, config=None) -> int:
     from tqdm import tqdm
 
-    from datagen.build.coordinator import run_build
+    from datagen.build.run import run_build
     from datagen.tools.preview import write_preview
 
     config = config or load_config(args.config)

@@ -7,6 +7,7 @@ import sys
 from pathlib import Path
 
 from datagen.cli.common import positive_int
+from datagen.registries import EXPORTS, choices
 
 
 def add_parsers(commands) -> None:
@@ -26,14 +27,14 @@ def add_parsers(commands) -> None:
 
     export = commands.add_parser(
         "export",
-        help="write a finished dataset's samples in other formats (COCO, HDF5, point clouds, USD)",
+        help=f"write a finished dataset's samples in other formats ({', '.join(EXPORTS)})",
     )
     export.add_argument("dataset", help="dataset directory (with manifest.json)")
     export.add_argument(
         "--to",
         required=True,
-        type=_sink_list,
-        help="comma-separated formats: coco,hdf5,pointcloud,usd",
+        type=_format_list,
+        help=f"comma-separated formats: {','.join(EXPORTS)}",
     )
     export.add_argument("--force", action="store_true", help="redo exports already done")
 
@@ -50,16 +51,14 @@ def add_parsers(commands) -> None:
     preview.set_defaults(run=run_preview)
 
 
-def _sink_list(text: str) -> list[str]:
-    from datagen.exports.runner import EXPORTS
-
+def _format_list(text: str) -> list[str]:
+    """``--to``: comma-separated names of EXPORTS; an unknown one is an error naming the choices."""
     names = [n.strip() for n in text.split(",") if n.strip()]
-    unknown = [n for n in names if n not in EXPORTS]
-    if unknown or not names:
+    if not names:
         raise argparse.ArgumentTypeError(
-            f"expected a comma-separated list from {sorted(EXPORTS)}, got {text!r}"
+            f"expected a comma-separated list from {EXPORTS.names()}, got {text!r}"
         )
-    return names
+    return [choices(EXPORTS)(name) for name in names]
 
 
 def run_replay(args: argparse.Namespace) -> int:
@@ -90,9 +89,25 @@ def run_replay(args: argparse.Namespace) -> int:
 
 
 def run_export(args: argparse.Namespace) -> int:
+    from tqdm import tqdm
+
     from datagen.exports.runner import run_exports
 
-    done = run_exports(args.dataset, args.to, force=args.force)
+    bars: dict[str, tqdm] = {}
+
+    def progress(name: str, done: int, total: int) -> None:  # one bar per format
+        bar = bars.get(name)
+        if bar is None:
+            bar = bars[name] = tqdm(total=total, desc=name, unit="sample", leave=False)
+        bar.update(done - bar.n)
+        if done >= total:
+            bar.close()
+
+    try:
+        done = run_exports(args.dataset, args.to, force=args.force, on_progress=progress)
+    finally:
+        for bar in bars.values():
+            bar.close()
     for name in args.to:
         record = done[name]
         path = Path(args.dataset) / record["path"]

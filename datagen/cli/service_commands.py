@@ -4,18 +4,24 @@ machines (docs/deployment.md)."""
 from __future__ import annotations
 
 import argparse
+import functools
 import os
 
 from datagen.cli.common import positive_int
+from datagen.engines.transfer.connection import CA_FILE_ENV
+from datagen.engines.transfer.topics import valid_build_id
+from datagen.engines.transfer.wire import DEFAULT_MAX_MESSAGE_BYTES, SECRET_ENV, parse_secret
+from datagen.shards import valid_writer_id
+from datagen.sinks.writer import DEFAULT_SESSION_EXPIRY_S, run_writer
 
 
 def add_parsers(commands) -> None:
     writer = commands.add_parser(
         "writer",
         help="run a dataset writer for a build on an external broker (e.g. on the storage machine)",
-        add_help=False,
+        description="The dataset-writer process: MQTT samples in, durable WebDataset shards out.",
     )
-    writer.add_argument("args", nargs=argparse.REMAINDER)
+    add_writer_options(writer)
     broker = commands.add_parser(
         "broker", help="run Mosquitto with the settings datagen needs and print how to connect"
     )
@@ -28,14 +34,67 @@ def add_parsers(commands) -> None:
     broker.add_argument("--tls-key", help="the certificate's private key (PEM)")
     broker.add_argument("--advertise-host", help="host name to print in the URL clients use")
 
-    writer.set_defaults(run=run_writer)
+    writer.set_defaults(run=functools.partial(run_writer_command, writer))
     broker.set_defaults(run=run_broker)
 
 
-def run_writer(args: argparse.Namespace) -> int:
-    from datagen.sinks.writer import main as writer_main
+def add_writer_options(p: argparse.ArgumentParser) -> None:
+    p.add_argument(
+        "--broker",
+        default=os.environ.get("DATAGEN_BROKER_URL"),
+        help="mqtt://user:pass@host:port or mqtts://... (default: $DATAGEN_BROKER_URL, "
+        "which keeps the password off the process list)",
+    )
+    p.add_argument("--build-id", required=True)
+    p.add_argument("--out", required=True, help="dataset directory")
+    p.add_argument("--writer-id", default="0")
+    p.add_argument("--shard-size", type=int, default=1000, help="samples per shard")
+    p.add_argument("--max-message-bytes", type=int, default=DEFAULT_MAX_MESSAGE_BYTES)
+    p.add_argument(
+        "--ca-file",
+        help=f"CA certificate that signed an mqtts:// broker's certificate (default: ${CA_FILE_ENV}, "
+        "else the system trust store)",
+    )
+    p.add_argument(
+        "--session-expiry",
+        type=int,
+        default=DEFAULT_SESSION_EXPIRY_S,
+        metavar="S",
+        help="seconds the broker keeps holding this writer's samples after it vanished "
+        f"(default {DEFAULT_SESSION_EXPIRY_S}; see docs/deployment.md)",
+    )
+    p.add_argument("--log-level", default="INFO")
 
-    return writer_main(args.args)
+
+def run_writer_command(p: argparse.ArgumentParser, args: argparse.Namespace) -> int:
+    """Checks the options (errors through ``p``), reads the build's secret from ``$SECRET_ENV``
+    (hex) and runs the writer."""
+    if not valid_build_id(args.build_id):
+        p.error(f"invalid --build-id {args.build_id!r}: use 1-64 of [A-Za-z0-9_.-]")
+    if not valid_writer_id(args.writer_id):
+        p.error(f"invalid --writer-id {args.writer_id!r}: use 1-32 of [A-Za-z0-9_-]")
+    if not args.broker:
+        p.error("--broker URL (or $DATAGEN_BROKER_URL) is required")
+    if args.session_expiry < 1:
+        p.error("--session-expiry must be >= 1 second")
+    secret = None
+    if os.environ.get(SECRET_ENV):
+        try:
+            secret = parse_secret(os.environ[SECRET_ENV])
+        except ValueError as exc:
+            p.error(str(exc))
+    return run_writer(
+        args.out,
+        args.build_id,
+        args.writer_id,
+        broker_url=args.broker,
+        shard_size=args.shard_size,
+        max_message_bytes=args.max_message_bytes,
+        session_expiry_s=args.session_expiry,
+        ca_file=args.ca_file,
+        secret=secret,
+        log_level=args.log_level,
+    )
 
 
 def run_broker(args: argparse.Namespace) -> int:

@@ -22,13 +22,7 @@ from typing import Any
 import cv2
 import numpy as np
 
-from datagen.shards import (
-    MANIFEST,
-    file_sha256,
-    keys_sha256,
-    member_key,
-    scan_members,
-)
+from datagen.shards import MANIFEST, file_sha256, keys_sha256, member_key, scan_members
 
 # part name -> item field, for the parts decoded as images
 _IMAGES = {"rgb.png": "rgb", "depth.png": "depth", "seg.png": "seg", "semantic.png": "semantic"}

@@ -1,11 +1,20 @@
-"""The labelled camera views inside a sample, whatever its scene: one per camera of a grasp
-sample or attempt (the pre-grasp frame), one per frame of a navigation episode."""
+"""The labelled camera views inside a sample, whatever its scene family: the stored metadata's
+``format`` says how the sample describes its views, and :func:`labelled_views` turns either
+shape into one list of :class:`LabelledView`.
+
+``datagen.sample/1``: one view per camera in ``views`` (the workspace camera's images are the
+unprefixed parts, another camera's are prefixed by its name: ``wrist.rgb.png``).
+``datagen.nav_episode/1``: a time sequence, one view per record in ``frames`` (parts
+``f0003.rgb.png``, ...), all seen by the one camera in ``camera``.
+"""
 
 from __future__ import annotations
 
-from collections.abc import Iterator
-from dataclasses import dataclass
+from collections.abc import Callable, Iterator
+from dataclasses import dataclass, field
 from typing import Any
+
+from datagen.dataset.loader import DatasetError
 
 # Classes that are surfaces, not countable instances: left out of instance annotations.
 STUFF = frozenset({"background", "floor", "wall", "table", "tray", "robot"})
@@ -13,21 +22,16 @@ STUFF = frozenset({"background", "floor", "wall", "table", "tray", "robot"})
 
 @dataclass
 class LabelledView:
-    name: str  # "" for a grasp sample's workspace camera, else "wrist", "f0003", ...
+    name: str  # "" for a sample's main (workspace) camera, else "wrist", "f0003", ...
     prefix: str  # part-name prefix of its images: "" or "wrist." or "f0003."
     instances: list[dict[str, Any]]  # instance_id, class, bbox_xyxy (inclusive), extras
     camera: dict[str, Any]  # intrinsics, extrinsics_world_to_camera, width, height, ...
+    time_index: int | None = None  # a sequence's frame number; None for a camera of a sample
+    record: dict[str, Any] = field(default_factory=dict)  # its own metadata record (a frame's)
 
 
-def labelled_views(meta: dict[str, Any]) -> Iterator[LabelledView]:
-    if "frames" in meta:  # navigation episode
-        for record in meta["frames"]:
-            name = f"f{record['frame']:04d}"
-            camera = meta["camera"] | {
-                "extrinsics_world_to_camera": record["extrinsics_world_to_camera"]
-            }
-            yield LabelledView(name, f"{name}.", list(record["things"]), camera)
-        return
+def camera_views(meta: dict[str, Any]) -> Iterator[LabelledView]:
+    """``datagen.sample/1``: one view per camera, in the order of ``meta["views"]``."""
     for name, view in meta["views"].items():
         instances = [
             {k: o[k] for k in ("instance_id", "class", "bbox_xyxy", "visible_fraction")}
@@ -35,7 +39,44 @@ def labelled_views(meta: dict[str, Any]) -> Iterator[LabelledView]:
             if o["visible"]
         ]
         prefix = "" if name == "workspace" else f"{name}."
-        yield LabelledView("" if name == "workspace" else name, prefix, instances, view["camera"])
+        yield LabelledView(
+            "" if name == "workspace" else name, prefix, instances, view["camera"], record=view
+        )
+
+
+def sequence_views(meta: dict[str, Any]) -> Iterator[LabelledView]:
+    """``datagen.nav_episode/1``: one view per frame, in time order, of the shared camera."""
+    for record in meta["frames"]:
+        name = f"f{record['frame']:04d}"
+        camera = meta["camera"] | {
+            "extrinsics_world_to_camera": record["extrinsics_world_to_camera"]
+        }
+        yield LabelledView(
+            name, f"{name}.", list(record["things"]), camera, record["frame"], record
+        )
+
+
+# metadata format -> its views; a new format is one reader here
+VIEW_READERS: dict[str, Callable[[dict[str, Any]], Iterator[LabelledView]]] = {
+    "datagen.sample/1": camera_views,
+    "datagen.nav_episode/1": sequence_views,
+}
+
+
+def labelled_views(meta: dict[str, Any]) -> list[LabelledView]:
+    """Every labelled view of one sample, from its stored metadata (``meta["format"]``)."""
+    reader = VIEW_READERS.get(meta.get("format"))  # type: ignore[arg-type]
+    if reader is None:
+        raise DatasetError(
+            f"sample {meta.get('key')}: unknown metadata format {meta.get('format')!r}; "
+            f"expected one of {list(VIEW_READERS)}"
+        )
+    return list(reader(meta))
+
+
+def is_sequence(views: list[LabelledView]) -> bool:
+    """Whether the views are the frames of one time sequence (to stack along a time axis)."""
+    return bool(views) and all(v.time_index is not None for v in views)
 
 
 def thing_classes(classes: list[str]) -> dict[str, int]:

@@ -1,25 +1,24 @@
 """COCO instance annotations: ``DIR/coco/annotations.json`` and ``DIR/coco/images/*.png``.
 
-One COCO image per labelled view (grasp samples: each camera; attempts: the pre-grasp frame;
-navigation: every frame). Annotations carry the visible mask as RLE, its box and area, plus
-datagen's ``instance_id`` and ``visible_fraction`` where known. Category ids are the dataset's
-class ids, so they equal the values in ``semantic.png``.
+One COCO image per labelled view (``datagen.dataset.views``: each camera of a sample, e.g. a
+grasp attempt's pre-grasp frame; each frame of a sequence, e.g. a navigation episode).
+Annotations carry the visible mask as RLE, its box and area, plus datagen's ``instance_id`` and
+``visible_fraction`` where known. Category ids are the dataset's class ids, so they equal the
+values in ``semantic.png``.
 """
 
 from __future__ import annotations
 
 import json
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
 import cv2
 import numpy as np
 from pycocotools import mask as mask_utils
-from tqdm import tqdm
 
 from datagen.dataset.views import labelled_views, thing_classes
-
-NAME = "coco"
 
 
 def _rle(mask: np.ndarray) -> dict[str, Any]:
@@ -27,16 +26,21 @@ def _rle(mask: np.ndarray) -> dict[str, Any]:
     return {"size": [int(v) for v in rle["size"]], "counts": rle["counts"].decode("ascii")}
 
 
-def export(dataset, manifest: dict[str, Any], out: Path) -> list[Path]:
+def export(
+    dataset,
+    manifest: dict[str, Any],
+    out: Path,
+    on_progress: Callable[[int, int], None] | None = None,
+) -> list[Path]:
     """Writes into ``out`` (a fresh directory); returns the files written."""
     images_dir = out / "images"
     images_dir.mkdir(parents=True)
     classes = dataset.metadata(0)["classes"] if len(dataset) else manifest.get("classes", [])
     categories = thing_classes(classes)
     images, annotations = [], []
-    for i in tqdm(range(len(dataset)), desc="coco", unit="sample", leave=False):
+    for i in range(len(dataset)):
         key, meta = dataset.keys[i], dataset.metadata(i)
-        views = list(labelled_views(meta))
+        views = labelled_views(meta)
         wanted = {f"{v.prefix}{part}" for v in views for part in ("rgb.png", "seg.png")}
         raw = dataset.raw(i, wanted)
         for view in views:
@@ -62,6 +66,8 @@ def export(dataset, manifest: dict[str, Any], out: Path) -> list[Path]:
                 if "visible_fraction" in inst:
                     annotation["visible_fraction"] = inst["visible_fraction"]
                 annotations.append(annotation)
+        if on_progress:
+            on_progress(i + 1, len(dataset))
     doc = {
         "info": {
             "description": f"datagen {manifest.get('config', {}).get('scene', '')} dataset",

@@ -2,34 +2,39 @@
 
 Layout (see docs/hdf5-layout.md): root attributes ``format``, ``scene``, ``classes`` (JSON),
 ``config`` (JSON); ``/index`` with per-sample ``keys`` (and ``success``, ``frames`` where they
-exist); ``/samples/<key>`` per sample with its metadata JSON in the ``meta`` attribute. Navigation
-episodes stack their frames along the first axis (``rgb`` T x H x W x 3, ``depth``, ``seg``,
-``semantic``, and per-frame ``pose``, ``command``, ...), and add ``trajectory/`` at the control
-rate, ``map`` and ``occupancy``. Grasp samples and attempts hold one image set per camera
-(``rgb``, ..., ``post/rgb``, ...) and attempts their ``grasp/`` and outcome.
+exist); ``/samples/<key>`` per sample with its metadata JSON in the ``meta`` attribute.
+
+What a group holds follows the sample's stored data, never its scene family's name. A sample
+whose labelled views form a time sequence (``datagen.dataset.views``; navigation episodes)
+stacks them along the first axis (``rgb`` T x H x W x 3, ``depth``, ``seg``, ``semantic``, and
+the per-frame records' ``pose``, ``command``, ...); a sample of cameras (grasp samples and
+attempts) holds one image set per camera (``rgb``, ..., ``wrist/rgb``, ``post/rgb``, ...).
+An ``episode`` in the metadata adds ``trajectory/`` at the control rate, ``map``, ``occupancy``
+and the outcome attributes; an ``attempt`` adds ``grasp/`` and its outcome.
 """
 
 from __future__ import annotations
 
 import json
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
 import h5py
 import numpy as np
-from tqdm import tqdm
 
 from datagen.dataset.loader import decode_parts
+from datagen.dataset.views import LabelledView, is_sequence, labelled_views
 
-NAME = "hdf5"
 FORMAT = "datagen.hdf5/1"
 _IMAGES = ("rgb", "depth", "seg", "semantic")
-_IMAGE_PARTS = {f"{n}.png" for n in _IMAGES}
-_FRAME_FIELDS = {  # per-frame record field -> dtype
+_IMAGE_PARTS = tuple(f"{n}.png" for n in _IMAGES)
+_FRAME_FIELDS = {  # per-frame record field -> dtype, stacked when every frame has it
     "pose": np.float64, "command": np.float64, "goal_in_robot": np.float64,
     "distance_to_goal": np.float64, "collision": np.bool_, "time_s": np.float64,
     "step": np.int64, "extrinsics_world_to_camera": np.float64,
 }  # fmt: skip
+_EPISODE_PICTURES = ("map.png", "occupancy.png")  # whole-episode pictures beside its frames
 
 
 def _images(group: h5py.Group, arrays: dict[str, np.ndarray], stacked: bool) -> None:
@@ -40,59 +45,86 @@ def _images(group: h5py.Group, arrays: dict[str, np.ndarray], stacked: bool) -> 
             group.create_dataset(name, data=data, chunks=chunks, compression="gzip", compression_opts=1)  # fmt: skip
 
 
-def _episode(group: h5py.Group, item: dict[str, Any]) -> None:
-    frames, meta = item["frames"], item["meta"]
-    _images(group, {n: np.stack([f[n] for f in frames]) for n in _IMAGES}, stacked=True)
+def _view_images(raw: dict[str, bytes], prefix: str) -> dict[str, Any]:
+    return decode_parts({p: raw[prefix + p] for p in _IMAGE_PARTS if prefix + p in raw})
+
+
+def _sequence(group: h5py.Group, raw: dict[str, bytes], views: list[LabelledView]) -> None:
+    """The views stacked along a time axis, and the per-frame fields of their records."""
+    decoded = [_view_images(raw, view.prefix) for view in views]
+    stacks = {n: np.stack([d[n] for d in decoded]) for n in _IMAGES if all(n in d for d in decoded)}  # fmt: skip
+    _images(group, stacks, stacked=True)
     for name, dtype in _FRAME_FIELDS.items():
-        group.create_dataset(name, data=np.array([f["meta"][name] for f in frames], dtype=dtype))
+        if all(name in view.record for view in views):
+            group.create_dataset(name, data=np.array([v.record[name] for v in views], dtype=dtype))  # fmt: skip
+
+
+def _cameras(group: h5py.Group, raw: dict[str, bytes]) -> None:
+    """One image set per camera: the unprefixed parts at the top, ``wrist.rgb.png`` -> wrist/rgb."""
+    _images(group, _view_images(raw, ""), stacked=False)
+    for name, value in raw.items():
+        prefix, _, part = name.partition(".")
+        if part in _IMAGE_PARTS:
+            _images(group.require_group(prefix), decode_parts({part: value}), stacked=False)
+
+
+def _episode(group: h5py.Group, episode: dict[str, Any], raw: dict[str, bytes]) -> None:
     traj = group.create_group("trajectory")
-    for name, values in meta["episode"]["trajectory"].items():
+    for name, values in episode["trajectory"].items():
         if isinstance(values, list):
             traj.create_dataset(name, data=np.asarray(values))
         else:
             traj.attrs[name] = values
-    group.create_dataset("map", data=item["map"], compression="gzip", compression_opts=1)
-    group.create_dataset("occupancy", data=item["occupancy"], compression="gzip")
+    pictures = decode_parts({p: raw[p] for p in _EPISODE_PICTURES if p in raw})
+    if "map" in pictures:
+        group.create_dataset("map", data=pictures["map"], compression="gzip", compression_opts=1)
+    if "occupancy" in pictures:
+        group.create_dataset("occupancy", data=pictures["occupancy"], compression="gzip")
     for name in ("success", "path_length_m", "shortest_path_m", "spl"):
-        group.attrs[name] = meta["episode"][name]
+        group.attrs[name] = episode[name]
 
 
-def _views(group: h5py.Group, item: dict[str, Any]) -> None:
-    _images(group, item, stacked=False)
-    for name, value in item.items():  # other cameras: "wrist.rgb.png" -> wrist/rgb
-        prefix, _, part = name.partition(".")
-        if isinstance(value, bytes) and part in _IMAGE_PARTS:
-            decoded = decode_parts({part: value})
-            _images(group.require_group(prefix), decoded, stacked=False)
-    attempt = item["meta"].get("attempt")
-    if attempt:
-        group.attrs["success"] = attempt["outcome"]["success"]
-        group.attrs["failure_mode"] = attempt["outcome"]["failure_mode"] or ""
-        if attempt["grasp"] is not None:
-            grasp = group.create_group("grasp")
-            grasp.create_dataset("pose_world", data=np.asarray(attempt["grasp"]["pose_world"]))
-            grasp.attrs["width"] = attempt["grasp"]["width"]
+def _attempt(group: h5py.Group, attempt: dict[str, Any]) -> None:
+    group.attrs["success"] = attempt["outcome"]["success"]
+    group.attrs["failure_mode"] = attempt["outcome"]["failure_mode"] or ""
+    if attempt["grasp"] is not None:
+        grasp = group.create_group("grasp")
+        grasp.create_dataset("pose_world", data=np.asarray(attempt["grasp"]["pose_world"]))
+        grasp.attrs["width"] = attempt["grasp"]["width"]
 
 
-def export(dataset, manifest: dict[str, Any], out: Path) -> list[Path]:
+def export(
+    dataset,
+    manifest: dict[str, Any],
+    out: Path,
+    on_progress: Callable[[int, int], None] | None = None,
+) -> list[Path]:
     keys, success, frames = [], [], []
     with h5py.File(out, "w") as f:
         f.attrs["format"] = FORMAT
         f.attrs["scene"] = manifest.get("scene", "")
         f.attrs["classes"] = json.dumps(manifest.get("classes", []))
         f.attrs["config"] = json.dumps(manifest.get("config", {}))
-        for i in tqdm(range(len(dataset)), desc="hdf5", unit="sample", leave=False):
-            item = dataset[i]
-            group = f.create_group(f"samples/{item['key']}")
-            group.attrs["meta"] = json.dumps(item["meta"], separators=(",", ":"))
-            if "frames" in item:
-                _episode(group, item)
-                frames.append(len(item["frames"]))
+        for i in range(len(dataset)):
+            key, raw = dataset.keys[i], dataset.raw(i)
+            meta = decode_parts({"json": raw["json"]})["meta"]
+            group = f.create_group(f"samples/{key}")
+            group.attrs["meta"] = json.dumps(meta, separators=(",", ":"))
+            views = labelled_views(meta)
+            if is_sequence(views):
+                _sequence(group, raw, views)
+                frames.append(len(views))
             else:
-                _views(group, item)
-            keys.append(item["key"])
+                _cameras(group, raw)
+            if meta.get("episode"):
+                _episode(group, meta["episode"], raw)
+            if meta.get("attempt"):
+                _attempt(group, meta["attempt"])
+            keys.append(key)
             if "success" in group.attrs:
                 success.append(bool(group.attrs["success"]))
+            if on_progress:
+                on_progress(i + 1, len(dataset))
         index = f.create_group("index")
         index.create_dataset("keys", data=np.array(keys, dtype="S"))
         if len(success) == len(keys):

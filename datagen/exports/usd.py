@@ -1,22 +1,25 @@
-"""USD scene descriptions: ``DIR/usd/<key>.usda``, one per grasp sample or attempt, built from
-its metadata by ``datagen/exports/usd_stage.py`` and checked with usd-core's validators."""
+"""USD scene descriptions: ``DIR/usd/<key>.usda``, one per sample of a tabletop scene (grasp
+samples and attempts), built from its metadata by ``datagen/exports/usd_stage.py`` and checked
+with usd-core's validators."""
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
-from tqdm import tqdm
 
-NAME = "usd"
-
-
-def export(dataset, manifest: dict[str, Any], out: Path) -> list[Path]:
+def export(
+    dataset,
+    manifest: dict[str, Any],
+    out: Path,
+    on_progress: Callable[[int, int], None] | None = None,
+) -> list[Path]:
     from datagen.exports.usd_stage import scene_stage, validation_errors
 
     out.mkdir(parents=True)
     files = []
-    for i in tqdm(range(len(dataset)), desc="usd", unit="sample", leave=False):
+    for i in range(len(dataset)):
         stage = scene_stage(dataset.metadata(i))
         errors = validation_errors(stage)
         if errors:
@@ -24,4 +27,6 @@ def export(dataset, manifest: dict[str, Any], out: Path) -> list[Path]:
         path = out / f"{dataset.keys[i]}.usda"
         stage.GetRootLayer().Export(str(path))
         files.append(path)
+        if on_progress:
+            on_progress(i + 1, len(dataset))
     return files

@@ -9,9 +9,8 @@ outer corner of cell (0, 0), so cell (r, c) covers x in [c*res, (c+1)*res) and y
 """
 
 from datagen.navigation.follow import FollowParams, Trajectory, follow
-from datagen.navigation.grid import ClutterParams, Layout, add_clutter
+from datagen.navigation.grid import ClutterParams, Layout, add_clutter, inflate
 from datagen.navigation.layouts import (
-    FAMILIES,
     CorridorParams,
     MazeParams,
     RoomsParams,
@@ -24,7 +23,6 @@ from datagen.navigation.planning import (
     PlanningError,
     astar,
     footprint_collides,
-    inflate,
     path_to_world,
     sample_start_goal,
     shortest_path_length_m,
@@ -32,7 +30,6 @@ from datagen.navigation.planning import (
 )
 
 __all__ = [
-    "FAMILIES",
     "ClutterParams",
     "CorridorParams",
     "FollowParams",

@@ -12,19 +12,19 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from datagen.config import NavigationConfig
+from datagen.config.sections import NavigationConfig
 from datagen.navigation.follow import FollowParams, Trajectory, follow
-from datagen.navigation.grid import ClutterParams, Layout
-from datagen.navigation.layouts import FAMILIES, make_layout
+from datagen.navigation.grid import ClutterParams, Layout, inflate
+from datagen.navigation.layouts import make_layout
 from datagen.navigation.planning import (
     PlanningError,
     astar,
-    inflate,
     path_to_world,
     sample_start_goal,
     shortest_path_length_m,
     smooth_path,
 )
+from datagen.registries import LAYOUTS, resolve
 from datagen.seeding import sample_rng
 
 
@@ -57,7 +57,7 @@ class Episode:
 
 def layout_params(cfg: NavigationConfig):
     """The family's layout parameters with the config's clutter settings."""
-    _, params_cls = FAMILIES[cfg.family]
+    params_cls = resolve(LAYOUTS[cfg.family].params)
     family_default = params_cls().clutter
     clutter = ClutterParams(
         count=tuple(cfg.clutter) if cfg.clutter is not None else family_default.count,
@@ -80,7 +80,7 @@ def follow_params(cfg: NavigationConfig) -> FollowParams:
 LAYOUT_ATTEMPTS = 10
 
 
-def plan_episode(cfg: NavigationConfig, seed: int, index: int) -> Episode:
+def plan_episode(cfg: NavigationConfig, seed: int, index: int, retry: int = 0) -> Episode:
     """Draws a layout and a task until one has a start/goal pair with a path (streams
     ``nav_layout``/``nav_task``, then ``nav_layout/1``/``nav_task/1``, ...: still a function of
     (seed, index) alone). Raises :class:`PlanningError` after ``LAYOUT_ATTEMPTS`` layouts."""
@@ -88,11 +88,11 @@ def plan_episode(cfg: NavigationConfig, seed: int, index: int) -> Episode:
     for attempt in range(LAYOUT_ATTEMPTS):
         suffix = f"/{attempt}" if attempt else ""
         layout = make_layout(
-            cfg.family, sample_rng(seed, index, "nav_layout" + suffix), layout_params(cfg)
+            cfg.family, sample_rng(seed, index, "nav_layout" + suffix, retry), layout_params(cfg)
         )
         layout.params["attempt"] = attempt
         try:
-            return _plan_task(cfg, layout, sample_rng(seed, index, "nav_task" + suffix))
+            return _plan_task(cfg, layout, sample_rng(seed, index, "nav_task" + suffix, retry))
         except PlanningError as exc:
             reasons.append(str(exc))
     raise PlanningError(

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import logging
+import math
 from dataclasses import asdict, dataclass, field
 from typing import Any
 
@@ -64,10 +65,23 @@ def grid_to_rects(occupied: np.ndarray, res: float) -> list[Rect]:
     return [(c0 * res, r0 * res, c1 * res, r1 * res) for c0, c1, r0, r1 in rects]
 
 
+def disk(radius_m: float, resolution: float) -> np.ndarray:
+    """Offsets of the cells whose square comes closer than ``radius_m`` to a cell's centre."""
+    n = math.ceil(radius_m / resolution + 0.5)
+    d = np.abs(np.arange(-n, n + 1))
+    gap = np.maximum(d - 0.5, 0.0) * resolution  # centre-to-nearest-edge distance per axis
+    return np.hypot(gap[:, None], gap[None, :]) < radius_m
+
+
+def inflate(grid: np.ndarray, radius_m: float, resolution: float) -> np.ndarray:
+    """Occupied grid for a disk robot's centre: a cell is free only if a disk of ``radius_m``
+    at its centre touches no occupied cell (exact at cell centres). Outside the grid counts as
+    occupied."""
+    return ndimage.binary_dilation(grid, structure=disk(radius_m, resolution), border_value=1)
+
+
 def free_components(grid: np.ndarray, clearance_m: float, res: float) -> int:
     """Number of 4-connected components of free space, after inflation by ``clearance_m``."""
-    from datagen.navigation.planning import inflate
-
     occupied = inflate(grid, clearance_m, res) if clearance_m > 0 else grid
     return int(ndimage.label(~occupied, structure=_FOUR)[1])
 

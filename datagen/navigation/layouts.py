@@ -12,6 +12,7 @@ from dataclasses import asdict, dataclass, field
 import numpy as np
 
 from datagen.navigation.grid import ClutterParams, Layout, Rect, add_clutter, fill, grid_to_rects
+from datagen.registries import LAYOUTS, resolve
 
 
 @dataclass
@@ -212,18 +213,12 @@ def maze(rng: np.random.Generator, params: MazeParams | None = None) -> Layout:
     return _finish(rng, "maze", grid, p.resolution, [], p, {"arms": arms})
 
 
-FAMILIES = {
-    "rooms": (rooms, RoomsParams),
-    "corridor": (corridor, CorridorParams),
-    "maze": (maze, MazeParams),
-}
-
-
 def make_layout(family: str, rng: np.random.Generator, params=None) -> Layout:
+    """A floor plan of ``family`` (a name in ``datagen.registries.LAYOUTS``)."""
     try:
-        fn, _ = FAMILIES[family]
+        kind = LAYOUTS[family]
     except KeyError:
         raise ValueError(
-            f"unknown layout family {family!r}; expected one of {sorted(FAMILIES)}"
+            f"unknown layout family {family!r}; expected one of {LAYOUTS.names()}"
         ) from None
-    return fn(rng, params)
+    return resolve(kind.make)(rng, params)

@@ -11,7 +11,7 @@ import math
 import numpy as np
 from scipy import ndimage
 
-from datagen.navigation.grid import Layout
+from datagen.navigation.grid import Layout, inflate
 
 SQRT2 = math.sqrt(2.0)
 _FOUR = ndimage.generate_binary_structure(2, 1)
@@ -19,21 +19,6 @@ _FOUR = ndimage.generate_binary_structure(2, 1)
 
 class PlanningError(RuntimeError):
     """No valid start/goal pair or path could be found."""
-
-
-def disk(radius_m: float, resolution: float) -> np.ndarray:
-    """Offsets of the cells whose square comes closer than ``radius_m`` to a cell's centre."""
-    n = math.ceil(radius_m / resolution + 0.5)
-    d = np.abs(np.arange(-n, n + 1))
-    gap = np.maximum(d - 0.5, 0.0) * resolution  # centre-to-nearest-edge distance per axis
-    return np.hypot(gap[:, None], gap[None, :]) < radius_m
-
-
-def inflate(grid: np.ndarray, radius_m: float, resolution: float) -> np.ndarray:
-    """Occupied grid for a disk robot's centre: a cell is free only if a disk of ``radius_m``
-    at its centre touches no occupied cell (exact at cell centres). Outside the grid counts as
-    occupied."""
-    return ndimage.binary_dilation(grid, structure=disk(radius_m, resolution), border_value=1)
 
 
 def footprint_collides(

@@ -21,11 +21,12 @@ def sample_scene(
     index: int,
     tray_centre: tuple[float, float, float],
     tray_inner_half: tuple[float, float],
+    attempt: int = 0,
 ) -> dict[str, Any]:
     """All randomised values of one scene; stored verbatim in the sample's metadata."""
 
     def rng(name: str):
-        return sample_rng(seed, index, name)
+        return sample_rng(seed, index, name, attempt)
 
     objects = sample_objects(rng("objects"), config.objects)
     return {

@@ -7,7 +7,7 @@ from typing import Any
 import numpy as np
 import sapien
 
-from datagen.config import CameraConfig
+from datagen.config.sections import CameraConfig
 from datagen.geometry import look_at
 
 

@@ -9,7 +9,7 @@ from typing import Any
 import numpy as np
 import sapien
 
-from datagen.config import LightingConfig
+from datagen.config.sections import LightingConfig
 
 FILL_DISTANCE = (1.0, 1.8)  # metres from the light target
 

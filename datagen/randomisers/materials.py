@@ -8,7 +8,7 @@ from typing import Any
 import numpy as np
 import sapien
 
-from datagen.config import MaterialsConfig
+from datagen.config.sections import MaterialsConfig
 
 # Surfaces of the room keep plausible colour ranges (HSV value), objects span the config's.
 _SURFACE_VALUE = {"table": (0.35, 0.85), "tray": (0.2, 0.9), "floor": (0.25, 0.75)}

@@ -78,10 +78,12 @@ def sample_nav_lighting(rng, config: BuildConfig, layout: Layout, top: float) ->
     }
 
 
-def sample_nav_scene(config: BuildConfig, seed: int, index: int, layout: Layout) -> dict[str, Any]:
+def sample_nav_scene(
+    config: BuildConfig, seed: int, index: int, layout: Layout, attempt: int = 0
+) -> dict[str, Any]:
     """All randomised appearance values of one episode; stored in its metadata."""
     nav = config.navigation
-    geometry_rng = sample_rng(seed, index, "nav_geometry")
+    geometry_rng = sample_rng(seed, index, "nav_geometry", attempt)
     wall_height = _u(geometry_rng, nav.wall_height)
     obstacles = [
         {
@@ -90,16 +92,16 @@ def sample_nav_scene(config: BuildConfig, seed: int, index: int, layout: Layout)
         }
         for _ in layout.obstacles
     ]
-    camera_rng = sample_rng(seed, index, "nav_camera")
+    camera_rng = sample_rng(seed, index, "nav_camera", attempt)
     return {
         "wall_height": wall_height,
         "door_top": round(min(wall_height - 0.1, _u(geometry_rng, (1.95, 2.15))), 6),
         "obstacles": obstacles,
         "materials": sample_nav_materials(
-            sample_rng(seed, index, "nav_materials"), config, len(obstacles)
+            sample_rng(seed, index, "nav_materials", attempt), config, len(obstacles)
         ),
         "lighting": sample_nav_lighting(
-            sample_rng(seed, index, "nav_lighting"), config, layout, wall_height
+            sample_rng(seed, index, "nav_lighting", attempt), config, layout, wall_height
         ),
         "camera": {
             "torso_lift": _u(camera_rng, nav.torso_lift),

@@ -7,7 +7,7 @@ from typing import Any
 import numpy as np
 import sapien
 
-from datagen.config import ObjectsConfig
+from datagen.config.sections import ObjectsConfig
 from datagen.geometry import random_quaternion
 from datagen.randomisers.materials import render_material
 from datagen.shapes import ObjectGeometry, build_geometry

@@ -6,7 +6,7 @@ from typing import Any
 
 import numpy as np
 
-from datagen.config import ObjectsConfig
+from datagen.config.sections import ObjectsConfig
 from datagen.geometry import random_quaternion
 
 

@@ -7,7 +7,7 @@ from typing import Any
 import numpy as np
 import sapien
 
-from datagen.config import RobotConfig
+from datagen.config.sections import RobotConfig
 
 # Panda arm joints 1-7 (radians): arm raised and folded back so the tray stays in view.
 READY_POSE = (0.0, -0.95, 0.0, -2.75, 0.0, 1.95, 0.785)

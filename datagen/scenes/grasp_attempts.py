@@ -7,17 +7,21 @@ outcome label -> optional post-grasp frame. Every random choice comes from (seed
 
 from __future__ import annotations
 
+from pathlib import Path
 from typing import Any
 
 import numpy as np
 import trimesh
 
 from datagen.config import BuildConfig
+from datagen.dataset.loader import load
 from datagen.engines.sim.render import keep_renderer_alive
 from datagen.geometry import pose_record
 from datagen.grasping import GraspOutcome
 from datagen.grasping.execute import ExecutionParams, execute_grasp
-from datagen.grasping.samplers import GraspTarget, Obstacles, make_sampler
+from datagen.grasping.samplers import GraspTarget, Obstacles
+from datagen.grasping.stats import campaign_stats
+from datagen.registries import SAMPLERS
 from datagen.sample import Sample
 from datagen.scenes.grasp_tabletop import annotate_scene, to_sample
 from datagen.seeding import sample_rng
@@ -62,29 +66,22 @@ def _tray_meshes() -> list[trimesh.Trimesh]:
     return meshes
 
 
-def produce_attempt(config: BuildConfig, seed: int, index: int) -> Sample:
+def produce(config: BuildConfig, seed: int, index: int, attempt: int = 0) -> Sample:
     keep_renderer_alive()
     campaign = config.campaign
-    scene = build_scene(config, seed, index)
+    scene = build_scene(config, seed, index, attempt)
     pre = annotate_scene(scene, config, seed, index)
     workspace = pre.metadata["views"]["workspace"]
-    target = choose_target(sample_rng(seed, index, "grasp_target"), scene, workspace)
+    target = choose_target(sample_rng(seed, index, "grasp_target", attempt), scene, workspace)
 
     obstacles = Obstacles(
         meshes_world=[p for o in scene.objects if o is not target for p in _parts_world(o)]
         + _tray_meshes(),
         table_z=TABLE_TOP,
     )
-    sampler_params = {
-        "antipodal": {
-            "friction": campaign.friction,
-            "pregrasp_distance": campaign.pre_grasp_distance,
-        },
-        "random": {},
-    }[campaign.sampler]
-    sampler = make_sampler(campaign.sampler, **sampler_params)
+    sampler = SAMPLERS[campaign.sampler].load().from_campaign(campaign)
     result = sampler.sample(
-        sample_rng(seed, index, "grasp"),
+        sample_rng(seed, index, "grasp", attempt),
         GraspTarget(
             _parts_world(target), np.asarray(target.entity.pose.to_transformation_matrix(), float)
         ),
@@ -113,7 +110,7 @@ def produce_attempt(config: BuildConfig, seed: int, index: int) -> Sample:
             "tries": result.tries,
         }
     target_meta = next(o for o in pre.metadata["objects"] if o["instance_id"] == target.instance_id)
-    attempt = {
+    record = {
         "attempt_id": pre.metadata["key"],
         "scene_seed": seed,
         "index": index,
@@ -129,9 +126,17 @@ def produce_attempt(config: BuildConfig, seed: int, index: int) -> Sample:
         "grasp": grasp,
         "outcome": outcome.to_json(),
     }
-    pre.metadata["attempt"] = attempt
+    pre.metadata["attempt"] = record
     if campaign.post_grasp_frame:
         post = annotate_scene(scene, config, seed, index)
         pre.views["post"] = post.views["workspace"]  # encoded as post.rgb.png, post.depth.png, ...
-        attempt["post_view_objects"] = post.metadata["views"]["workspace"]["objects"]
+        record["post_view_objects"] = post.metadata["views"]["workspace"]["objects"]
     return to_sample(pre)
+
+
+def campaign_summary(out_dir: Path, made: int, seconds: float) -> dict[str, Any]:
+    """Campaign statistics for the manifest (the writers know nothing of grasps)."""
+    dataset = load(out_dir)
+    stats = campaign_stats(dataset.metadata(i)["attempt"] for i in range(len(dataset)))
+    stats["attempts_per_s"] = round(made / seconds, 4) if seconds else None
+    return {"campaign": stats}

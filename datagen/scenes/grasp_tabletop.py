@@ -7,12 +7,9 @@ calls the first alone.
 
 from __future__ import annotations
 
-import json
-import time
 from dataclasses import dataclass
 from typing import Any
 
-import cv2
 import numpy as np
 import sapien
 
@@ -23,20 +20,13 @@ from datagen.engines.sim.annotate import (
     object_view_records,
     object_world_record,
 )
+from datagen.engines.sim.encode import View, encode_view, metadata_bytes
 from datagen.engines.sim.render import DEPTH_SCALE, capture, keep_renderer_alive
 from datagen.geometry import pose_record
 from datagen.sample import Sample, sample_key
 from datagen.worlds.tabletop import GraspScene, build_scene, grasp_classes
 
 METADATA_FORMAT = "datagen.sample/1"
-
-
-@dataclass
-class View:
-    rgb: np.ndarray  # (H, W, 3) uint8, RGB
-    depth: np.ndarray  # (H, W) uint16 millimetres
-    instance: np.ndarray  # (H, W) uint16
-    semantic: np.ndarray  # (H, W) uint8
 
 
 @dataclass
@@ -62,9 +52,11 @@ def _labelled_objects(scene: GraspScene, class_id: dict[str, int]) -> list[Label
     ]
 
 
-def render_annotated(config: BuildConfig, seed: int, index: int) -> AnnotatedSample:
+def render_annotated(
+    config: BuildConfig, seed: int, index: int, attempt: int = 0
+) -> AnnotatedSample:
     keep_renderer_alive()
-    return annotate_scene(build_scene(config, seed, index), config, seed, index)
+    return annotate_scene(build_scene(config, seed, index, attempt), config, seed, index)
 
 
 def annotate_scene(
@@ -133,27 +125,6 @@ def annotate_scene(
     return AnnotatedSample(index, views, metadata)
 
 
-def png_bytes(image: np.ndarray) -> bytes:
-    ok, encoded = cv2.imencode(".png", image)
-    if not ok:
-        raise RuntimeError(f"PNG encoding failed for an image of shape {image.shape}")
-    return encoded.tobytes()
-
-
-def encode_view(view: View, prefix: str = "") -> dict[str, bytes]:
-    """``<prefix>rgb.png depth.png seg.png semantic.png`` of one rendered view."""
-    return {
-        f"{prefix}rgb.png": png_bytes(cv2.cvtColor(view.rgb, cv2.COLOR_RGB2BGR)),
-        f"{prefix}depth.png": png_bytes(view.depth),
-        f"{prefix}seg.png": png_bytes(view.instance),
-        f"{prefix}semantic.png": png_bytes(view.semantic),
-    }
-
-
-def metadata_bytes(metadata: dict[str, Any]) -> bytes:
-    return json.dumps(metadata, sort_keys=True, separators=(",", ":")).encode()
-
-
 def to_sample(annotated: AnnotatedSample) -> Sample:
     """Parts: ``rgb.png depth.png seg.png semantic.png`` for the workspace camera, the same
     names prefixed ``<camera>.`` for any other camera, and ``json`` for the metadata."""
@@ -164,24 +135,7 @@ def to_sample(annotated: AnnotatedSample) -> Sample:
     return Sample(annotated.index, parts)
 
 
-def produce_sample(
-    config: BuildConfig, seed: int, index: int, timings: dict[str, float] | None = None
-) -> Sample:
-    """Sample ``index`` of the build: an annotated frame, a grasp attempt in a campaign, or a
-    navigation episode. ``timings`` (grasp_tabletop only) receives ``render_s`` (scene, physics,
-    render, annotate) and ``encode_s`` (PNG and JSON), for the stage benchmark."""
-    if config.scene == "grasp_attempts":
-        from datagen.scenes.grasp_attempts import produce_attempt
-
-        return produce_attempt(config, seed, index)
-    if config.scene == "navigation":
-        from datagen.scenes.navigation import produce_nav_episode
-
-        return produce_nav_episode(config, seed, index)
-    start = time.perf_counter()
-    annotated = render_annotated(config, seed, index)
-    rendered = time.perf_counter()
-    sample = to_sample(annotated)
-    if timings is not None:
-        timings.update(render_s=rendered - start, encode_s=time.perf_counter() - rendered)
-    return sample
+def produce(config: BuildConfig, seed: int, index: int, attempt: int = 0) -> Sample:
+    """Sample ``index``: one settled tray scene, every camera rendered and annotated.
+    ``attempt`` > 0 re-draws every random value from fresh streams (a retry after a failure)."""
+    return to_sample(render_annotated(config, seed, index, attempt))

@@ -15,13 +15,13 @@ import numpy as np
 from scipy import ndimage
 
 from datagen.config import BuildConfig
+from datagen.engines.sim.encode import View, encode_view, metadata_bytes, png_bytes
 from datagen.engines.sim.render import DEPTH_SCALE, capture, keep_renderer_alive
 from datagen.navigation.episode import Episode, frame_steps, plan_episode
 from datagen.navigation.map_image import episode_map, occupancy_image
-from datagen.navigation.planning import inflate
+from datagen.navigation.grid import inflate
 from datagen.randomisers.navigation import sample_nav_scene
 from datagen.sample import Sample, sample_key
-from datagen.scenes.grasp_tabletop import View, encode_view, metadata_bytes, png_bytes
 from datagen.worlds.floorplan import NAV_CLASSES, NavScene, build_nav_scene
 from datagen.worlds.robots import FETCH
 
@@ -145,11 +145,11 @@ def episode_record(config: BuildConfig, episode: Episode, steps: list[int]) -> d
     }
 
 
-def produce_nav_episode(config: BuildConfig, seed: int, index: int) -> Sample:
+def produce(config: BuildConfig, seed: int, index: int, attempt: int = 0) -> Sample:
     keep_renderer_alive()
     nav = config.navigation
-    episode = plan_episode(nav, seed, index)
-    values = sample_nav_scene(config, seed, index, episode.layout)
+    episode = plan_episode(nav, seed, index, attempt)
+    values = sample_nav_scene(config, seed, index, episode.layout, attempt)
     scene = build_nav_scene(config, episode, values)
     steps = frame_steps(episode.trajectory, nav.frame_rate_hz)
     parts, frames, camera = render_episode(config, episode, scene, steps)

@@ -1,1 +1,2 @@
-"""Dataset writers: the MQTT writer process and the shard formats it writes."""
+"""Dataset writers: the MQTT writer process (``writer``) and how it writes, journals, locks
+and finalizes shards. The shard format that readers share: ``datagen.shards``."""

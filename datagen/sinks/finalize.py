@@ -10,6 +10,7 @@ Each writer, once every listed writer has stopped writing (``sealed``):
 The leader (the smallest listed id) then runs ``combine``: every shard in the directory must
 belong to a listed writer's part file, no key may be in two shards, and the keys must number
 exactly ``expected``; it returns what ``manifest.json`` adds to the coordinator's manifest.
+Who waits for whom (the round over MQTT statuses): ``datagen.sinks.finalize_round``.
 """
 
 from __future__ import annotations
@@ -19,15 +20,9 @@ import logging
 from pathlib import Path
 from typing import Any
 
-from datagen.shards import (
-    ShardInfo,
-    append_journal,
-    keys_sha256,
-    read_keys,
-    remove_keys,
-    shards_by_writer,
-    write_manifest,
-)
+from datagen.shards import ShardInfo, keys_sha256, read_keys, shards_by_writer, write_manifest
+from datagen.sinks.journal import append_journal, journal_entry
+from datagen.sinks.shard_writer import remove_keys
 
 log = logging.getLogger(__name__)
 
@@ -74,9 +69,7 @@ def drop_copies_held_by_smaller(
         removed |= drop
         if new is not None:
             kept.append(new)
-            journal.append(
-                {"shard": new.name, "offset": new.bytes, "samples": new.samples, "closed": True}
-            )
+            journal.append(journal_entry(new.name, new.bytes, new.samples, closed=True))
     if journal:
         append_journal(out, writer_id, journal)
     return kept, removed

@@ -1,32 +1,27 @@
 """The dataset-writer process: MQTT samples in, durable WebDataset shards out.
 
-``python -m datagen.sinks.writer --broker URL --build-id ID --out DIR [--writer-id W]``
-(also ``datagen writer ...``). Several writers may serve one build, into one directory (same
-machine or a shared file system), each with its own ``--writer-id``: they share the samples
-through an MQTT v5 shared subscription, so each sample reaches one of them.
-
-Per message: decode (malformed or foreign-build messages are counted, logged and dropped),
-skip keys already durable in the directory or acknowledged by another writer, write, fsync,
-publish an ack, and only then MQTT-acknowledge the message (``manual_ack``, pitfall 8).
+``datagen writer --broker URL --build-id ID --out DIR [--writer-id W]`` (options:
+``datagen/cli/service_commands.py``) runs ``run_writer``; ``python -m datagen.sinks.writer ...``
+is the same command. Several writers may serve one build, into one directory (same machine or a
+shared file system), each with its own ``--writer-id``: they share the samples through an MQTT
+v5 shared subscription, so each sample reaches one of them.
 
 Sessions: persistent (fixed client id, clean_start=False) with a bounded expiry
 (``--session-expiry``, default 60 s): a writer restarted within it gets the samples the broker
 held for it; one that never returns stops swallowing its share of the samples when the broker
-expires its session (pitfall 3), and the coordinator re-issues what was held. A clean stop
-(SIGTERM/SIGINT, or a finished build) unsubscribes, finishes what was delivered and ends the
-session, so nothing more is routed to it.
+expires its session (docs/mqtt-pitfalls.md, pitfall 3), and the coordinator re-issues what was
+held. A clean stop (SIGTERM/SIGINT, or a finished build) unsubscribes, finishes what was
+delivered and ends the session, so nothing more is routed to it.
 
 On start a writer repairs its shards, then acks every sample durable in the directory (all
 writers' shards, in batches) before announcing ``ready``. ``finalize``: see
-``datagen/sinks/finalize.py`` and docs/wire-format.md.
+``datagen/sinks/finalize_round.py``, ``datagen/sinks/finalize.py`` and docs/wire-format.md.
 """
 
 from __future__ import annotations
 
-import argparse
 import json
 import logging
-import os
 import queue
 import signal
 import sys
@@ -38,35 +33,21 @@ from typing import Any
 import paho.mqtt.client as mqtt
 from paho.mqtt.subscribeoptions import SubscribeOptions
 
-from datagen.engines.transfer.collector import ack_indices, topics, valid_build_id
-from datagen.engines.transfer.connection import CA_FILE_ENV, MqttConnectError, MqttConnection
+from datagen.engines.transfer.connection import MqttConnectError, MqttConnection
+from datagen.engines.transfer.topics import ack_indices, topics
 from datagen.engines.transfer.wire import (
     DEFAULT_MAX_MESSAGE_BYTES,
     SECRET_ENV,
     WireError,
     decode_sample,
-    parse_secret,
 )
 from datagen.sample import Sample, sample_key
-from datagen.shards import (
-    ShardInfo,
-    ShardWriter,
-    WriterLock,
-    WriterLocked,
-    durable_keys,
-    journal_path,
-    recover,
-    shards_by_writer,
-    valid_writer_id,
-    write_manifest,
-)
-from datagen.sinks.finalize import (
-    FinalizeError,
-    combine,
-    drop_copies_held_by_smaller,
-    part_path,
-    write_part,
-)
+from datagen.shards import ShardInfo, valid_writer_id
+from datagen.sinks.finalize_round import finalize_args, run_round
+from datagen.sinks.journal import others_durable_keys, recover
+from datagen.sinks.lock import WriterLock, WriterLocked
+from datagen.sinks.shard_writer import ShardWriter
+from datagen.sinks.status import WriterStatus
 
 log = logging.getLogger("datagen.writer")
 
@@ -76,13 +57,36 @@ EXIT_FINALIZE_MISMATCH = 3  # finalize refused (count mismatch, a writer missing
 EXIT_LOCKED = 4  # another process runs this writer id on this directory
 
 DEFAULT_SESSION_EXPIRY_S = 60
-DEFAULT_FINALIZE_TIMEOUT_S = 300.0
 ANNOUNCE_BATCH = 10_000  # indices per batched ack: ~80 KB, far below any broker's packet limit
 DRAIN_TIMEOUT_S = 10.0
 DRAIN_QUIET_S = 0.5
 
 
 class DatasetWriter:
+    """One writer of a build: takes samples from MQTT and keeps them in durable shards.
+
+    Subscriptions (persistent session ``datagen-{build_id}-writer-{writer_id}``):
+    ``topics.shared_samples`` (QoS 1, shared: each sample reaches one writer),
+    ``topics.control`` (QoS 1: ``finalize`` and ``announce`` commands), ``topics.acks`` (QoS 0,
+    no-local: other writers' acks) and ``topics.status_all`` (QoS 0: every writer's retained
+    status, which the finalize round waits on). It publishes acks and its own retained status
+    (``ready``, ``sealed``, ``prepared``, ``finalized``, ``stopped``, ``error``; will: ``lost``).
+
+    Acks: messages are taken in batches of up to ``batch_max`` (also the broker's receive
+    window); the batch's new samples are written and made durable (``flush_durable``), then
+    each sample's ack is published and only then is its message MQTT-acknowledged
+    (``manual_ack``; docs/mqtt-pitfalls.md, pitfall 8). Malformed or foreign-build messages are
+    counted, logged and acknowledged without an ack; a control command first commits the
+    samples before it.
+
+    Deduplication by key: a sample whose key is durable anywhere in the directory (found at
+    start, or learnt from another writer's acks) is acked again but not written again.
+
+    ``run()`` returns ``EXIT_OK`` (stopped by ``stop()``, or finalized), ``EXIT_FAILED``,
+    ``EXIT_FINALIZE_MISMATCH`` (the finalize round refused: no manifest) or ``EXIT_LOCKED``
+    (another process runs this writer id on this directory).
+    """
+
     def __init__(
         self,
         broker_url: str,
@@ -115,9 +119,7 @@ class DatasetWriter:
         self.duplicates = 0
         self._inbox: queue.Queue[mqtt.MQTTMessage] = queue.Queue()
         self._stop = threading.Event()
-        self._peers: dict[str, dict[str, Any]] = {}  # latest status of every writer
-        self._peers_cond = threading.Condition()
-        self._last_status: dict[str, Any] | None = None
+        self._status = WriterStatus(self.topics, writer_id)
         self._finalized = False
 
     def stop(self) -> None:
@@ -149,7 +151,6 @@ class DatasetWriter:
                 len(self._shards),
                 len(self._seen),
             )
-        lost = {"state": "lost", "writer": self.writer_id}
         self._conn = MqttConnection(
             self.broker_url,
             f"datagen-{self.build_id}-writer-{self.writer_id}",
@@ -164,22 +165,23 @@ class DatasetWriter:
             manual_ack=True,
             session_expiry_s=self.session_expiry_s,
             receive_maximum=self.batch_max,
-            will=(self.topics.status(self.writer_id), json.dumps(lost).encode(), 1, True),
+            will=self._status.will(),
             ca_file=self.ca_file,
-            on_connected=self._reassert_status,
+            on_connected=self._status.reassert,
         )
+        self._status.conn = self._conn
         self._sink = ShardWriter(
             self.out_dir, self.writer_id, self.shard_size, recovered.next_shard
         )
         try:
             self._announce(self._seen)
-            self._status("ready", samples=len(self._keys), durable=len(self._seen))
+            self._status.publish("ready", samples=len(self._keys), durable=len(self._seen))
             log.info("ready: subscribed to %s", self.topics.shared_samples)
             code = self._loop()
             if code is None:  # stopped by a signal
                 self._drain()
                 self._sink.close()
-                self._status("stopped", samples=len(self._keys))
+                self._status.publish("stopped", samples=len(self._keys))
                 self._conn.close(end_session=True)
                 log.info("stopped with %d samples on disk; session ended", len(self._keys))
                 return EXIT_OK
@@ -187,23 +189,14 @@ class DatasetWriter:
         except Exception as exc:
             log.exception("writer failed")
             self._sink.close()
-            self._status("error", reason=f"{type(exc).__name__}: {exc}")
+            self._status.publish("error", reason=f"{type(exc).__name__}: {exc}")
             self._conn.close()
             return EXIT_FAILED
 
     def _on_message(self, msg: mqtt.MQTTMessage) -> None:
-        """paho's thread: statuses are kept here (finalize waits on them); the rest queues."""
-        if msg.topic.startswith(self.topics.status_prefix):
-            try:
-                status = json.loads(msg.payload) if msg.payload else None
-            except ValueError:
-                status = None
-            if isinstance(status, dict):
-                with self._peers_cond:
-                    self._peers[msg.topic[len(self.topics.status_prefix) :]] = status
-                    self._peers_cond.notify_all()
-            return
-        self._inbox.put(msg)
+        """paho's thread: statuses are kept (finalize waits on them); the rest queues."""
+        if not self._status.receive(msg):
+            self._inbox.put(msg)
 
     def _loop(self) -> int | None:
         while not self._stop.is_set():
@@ -317,20 +310,13 @@ class DatasetWriter:
             cmd = json.loads(msg.payload)
             kind = cmd.get("cmd") if isinstance(cmd, dict) else None
             if kind == "finalize":
-                code = self._finalize(_finalize_args(cmd, self.writer_id))
+                code = self._finalize(finalize_args(cmd, self.writer_id))
             elif kind == "announce":
-                everything = set(self._keys)
-                for other, paths in shards_by_writer(self.out_dir).items():
-                    if other != self.writer_id:
-                        everything |= durable_keys(self.out_dir, other, paths)
+                everything = self._keys | others_durable_keys(self.out_dir, self.writer_id)
                 self._seen |= everything
                 self._announce(everything)
-                self._status(
-                    "ready",
-                    samples=len(self._keys),
-                    durable=len(everything),
-                    announce=cmd.get("id"),
-                )
+                counts = {"samples": len(self._keys), "durable": len(everything)}
+                self._status.publish("ready", **counts, announce=cmd.get("id"))
             else:
                 raise ValueError(f"unknown command {cmd!r:.200}")
         except (ValueError, KeyError, TypeError) as exc:
@@ -340,200 +326,64 @@ class DatasetWriter:
             self._conn.close(end_session=code == EXIT_OK)
         return code
 
-    # --- finalize ----------------------------------------------------------------------------
     def _finalize(self, args: dict[str, Any] | None) -> int | None:
         if args is None:
             log.info("a finalize for other writers: ignored")
             return None
-        round_id, writers = args["id"], args["writers"]
-        leader = writers[0]
         deadline = time.monotonic() + args["timeout_s"]
         self._shards += self._sink.close()  # sealed: nothing more is written
-        self._status("sealed", round=round_id, samples=len(self._keys))
-        try:
-            self._wait_peers(writers, round_id, {"sealed", "prepared", "finalized"}, deadline)
-            self._shards, removed = drop_copies_held_by_smaller(
-                self.out_dir, self.writer_id, self._shards
-            )
-            self._keys -= removed
-            write_part(
-                self.out_dir,
-                self.writer_id,
-                round_id,
-                build_id=self.build_id,
-                samples=len(self._keys),
-                shards=[s.to_json() for s in self._shards],
-                rejected_messages=self.rejected,
-                duplicate_messages=self.duplicates,
-                copies_removed=len(removed),
-            )
-            self._status("prepared", round=round_id, samples=len(self._keys))
-            if self.writer_id == leader:
-                self._wait_peers(writers, round_id, {"prepared", "finalized"}, deadline)
-                doc = combine(self.out_dir, writers, round_id, args["expected"])
-                manifest = {**args["manifest"], "build_id": self.build_id, "format": "webdataset"}
-                write_manifest(self.out_dir, {**manifest, **doc})
-                total = doc["samples"]
-            else:
-                total = self._wait_peers([leader], round_id, {"finalized"}, deadline)[leader][
-                    "samples"
-                ]
-        except FinalizeError as exc:
-            log.error("finalize refused: %s", exc.reason)
-            self._status("error", round=round_id, reason=exc.reason, **exc.fields)
-            return EXIT_FINALIZE_MISMATCH
-        journal_path(self.out_dir, self.writer_id).unlink(missing_ok=True)
-        part_path(self.out_dir, self.writer_id).unlink(missing_ok=True)
-        self._finalized = True
-        self._status("finalized", round=round_id, samples=total, own=len(self._keys))
-        log.info(
-            "finalized: %d samples (%d in my %d shards)", total, len(self._keys), len(self._shards)
+        counters = {"rejected_messages": self.rejected, "duplicate_messages": self.duplicates}
+        done = run_round(
+            args,
+            deadline,
+            out_dir=self.out_dir,
+            build_id=self.build_id,
+            shards=self._shards,
+            keys=self._keys,
+            counters=counters,
+            status=self._status,
         )
+        if done is None:
+            return EXIT_FINALIZE_MISMATCH
+        self._shards, self._keys = done
+        self._finalized = True
         return EXIT_OK
 
-    def _wait_peers(
-        self, writers: list[str], round_id: str, states: set[str], deadline: float
-    ) -> dict[str, dict[str, Any]]:
-        """Waits until every writer's latest status of this round is in ``states``."""
 
-        def reached(w: str) -> bool:
-            msg = self._peers.get(w, {})
-            return msg.get("round") == round_id and msg.get("state") in states
-
-        with self._peers_cond:
-            while True:
-                for w in writers:
-                    msg = self._peers.get(w, {})
-                    if (
-                        msg.get("round") == round_id
-                        and msg.get("state") == "error"
-                        and w != self.writer_id
-                    ):
-                        raise FinalizeError(f"writer {w!r}: {msg.get('reason')}")
-                missing = [w for w in writers if not reached(w)]
-                if not missing:
-                    return {w: self._peers[w] for w in writers}
-                left = deadline - time.monotonic()
-                if left <= 0:
-                    raise FinalizeError(
-                        f"writers {missing} did not reach {'/'.join(sorted(states))} in time; "
-                        "is every listed writer running?"
-                    )
-                self._peers_cond.wait(min(left, 1.0))
-
-    def _reassert_status(self) -> None:
-        """After a reconnect: the broker may have published our will (``lost``) meanwhile, as
-        Mosquitto does for every client when it shuts down."""
-        msg = self._last_status
-        if msg is not None:
-            self._conn.publish_json(self.topics.status(self.writer_id), msg, qos=1, retain=True)
-
-    def _status(self, state: str, **fields: Any) -> None:
-        msg = {"state": state, "writer": self.writer_id, **fields}
-        self._last_status = msg
-        try:
-            info = self._conn.publish_json(
-                self.topics.status(self.writer_id), msg, qos=1, retain=True
-            )
-            info.wait_for_publish(10)
-        except (RuntimeError, ValueError) as exc:
-            log.warning("could not publish status %r: %s", state, exc)
-
-
-def _finalize_args(cmd: dict[str, Any], writer_id: str) -> dict[str, Any] | None:
-    """The checked arguments of a finalize command; None if this writer is not listed."""
-    writers = cmd.get("writers", [writer_id])
-    if (
-        not isinstance(writers, list)
-        or not writers
-        or not all(isinstance(w, str) and valid_writer_id(w) for w in writers)
-    ):
-        raise ValueError(f"finalize 'writers' must be a list of writer ids, got {writers!r:.200}")
-    expected, manifest = cmd.get("expected"), cmd.get("manifest", {})
-    if (
-        not isinstance(expected, int)
-        or isinstance(expected, bool)
-        or not isinstance(manifest, dict)
-    ):
-        raise ValueError("finalize needs an integer 'expected' and an object 'manifest'")
-    timeout_s = cmd.get("timeout_s", DEFAULT_FINALIZE_TIMEOUT_S)
-    if not isinstance(timeout_s, int | float) or timeout_s <= 0:
-        raise ValueError(f"finalize 'timeout_s' must be a positive number, got {timeout_s!r}")
-    if writer_id not in writers:
-        return None
-    return {
-        "id": str(cmd.get("id", "")),
-        "writers": sorted(set(writers)),
-        "expected": expected,
-        "manifest": manifest,
-        "timeout_s": float(timeout_s),
-    }
-
-
-def main(argv: list[str] | None = None) -> int:
-    p = argparse.ArgumentParser(
-        prog="python -m datagen.sinks.writer", description=__doc__.split("\n")[0]
-    )
-    p.add_argument(
-        "--broker",
-        default=os.environ.get("DATAGEN_BROKER_URL"),
-        help="mqtt://user:pass@host:port or mqtts://... (default: $DATAGEN_BROKER_URL, "
-        "which keeps the password off the process list)",
-    )
-    p.add_argument("--build-id", required=True)
-    p.add_argument("--out", required=True, help="dataset directory")
-    p.add_argument("--writer-id", default="0")
-    p.add_argument("--shard-size", type=int, default=1000, help="samples per shard")
-    p.add_argument("--max-message-bytes", type=int, default=DEFAULT_MAX_MESSAGE_BYTES)
-    p.add_argument(
-        "--ca-file",
-        help=f"CA certificate that signed an mqtts:// broker's certificate (default: ${CA_FILE_ENV}, "
-        "else the system trust store)",
-    )
-    p.add_argument(
-        "--session-expiry",
-        type=int,
-        default=DEFAULT_SESSION_EXPIRY_S,
-        metavar="S",
-        help="seconds the broker keeps holding this writer's samples after it vanished "
-        f"(default {DEFAULT_SESSION_EXPIRY_S}; see docs/deployment.md)",
-    )
-    p.add_argument("--log-level", default="INFO")
-    args = p.parse_args(argv)
-    if not valid_build_id(args.build_id):
-        p.error(f"invalid --build-id {args.build_id!r}: use 1-64 of [A-Za-z0-9_.-]")
-    if not valid_writer_id(args.writer_id):
-        p.error(f"invalid --writer-id {args.writer_id!r}: use 1-32 of [A-Za-z0-9_-]")
-    if not args.broker:
-        p.error("--broker URL (or $DATAGEN_BROKER_URL) is required")
-    if args.session_expiry < 1:
-        p.error("--session-expiry must be >= 1 second")
-    secret = None
-    if os.environ.get(SECRET_ENV):
-        try:
-            secret = parse_secret(os.environ[SECRET_ENV])
-        except ValueError as exc:
-            p.error(str(exc))
+def run_writer(
+    out: str | Path,
+    build_id: str,
+    writer_id: str = "0",
+    *,
+    broker_url: str,
+    shard_size: int = 1000,
+    max_message_bytes: int = DEFAULT_MAX_MESSAGE_BYTES,
+    session_expiry_s: int = DEFAULT_SESSION_EXPIRY_S,
+    ca_file: str | None = None,
+    secret: bytes | None = None,
+    log_level: str = "INFO",
+) -> int:
+    """Runs one writer until SIGTERM/SIGINT or a finished build; returns its exit code. Logs go
+    to stderr at ``log_level``, each line tagged ``writer[{writer_id}]``."""
     logging.basicConfig(
         stream=sys.stderr,
-        level=args.log_level.upper(),
-        format=f"%(asctime)s writer[{args.writer_id}] %(levelname)s %(name)s: %(message)s",
+        level=log_level.upper(),
+        format=f"%(asctime)s writer[{writer_id}] %(levelname)s %(name)s: %(message)s",
+        force=True,
     )
     writer = DatasetWriter(
-        args.broker,
-        args.build_id,
-        args.out,
-        writer_id=args.writer_id,
-        shard_size=args.shard_size,
-        max_message_bytes=args.max_message_bytes,
-        session_expiry_s=args.session_expiry,
-        ca_file=args.ca_file,
+        broker_url,
+        build_id,
+        out,
+        writer_id=writer_id,
+        shard_size=shard_size,
+        max_message_bytes=max_message_bytes,
+        session_expiry_s=session_expiry_s,
+        ca_file=ca_file,
         secret=secret,
     )
     if secret is None:
-        log.warning(
-            "no $%s: accepting any well-formed sample of build %s", SECRET_ENV, args.build_id
-        )
+        log.warning("no $%s: accepting any well-formed sample of build %s", SECRET_ENV, build_id)
     for sig in (signal.SIGTERM, signal.SIGINT):
         signal.signal(sig, lambda *_: writer.stop())
     try:
@@ -541,7 +391,3 @@ def main(argv: list[str] | None = None) -> int:
     except (MqttConnectError, ValueError) as exc:
         log.error("%s", exc)
         return EXIT_FAILED
-
-
-if __name__ == "__main__":
-    sys.exit(main())

@@ -2,38 +2,51 @@
 
 Writes next to the dataset: ``inspect/overview.png`` (annotated grid; grasp attempts drawn on
 their pre-grasp frame, green for success and red for failure) and ``inspect/distributions.png``
-(histograms of randomised parameters and of visibility), and returns the summary.
+(histograms of randomised parameters and of visibility), and returns the summary. The summary
+and plots are chosen by the samples' metadata format (``SUMMARIES``), never by the scene
+family's name; campaign statistics are added wherever the metadata holds grasp attempts.
 """
 
 from __future__ import annotations
 
 from collections import Counter
+from collections.abc import Callable
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 import cv2
 import numpy as np
 
-from datagen.dataset.loader import load
+from datagen.dataset.loader import DatasetError, load
 from datagen.grasping.stats import campaign_stats
 from datagen.tools.preview import sample_tile, tile_grid
 
 GRID_SAMPLES = 12
 
 
-def _grasp_distributions(metas: list[dict[str, Any]]) -> dict[str, list[float]]:
-    values = {
-        "objects per scene": [len(m["objects"]) for m in metas],
-        "object mass (kg)": [o["mass"] for m in metas for o in m["objects"]],
-        "object friction": [o["friction"] for m in metas for o in m["objects"]],
-        "visible fraction": [
-            o["visible_fraction"] for m in metas for o in m["views"]["workspace"]["objects"]
-        ],
-        "ambient light": [m["randomisation"]["lighting"]["ambient"] for m in metas],
-        "lights": [len(m["randomisation"]["lighting"]["lights"]) for m in metas],
-        "camera fovy (deg)": [m["randomisation"]["camera"]["fovy_deg"] for m in metas],
-        "camera eye z (m)": [m["randomisation"]["camera"]["eye"][2] for m in metas],
-    }
+# name -> the values of one sample; a name whose fields a family's metadata lacks is left out
+_SAMPLE_VALUES: dict[str, Callable[[dict[str, Any]], list[float]]] = {
+    "objects per scene": lambda m: [len(m["objects"])],
+    "object mass (kg)": lambda m: [o["mass"] for o in m["objects"]],
+    "object friction": lambda m: [o["friction"] for o in m["objects"]],
+    "visible fraction": lambda m: [
+        o["visible_fraction"] for o in m["views"]["workspace"]["objects"]
+    ],
+    "ambient light": lambda m: [m["randomisation"]["lighting"]["ambient"]],
+    "lights": lambda m: [len(m["randomisation"]["lighting"]["lights"])],
+    "camera fovy (deg)": lambda m: [m["randomisation"]["camera"]["fovy_deg"]],
+    "camera eye z (m)": lambda m: [m["randomisation"]["camera"]["eye"][2]],
+}
+
+
+def _sample_distributions(metas: list[dict[str, Any]]) -> dict[str, list[float]]:
+    values = {}
+    for name, of_sample in _SAMPLE_VALUES.items():
+        try:
+            values[name] = [v for m in metas for v in of_sample(m)]
+        except KeyError:
+            continue
     attempts = [m["attempt"] for m in metas if "attempt" in m]
     if attempts:
         values["grasp lift height (m)"] = [a["outcome"]["lift_height"] for a in attempts]
@@ -77,19 +90,15 @@ def _histogram(values: list[float], bins: int = 5) -> dict[str, int]:
     }
 
 
-def _grasp_summary(dataset, metas: list[dict[str, Any]]) -> dict[str, Any]:
+def _sample_summary(metas: list[dict[str, Any]]) -> dict[str, Any]:
     classes = Counter(o["class"] for m in metas for o in m["objects"])
     visible = [o["visible_fraction"] for m in metas for o in m["views"]["workspace"]["objects"]]
-    summary: dict[str, Any] = {
+    return {
         "samples": len(metas),
         "objects": sum(classes.values()),
         "objects_per_class": dict(sorted(classes.items())),
         "visible_fraction_histogram": _histogram(visible),
     }
-    attempts = [m["attempt"] for m in metas if "attempt" in m]
-    if attempts:
-        summary["campaign"] = dataset.manifest.get("campaign") or campaign_stats(attempts)
-    return summary
 
 
 def _navigation_summary(metas: list[dict[str, Any]]) -> dict[str, Any]:
@@ -109,25 +118,44 @@ def _navigation_summary(metas: list[dict[str, Any]]) -> dict[str, Any]:
     }
 
 
+@dataclass(frozen=True)
+class Summary:
+    """How ``inspect`` summarises the samples of one metadata format."""
+
+    summary: Callable[[list[dict[str, Any]]], dict[str, Any]]
+    distributions: Callable[[list[dict[str, Any]]], dict[str, list[float]]]
+    noun: str  # what one sample is called in the plots' title
+
+
+# metadata format (meta["format"]) -> its summary
+SUMMARIES: dict[str, Summary] = {
+    "datagen.sample/1": Summary(_sample_summary, _sample_distributions, "samples"),
+    "datagen.nav_episode/1": Summary(_navigation_summary, _navigation_distributions, "episodes"),
+}
+
+
 def inspect_dataset(root: str | Path) -> tuple[dict[str, Any], list[Path]]:
     """Summary of the dataset and the picture files written under ``root/inspect/``."""
     root = Path(root)
     dataset = load(root)
     metas = [dataset.metadata(i) for i in range(len(dataset))]
-    navigation = bool(metas) and "episode" in metas[0]
-    if navigation:
-        summary = _navigation_summary(metas)
-        values = _navigation_distributions(metas)
-    else:
-        summary = _grasp_summary(dataset, metas)
-        values = _grasp_distributions(metas)
+    fmt = metas[0].get("format") if metas else "datagen.sample/1"
+    if fmt not in SUMMARIES:
+        raise DatasetError(
+            f"{root}: no inspect summary for metadata format {fmt!r}; "
+            f"expected one of {list(SUMMARIES)}"
+        )
+    kind = SUMMARIES[fmt]
+    summary = kind.summary(metas)
+    attempts = [m["attempt"] for m in metas if "attempt" in m]
+    if attempts:
+        summary["campaign"] = dataset.manifest.get("campaign") or campaign_stats(attempts)
+    values = kind.distributions(metas)
     out = root / "inspect"
     out.mkdir(exist_ok=True)
     chosen = np.linspace(0, len(dataset) - 1, min(GRID_SAMPLES, len(dataset))).astype(int)
     overview = out / "overview.png"
     cv2.imwrite(str(overview), tile_grid([sample_tile(dataset[int(i)]) for i in chosen]))
     distributions = out / "distributions.png"
-    _plot_distributions(
-        values, f"{len(metas)} {'episodes' if navigation else 'samples'}", distributions
-    )
+    _plot_distributions(values, f"{len(metas)} {kind.noun}", distributions)
     return summary, [overview, distributions]

@@ -1,5 +1,8 @@
 """Preview grids: samples drawn with their annotations (masks, 2D boxes, 3D boxes, object axes,
-labels, grasps; navigation frames with their classes, path and map)."""
+labels, grasps; navigation frames with their classes, path and map).
+
+A sample is drawn by the tile of its views' shape (``datagen.dataset.views``), never by its scene
+family's name: a time sequence by :func:`sequence_tile`, cameras by :func:`camera_tile`."""
 
 from __future__ import annotations
 
@@ -9,7 +12,8 @@ from typing import Any
 import cv2
 import numpy as np
 
-from datagen.engines.sim.annotate import project
+from datagen.dataset.views import is_sequence, labelled_views
+from datagen.geometry import project
 
 # (i, j) corner pairs of the 8 box corners ordered x-major, then y, then z (see annotate.py)
 _BOX_EDGES = [
@@ -184,8 +188,9 @@ def draw_navigation_frame(
     return image
 
 
-def navigation_tile(item: dict[str, Any]) -> np.ndarray:
-    """One loaded navigation episode: its middle frame annotated, above its top-down map."""
+def sequence_tile(item: dict[str, Any]) -> np.ndarray:
+    """One loaded time sequence (a navigation episode): its middle frame annotated, above its
+    top-down map."""
     meta, frames = item["meta"], item["frames"]
     k = len(frames) // 2
     episode = meta["episode"]
@@ -202,11 +207,9 @@ def navigation_tile(item: dict[str, Any]) -> np.ndarray:
     return np.vstack([image, overview])
 
 
-def sample_tile(item: dict[str, Any]) -> np.ndarray:
-    """One loaded sample: annotated colour image (and its grasp, if any) above its depth map;
-    navigation episodes by :func:`navigation_tile`."""
-    if "frames" in item:
-        return navigation_tile(item)
+def camera_tile(item: dict[str, Any]) -> np.ndarray:
+    """One loaded sample of cameras: the workspace camera's annotated colour image (and its
+    grasp, if any) above its depth map."""
     view = item["meta"]["views"]["workspace"]
     image = draw_annotations(item["rgb"], item["seg"], view)
     attempt = item["meta"].get("attempt")
@@ -214,6 +217,14 @@ def sample_tile(item: dict[str, Any]) -> np.ndarray:
         draw_grasp(image, attempt, view["camera"])
     put_label(image, item["key"], (6, 18), 0.55)
     return np.vstack([image, depth_colour(item["depth"])])
+
+
+def sample_tile(item: dict[str, Any]) -> np.ndarray:
+    """One loaded sample, drawn by :func:`sequence_tile` when its views form a time sequence,
+    else by :func:`camera_tile`."""
+    if is_sequence(labelled_views(item["meta"])):
+        return sequence_tile(item)
+    return camera_tile(item)
 
 
 def tile_grid(tiles: list[np.ndarray], columns: int = 4, max_width: int = 2400) -> np.ndarray:

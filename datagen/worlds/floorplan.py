@@ -25,6 +25,12 @@ from datagen.worlds.robots import FETCH, maniskill_asset
 # Semantic classes; 0 is background (nothing rendered).
 NAV_CLASSES = ("background", "floor", "wall", "door", "obstacle", "goal_marker", "robot")
 NAV_CLASS_ID = {name: i for i, name in enumerate(NAV_CLASSES)}
+
+
+def navigation_classes(config: BuildConfig) -> tuple[str, ...]:
+    return NAV_CLASSES
+
+
 FLOOR_THICKNESS = 0.05  # metres
 FLOOR_MARGIN = 1.0  # metres of floor beyond the floor plan on every side
 THRESHOLD_HEIGHT = 0.004  # metres: the door's floor strip, drawn so doors show in the labels

@@ -14,7 +14,8 @@ from typing import Any
 import numpy as np
 import sapien
 
-from datagen.config import SHAPE_FAMILIES, BuildConfig
+from datagen.config import BuildConfig
+from datagen.config.sections import SHAPE_FAMILIES
 from datagen.randomisers import sample_scene
 from datagen.randomisers.camera import apply_camera
 from datagen.randomisers.lighting import apply_lighting
@@ -116,10 +117,10 @@ def _add_tray(scene, material) -> sapien.Entity:
     return tray
 
 
-def build_scene(config: BuildConfig, seed: int, index: int) -> GraspScene:
+def build_scene(config: BuildConfig, seed: int, index: int, attempt: int = 0) -> GraspScene:
     """A fresh SAPIEN scene for sample ``index`` of the build, settled and ready to render."""
     tray_floor_top = (TRAY_CENTRE[0], TRAY_CENTRE[1], TRAY_CENTRE[2] + TRAY_FLOOR)
-    params = sample_scene(config, seed, index, tray_floor_top, TRAY_INNER_HALF)
+    params = sample_scene(config, seed, index, tray_floor_top, TRAY_INNER_HALF, attempt)
     scene = construct_scene(config, params)
     for _ in range(round(config.physics.settle_time / config.physics.timestep)):
         scene.scene.step()

@@ -1,52 +1,17 @@
-"""Where scene workers run: local spawned processes, or Ray actors on a cluster.
-
-The coordinator talks to both through the same five calls and never sees processes or actors:
-``start(id)``, ``send(id, index)``, ``retire(id)`` (finish what it holds, then stop), ``poll``
-(events ``(id, kind, payload)`` with kind ``published`` (payload: index), ``done``, ``lost``
-(it died; payload: why) or ``error`` (payload: message)), and ``stop(graceful)``.
-"""
+"""Workers as processes of this machine."""
 
 from __future__ import annotations
 
-import contextlib
 import logging
 import multiprocessing as mp
-import os
 import time
-from dataclasses import dataclass
 from multiprocessing.connection import wait as wait_connections
 from typing import Any
 
+from datagen.build.executors.base import WORKER_ENV_DEFAULTS, Event, WorkerSpec, default_env
 from datagen.build.worker import worker_main
 
 log = logging.getLogger(__name__)
-Event = tuple[int, str, Any]
-EXECUTORS = ("local", "ray")
-# One worker per core: OpenMP/BLAS thread pools in each worker would oversubscribe the cores
-# (measured: +12-20 % frames/s for a local worker with 1 thread). Ray sets the same itself.
-# A value the user exported wins.
-WORKER_ENV_DEFAULTS = {"OMP_NUM_THREADS": "1"}
-
-
-@contextlib.contextmanager
-def default_env(defaults: dict[str, str]):
-    added = [k for k in defaults if k not in os.environ]
-    os.environ.update({k: defaults[k] for k in added})
-    try:
-        yield
-    finally:
-        for k in added:
-            os.environ.pop(k, None)
-
-
-@dataclass
-class WorkerSpec:
-    """What every worker needs: the build's config, broker and identity."""
-
-    config: dict[str, Any]
-    broker_url: str
-    build_id: str
-    secret: bytes
 
 
 class LocalExecutor:
@@ -122,19 +87,3 @@ class LocalExecutor:
                 process.kill()
             conn.close()
         self.workers.clear()
-
-
-def make_executor(name: str, spec: WorkerSpec, options: dict[str, Any]):
-    if name == "local":
-        return LocalExecutor(spec)
-    if name == "ray":
-        from datagen.build.executors.ray_actors import RayExecutor
-
-        return RayExecutor(spec, **options)
-    raise ValueError(f"unknown executor {name!r}; expected one of {list(EXECUTORS)}")
-
-
-def worker_env() -> dict[str, str]:
-    """Environment a worker on another machine needs from ours (log level only: everything
-    else travels in its arguments)."""
-    return {k: v for k, v in os.environ.items() if k in ("DATAGEN_LOG_LEVEL",)}

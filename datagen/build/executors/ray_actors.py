@@ -17,7 +17,7 @@ from typing import Any
 import ray
 from ray.exceptions import GetTimeoutError, RayActorError, RayTaskError
 
-from datagen.build.executors.local_processes import Event, WorkerSpec, worker_env
+from datagen.build.executors.base import Event, WorkerSpec, worker_env
 
 log = logging.getLogger(__name__)
 CLOSE_TIMEOUT_S = 30.0
@@ -28,7 +28,7 @@ class SceneWorker:
 
     def __init__(self, worker_id: int, spec: WorkerSpec):
         from datagen.config import config_from_dict
-        from datagen.engines.transfer.collector import SamplePublisher
+        from datagen.engines.transfer.publisher import SamplePublisher
 
         logging.basicConfig(
             level=os.environ.get("DATAGEN_LOG_LEVEL", "WARNING"),
@@ -45,11 +45,18 @@ class SceneWorker:
         )
         self.publisher.__enter__()
 
-    def produce(self, index: int) -> int:
-        from datagen.scenes.grasp_tabletop import produce_sample
+    def produce(self, index: int) -> dict[str, Any]:
+        """``{"index", "attempt", "failures", "published"}``; raises if the build must stop."""
+        from datagen.build.production import SampleFailed, produce_with_policy
 
-        self.publisher.publish(produce_sample(self.config, self.config.seed, index))
-        return index
+        try:
+            produced = produce_with_policy(self.config, index)
+        except SampleFailed as exc:
+            if self.config.build.on_sample_error != "retry":
+                raise
+            return {"index": index, "failures": exc.failures, "published": False}
+        self.publisher.publish(produced.sample)
+        return {"index": index, "attempt": produced.attempt, "failures": produced.failures, "published": True}  # fmt: skip
 
     def close(self) -> bool:
         """Waits until the broker has everything published, then disconnects."""
@@ -116,7 +123,7 @@ class RayExecutor:
                 continue
             worker_id, call, index = entry
             try:
-                ray.get(ref)
+                result = ray.get(ref)
             except RayActorError as exc:
                 self._lose(worker_id)
                 events.append((worker_id, "lost", f"Ray actor died: {exc}"[:500]))
@@ -126,7 +133,7 @@ class RayExecutor:
                 events.append((worker_id, "error", f"worker {worker_id} failed at sample {index}: {cause}"))  # fmt: skip
                 continue
             if call == "produce":
-                events.append((worker_id, "published", index))
+                events.extend((worker_id, kind, payload) for kind, payload in _produced(result))
             else:
                 ray.kill(self.actors.pop(worker_id))
                 events.append((worker_id, "done", None))
@@ -151,3 +158,12 @@ class RayExecutor:
         self.pending.clear()
         if self._owns_ray:
             ray.shutdown()
+
+
+def _produced(result: dict[str, Any]) -> list[tuple[str, Any]]:
+    """A produce call's result as the events a local worker sends (see datagen/build/worker.py)."""
+    index, failures = result["index"], result["failures"]
+    if not result["published"]:
+        return [("failed", {"index": index, "failures": failures})]
+    retried = [("retried", {"index": index, "attempt": result["attempt"], "failures": failures})]
+    return [*(retried if failures else []), ("published", index)]

@@ -13,7 +13,7 @@ from typing import TYPE_CHECKING, Any
 import cv2
 import numpy as np
 
-from datagen.geometry import pose_record
+from datagen.geometry import pose_record, project
 
 if TYPE_CHECKING:  # only for annotations: drawing and tests need no simulator
     from datagen.engines.sim.render import Frame
@@ -31,17 +31,6 @@ class LabelledObject:
     parts: list[np.ndarray]  # convex parts' vertices, object frame, (N_i, 3) each
     obb_transform: np.ndarray  # (4, 4) box frame -> object frame
     obb_extents: np.ndarray  # (3,) metres
-
-
-def project(
-    points_world: np.ndarray, intrinsics: np.ndarray, extrinsics: np.ndarray
-) -> tuple[np.ndarray, np.ndarray]:
-    """World points (N, 3) -> pixel coordinates (N, 2) (pixel centres at integers) and depth (N,)."""
-    cam = points_world @ extrinsics[:3, :3].T + extrinsics[:3, 3]
-    uvw = cam @ intrinsics.T
-    with np.errstate(divide="ignore", invalid="ignore"):
-        uv = uvw[:, :2] / uvw[:, 2:3] - 0.5
-    return uv, cam[:, 2]
 
 
 def label_maps(

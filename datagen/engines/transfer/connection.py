@@ -9,6 +9,8 @@ the credentials``.
 The CA file for ``mqtts://`` is the ``ca_file`` argument, else ``$DATAGEN_MQTT_CA_FILE``, else
 the system's trust store. This is the only place datagen reads that variable, so every process
 (workers included) finds the same CA without passing it through every layer.
+
+``broker_answers`` is a one-shot probe: does an MQTT broker answer on host:port yet?
 """
 
 from __future__ import annotations
@@ -27,7 +29,7 @@ from paho.mqtt.packettypes import PacketTypes
 from paho.mqtt.properties import Properties
 from paho.mqtt.subscribeoptions import SubscribeOptions
 
-from datagen.engines.transfer.mosquitto import parse_broker_url
+from datagen.engines.transfer.broker_url import parse_broker_url
 
 log = logging.getLogger(__name__)
 
@@ -57,7 +59,8 @@ class MqttConnection:
     """A connected paho client (MQTT v5, network loop in a background thread).
 
     ``session_expiry_s > 0`` makes the session persistent (clean_start=False): the broker keeps
-    subscriptions and queued QoS 1 messages while we are away, for that long (pitfall 5).
+    subscriptions and queued QoS 1 messages while we are away, for that long
+    (docs/mqtt-pitfalls.md, pitfall 5).
     ``subscriptions`` are ``(topic, qos)`` or ``(topic, SubscribeOptions)``.
     ``on_connected()`` runs on paho's thread after every (re)connect, once subscribed.
     """
@@ -241,3 +244,31 @@ class MqttConnection:
     def _handle_message(self, client, userdata, message: mqtt.MQTTMessage) -> None:
         if self._on_message is not None:
             self._on_message(message)
+
+
+def broker_answers(host: str, port: int, username: str, password: str, timeout_s: float) -> bool:
+    """True as soon as an MQTT broker on host:port answers a CONNECT with a CONNACK, whatever
+    its reason code (even a refusal proves a broker is there); False on a socket error or no
+    answer within ``timeout_s``. Polled while a broker starts, so keep ``timeout_s`` short."""
+    answered = threading.Event()
+
+    def on_connect(client, userdata, flags, reason_code, properties) -> None:
+        answered.set()
+
+    # No reconnecting: the network thread ends when the broker closes the connection.
+    client = mqtt.Client(
+        mqtt.CallbackAPIVersion.VERSION2, protocol=mqtt.MQTTv5, reconnect_on_failure=False
+    )
+    client.username_pw_set(username, password)
+    client.connect_timeout = timeout_s
+    client.on_connect = on_connect
+    deadline = time.monotonic() + timeout_s
+    try:
+        client.connect(host, port, keepalive=10)
+        client.loop_start()
+        return answered.wait(max(0.0, deadline - time.monotonic()))
+    except OSError:
+        return False
+    finally:
+        client.disconnect()
+        client.loop_stop()

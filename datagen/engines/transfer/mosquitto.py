@@ -1,17 +1,16 @@
-"""Mosquitto for datagen, and broker URL parsing.
+"""Mosquitto for datagen.
 
 ``ManagedBroker`` runs ``mosquitto -c <generated conf>`` with a username/password (generated
-unless given), persistence on, and the queue/size limits raised (see
-/work/shared/notes/mqtt.md, pitfalls 1, 4 and 9): by default a private broker for one build on
-a free loopback port in a temp dir; with ``data_dir`` a long-lived one whose state survives
-restarts; with ``tls_cert``/``tls_key`` an extra TLS listener. ``run_broker_forever`` runs one
-in the foreground until SIGINT/SIGTERM (``datagen broker``). Deployment: docs/deployment.md.
+unless given), persistence on, and the queue/size limits raised (the configuration is written by
+``mosquitto_config``; see docs/mqtt-pitfalls.md, pitfalls 1, 4 and 9): by default a private
+broker for one build on a free loopback port in a temp dir; with ``data_dir`` a long-lived one
+whose state survives restarts; with ``tls_cert``/``tls_key`` an extra TLS listener.
+``run_broker_forever`` runs one in the foreground until SIGINT/SIGTERM (``datagen broker``).
+Broker URLs are parsed and built in ``broker_url``. Deployment: docs/deployment.md.
 """
 
 from __future__ import annotations
 
-import base64
-import hashlib
 import json
 import logging
 import os
@@ -20,93 +19,23 @@ import secrets
 import shutil
 import signal
 import socket
-import stat
 import subprocess
 import tempfile
 import threading
 import time
 from collections.abc import Callable
-from dataclasses import dataclass
 from pathlib import Path
-from urllib.parse import quote, unquote, urlsplit
 
+from datagen.engines.transfer.broker_url import broker_url
+from datagen.engines.transfer.connection import broker_answers
+from datagen.engines.transfer.mosquitto_config import write_config
 from datagen.engines.transfer.wire import DEFAULT_MAX_MESSAGE_BYTES
 
 log = logging.getLogger(__name__)
 
-# Room for the topic, properties and fixed header around the largest payload.
-PACKET_OVERHEAD_BYTES = 64 * 1024
-
 
 class BrokerError(RuntimeError):
     """Mosquitto is missing, failed to start, or died."""
-
-
-@dataclass(frozen=True)
-class BrokerAddress:
-    host: str
-    port: int
-    username: str | None
-    password: str | None
-    tls: bool
-
-
-def parse_broker_url(url: str) -> BrokerAddress:
-    """``mqtt://[user[:pass]@]host[:port]`` (default port 1883) or ``mqtts://`` (8883)."""
-    try:
-        parts = urlsplit(url)
-        port = parts.port
-    except ValueError as exc:
-        raise ValueError(f"bad broker URL {url!r}: {exc}") from None
-    if parts.scheme not in ("mqtt", "mqtts"):
-        raise ValueError(f"bad broker URL {url!r}: scheme must be mqtt:// or mqtts://")
-    if not parts.hostname:
-        raise ValueError(f"bad broker URL {url!r}: no host")
-    if parts.path not in ("", "/") or parts.query or parts.fragment:
-        raise ValueError(f"bad broker URL {url!r}: unexpected path, query or fragment")
-    tls = parts.scheme == "mqtts"
-    return BrokerAddress(
-        host=parts.hostname,
-        port=port if port is not None else (8883 if tls else 1883),
-        username=unquote(parts.username) if parts.username is not None else None,
-        password=unquote(parts.password) if parts.password is not None else None,
-        tls=tls,
-    )
-
-
-def mosquitto_password_hash(password: str, iterations: int = 101) -> str:
-    """Mosquitto 2.x ``$7$`` entry: PBKDF2-HMAC-SHA512, 12-byte salt, as mosquitto_passwd writes."""
-    salt = secrets.token_bytes(12)
-    digest = hashlib.pbkdf2_hmac("sha512", password.encode("utf-8"), salt, iterations)
-    b64 = base64.b64encode
-    return f"$7${iterations}${b64(salt).decode()}${b64(digest).decode()}"
-
-
-def _mqtt_str(text: str) -> bytes:
-    raw = text.encode("utf-8")
-    return len(raw).to_bytes(2, "big") + raw
-
-
-def mqtt_handshake(host: str, port: int, username: str, password: str, timeout_s: float) -> bool:
-    """True if an MQTT broker answers a CONNECT on host:port with a CONNACK (any return code)."""
-    body = _mqtt_str("MQTT") + bytes(
-        [4, 0xC2, 0, 10]
-    )  # v3.1.1, user+password+clean, keepalive 10 s
-    body += _mqtt_str("") + _mqtt_str(username) + _mqtt_str(password)
-    remaining, n = b"", len(body)
-    while True:
-        n, digit = divmod(n, 128)
-        remaining += bytes([digit | (0x80 if n else 0)])
-        if not n:
-            break
-    try:
-        with socket.create_connection((host, port), timeout=timeout_s) as s:
-            s.sendall(b"\x10" + remaining + body)
-            answer = s.recv(4)
-            s.sendall(b"\xe0\x00")  # DISCONNECT
-    except OSError:
-        return False
-    return answer[:2] == b"\x20\x02"
 
 
 def _free_port(host: str) -> int:
@@ -118,23 +47,6 @@ def _free_port(host: str) -> int:
 _WILDCARD_HOSTS = ("0.0.0.0", "", "::")
 _LOOPBACK_HOSTS = ("127.0.0.1", "localhost", "::1")
 CREDENTIALS_FILE = "credentials.json"
-
-
-def _traversable(directory: Path, uid: int, gid: int) -> bool:
-    """Whether user ``uid`` (group ``gid``) may pass through ``directory`` and its parents."""
-    for d in [directory, *directory.parents]:
-        st = d.stat()
-        bit = (
-            stat.S_IXUSR if st.st_uid == uid else stat.S_IXGRP if st.st_gid == gid else stat.S_IXOTH
-        )
-        if not st.st_mode & bit:
-            return False
-    return True
-
-
-def _url(scheme: str, username: str, password: str, host: str, port: int) -> str:
-    host = f"[{host}]" if ":" in host else host
-    return f"{scheme}://{quote(username, safe='')}:{quote(password, safe='')}@{host}:{port}"
 
 
 class ManagedBroker:
@@ -196,6 +108,7 @@ class ManagedBroker:
         else:
             self.advertise_host = advertise_host or host
         self._proc: subprocess.Popen | None = None
+        self._run_as: pwd.struct_passwd | None = None
 
     @property
     def tls(self) -> bool:
@@ -214,13 +127,13 @@ class ManagedBroker:
         if self.port is None:
             raise BrokerError("broker not started")
         host = "127.0.0.1" if self.plain_host in _WILDCARD_HOSTS else self.plain_host
-        return _url("mqtt", self.username, self.password, host, self.port)
+        return broker_url("mqtt", self.username, self.password, host, self.port)
 
     @property
     def tls_url(self) -> str:
         if not self.tls or self.tls_port is None:
             raise BrokerError("no TLS listener (pass tls_cert and tls_key) or not started")
-        return _url("mqtts", self.username, self.password, self.advertise_host, self.tls_port)
+        return broker_url("mqtts", self.username, self.password, self.advertise_host, self.tls_port)
 
     @property
     def public_url(self) -> str:
@@ -229,7 +142,7 @@ class ManagedBroker:
             return self.tls_url
         if self.port is None:
             raise BrokerError("broker not started")
-        return _url("mqtt", self.username, self.password, self.advertise_host, self.port)
+        return broker_url("mqtt", self.username, self.password, self.advertise_host, self.port)
 
     @property
     def pid(self) -> int | None:
@@ -275,11 +188,11 @@ class ManagedBroker:
             self.port = _free_port(self.plain_host)
         if self.tls and self.tls_port is None:
             self.tls_port = _free_port(self.host if self.host not in _WILDCARD_HOSTS else "0.0.0.0")
-        self._run_as: pwd.struct_passwd | None = None
-        self._write_config()
+        self._run_as = write_config(self)
         # As root, start mosquitto as user "mosquitto" ourselves rather than letting it switch:
         # a process that changes its user loses its parent-death signal (prctl(2)), so a
-        # ``preexec_fn`` setting one would not outlive mosquitto's own switch.
+        # ``preexec_fn`` setting one would not outlive mosquitto's own switch
+        # (docs/mqtt-pitfalls.md, pitfall 13).
         creds: dict = {}
         if self._run_as is not None:
             creds = {"user": self._run_as.pw_uid, "group": self._run_as.pw_gid, "extra_groups": []}
@@ -347,82 +260,6 @@ class ManagedBroker:
                 json.dump({"username": username, "password": password}, f)
         return username, password
 
-    def _write_config(self) -> None:
-        assert self.dir is not None
-        d = self.dir
-        (d / "data").mkdir(exist_ok=True)
-        (d / "passwd").write_text(
-            f"{self.username}:{mosquitto_password_hash(self.password)}\n", encoding="utf-8"
-        )
-        os.chmod(d / "passwd", 0o600)
-        lines = [
-            # password_file and allow_anonymous are global (per_listener_settings false):
-            # every listener requires the credentials
-            f"listener {self.port} {self.plain_host}",
-        ]
-        owned = [d, d / "data", d / "passwd"]
-        if self.tls:
-            assert self.tls_cert is not None and self.tls_key is not None
-            tls_dir = d / "tls"
-            tls_dir.mkdir(exist_ok=True)
-            # copies: mosquitto may run as user "mosquitto", which cannot read the originals
-            shutil.copyfile(self.tls_cert, tls_dir / "server.crt")
-            shutil.copyfile(self.tls_key, tls_dir / "server.key")
-            os.chmod(tls_dir / "server.key", 0o600)
-            owned += [tls_dir, tls_dir / "server.crt", tls_dir / "server.key"]
-            lines += [
-                f"listener {self.tls_port} {self.host}",
-                f"certfile {tls_dir / 'server.crt'}",
-                f"keyfile {tls_dir / 'server.key'}",
-            ]
-        if self.acl_file is not None:
-            shutil.copyfile(self.acl_file, d / "acl")
-            owned.append(d / "acl")
-            lines.append(f"acl_file {d / 'acl'}")
-        lines += [
-            "allow_anonymous false",
-            f"password_file {d / 'passwd'}",
-            "persistence true",
-            f"persistence_location {d / 'data'}/",
-            f"autosave_interval {self.autosave_interval_s}",
-            f"max_queued_messages {self.max_queued_messages}",
-            f"max_queued_bytes {self.max_queued_bytes}",
-            f"max_inflight_messages {self.max_inflight_messages}",
-            f"max_packet_size {self.max_message_bytes + PACKET_OVERHEAD_BYTES}",
-            "set_tcp_nodelay true",
-            "log_dest stderr",
-            "log_type error",
-            "log_type warning",
-            "log_type notice",
-            "log_type information",
-            "connection_messages true",
-            "log_timestamp_format %Y-%m-%dT%H:%M:%S",
-        ]
-        if os.geteuid() == 0:
-            lines.append(self._root_user_line(owned))
-        (d / "mosquitto.conf").write_text("\n".join(lines) + "\n", encoding="utf-8")
-
-    def _root_user_line(self, paths: list[Path]) -> str:
-        # Mosquitto started as root drops to user "mosquitto": its files must be that user's,
-        # and it must be able to reach them.
-        assert self.dir is not None
-        try:
-            entry = pwd.getpwnam("mosquitto")
-        except KeyError:
-            return "user root"
-        if not _traversable(self.dir.resolve().parent, entry.pw_uid, entry.pw_gid):
-            log.warning(
-                "user mosquitto cannot reach %s (a parent directory is closed to it); "
-                "running mosquitto as root",
-                self.dir,
-            )
-            return "user root"
-        for path in paths:
-            os.chown(path, entry.pw_uid, entry.pw_gid)
-        if min(p for p in (self.port, self.tls_port) if p is not None) >= 1024:
-            self._run_as = entry  # no privileged port to bind first: start it as that user
-        return "user mosquitto"
-
     def _wait_listening(self) -> None:
         assert self._proc is not None and self.port is not None
         host = "127.0.0.1" if self.plain_host in _WILDCARD_HOSTS else self.plain_host
@@ -436,7 +273,7 @@ class ManagedBroker:
                 )
             # A CONNACK, not just an open port: something else may hold the port. Mosquitto
             # opens every listener before it accepts anything, so the TLS one is up too.
-            if mqtt_handshake(host, self.port, self.username, self.password, 0.5):
+            if broker_answers(host, self.port, self.username, self.password, 0.5):
                 return
             if time.monotonic() > deadline:
                 self.kill()

@@ -16,6 +16,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from datagen.config.sections import CampaignConfig
 from datagen.grasping import PANDA_MAX_WIDTH, GraspCandidate
 from datagen.grasping.gripper import ConvexBody, collides
 from datagen.grasping.samplers.base import GraspTarget, Obstacles, SampleResult
@@ -54,6 +55,10 @@ class AntipodalSampler:
     downward_z: float = -0.3  # approaches with a z component below this are tried first
     allow_side: bool = True  # then try the others (still collision-checked)
     name: str = "antipodal"
+
+    @classmethod
+    def from_campaign(cls, campaign: CampaignConfig) -> AntipodalSampler:
+        return cls(friction=campaign.friction, pregrasp_distance=campaign.pre_grasp_distance)
 
     def sample(
         self,

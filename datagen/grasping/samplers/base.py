@@ -9,6 +9,7 @@ from typing import Protocol
 import numpy as np
 import trimesh
 
+from datagen.config.sections import CampaignConfig
 from datagen.grasping import GraspCandidate
 from datagen.grasping.gripper import ConvexBody
 from datagen.shapes import ObjectGeometry
@@ -55,7 +56,12 @@ class SampleResult:
 
 
 class GraspSampler(Protocol):
+    """What ``datagen.registries.SAMPLERS`` names: a class built from the campaign section."""
+
     name: str
+
+    @classmethod
+    def from_campaign(cls, campaign: CampaignConfig) -> GraspSampler: ...
 
     def sample(
         self,

@@ -7,6 +7,7 @@ from dataclasses import dataclass
 import numpy as np
 import trimesh
 
+from datagen.config.sections import CampaignConfig
 from datagen.grasping import PANDA_MAX_WIDTH, GraspCandidate
 from datagen.grasping.samplers.base import GraspTarget, Obstacles, SampleResult
 
@@ -21,6 +22,10 @@ def random_rotation(rng: np.random.Generator) -> np.ndarray:
 class RandomSampler:
     margin: float = 0.03  # metres the target's bounding box is grown by
     name: str = "random"
+
+    @classmethod
+    def from_campaign(cls, campaign: CampaignConfig) -> RandomSampler:
+        return cls()
 
     def sample(
         self,

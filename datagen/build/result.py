@@ -1,0 +1,25 @@
+"""What a finished build reports, and the callbacks it reports through on the way."""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+
+@dataclass
+class BuildResult:
+    out_dir: Path
+    samples: int
+    seconds: float
+    already_complete: bool = False
+    resumed_from: int = 0  # samples already durable when the build (re)started
+    reissued: int = 0
+    restarts: dict[str, int] = field(default_factory=dict)
+    retried: dict[int, dict[str, Any]] = field(default_factory=dict)  # index -> attempt, failures
+
+
+ProgressCallback = Callable[[int, int], None]  # (samples durable, samples requested)
+# (event, details): "broker" {url, pid}, "writer" {id, pid}, "worker" {id, pid}, "restart" {...}
+Observer = Callable[[str, dict[str, Any]], None]

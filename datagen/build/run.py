@@ -1,0 +1,98 @@
+"""``run_build``: the entry point of a build. It prepares the output directory, starts (or
+joins) the broker, lets the :class:`~datagen.build.coordinator.Coordinator` drive workers and
+writers until exactly N samples are durable, then adds the family's summary to the manifest and
+runs the exports."""
+
+from __future__ import annotations
+
+import contextlib
+import json
+import os
+import time
+from collections.abc import Iterator
+from pathlib import Path
+
+from datagen.build.coordinator import Coordinator
+from datagen.build.out_dir import prepare_out_dir
+from datagen.build.result import BuildResult, Observer, ProgressCallback
+from datagen.build.worker import die_with_parent
+from datagen.config import BuildConfig
+from datagen.engines.transfer.mosquitto import ManagedBroker
+from datagen.errors import BuildError
+from datagen.exports.runner import ExportProgress, run_exports
+from datagen.registries import FAMILIES, resolve
+from datagen.shards import MANIFEST, write_manifest
+
+
+def run_build(
+    config: BuildConfig,
+    out_dir: str | os.PathLike,
+    workers: int,
+    overwrite: bool = False,
+    on_progress: ProgressCallback | None = None,
+    *,
+    resume: bool = False,
+    broker_url: str | None = None,
+    writers: list[str] | None = None,
+    build_id: str | None = None,
+    observer: Observer | None = None,
+    executor: str = "local",
+    ray_address: str | None = None,
+    on_export_progress: ExportProgress | None = None,
+) -> BuildResult:
+    """Builds ``config.num_samples`` samples into ``out_dir``.
+
+    ``broker_url``: an MQTT v5 broker to use instead of starting Mosquitto. ``writers``: ids of
+    writers started elsewhere (``datagen writer``) instead of one local writer. ``executor``:
+    ``local`` (processes of this machine) or ``ray`` (actors; ``ray_address`` None starts a local
+    Ray instance, ``auto`` or ``ray://host:port`` joins a cluster).
+    """
+    out_dir = Path(out_dir)
+    start = time.monotonic()
+    identity, complete = prepare_out_dir(out_dir, config, overwrite, resume, build_id)
+    if complete:
+        # finishes an interrupted export, if any
+        run_exports(out_dir, config.output.sinks, on_progress=on_export_progress)
+        return BuildResult(out_dir, config.num_samples, 0.0, already_complete=True)
+    if executor == "ray" and ray_address and not broker_url:
+        raise BuildError(
+            "--executor ray on a cluster needs a broker every node can reach: pass --broker "
+            "mqtt://HOST:PORT (see docs/deployment.md, 'Ray cluster')"
+        )
+    options = {}
+    if executor == "ray":
+        options = {
+            "address": ray_address,
+            "cpus_per_worker": config.executor.cpus_per_worker,
+            "gpus_per_worker": config.executor.gpus_per_worker,
+        }
+    coordinator = Coordinator(
+        config, out_dir, identity, workers, writers, observer, on_progress, executor, options
+    )
+    with _broker(config, broker_url, observer) as (url, broker):
+        coordinator.run(url, broker)
+    result = coordinator.result
+    result.seconds = time.monotonic() - start
+    finish = FAMILIES[config.scene].finish
+    if finish and (out_dir / MANIFEST).is_file():
+        made = result.samples - result.resumed_from
+        extra = resolve(finish)(out_dir, made, result.seconds)
+        manifest = json.loads((out_dir / MANIFEST).read_text())
+        write_manifest(out_dir, manifest | extra)
+    if (out_dir / MANIFEST).is_file():
+        run_exports(out_dir, config.output.sinks, on_progress=on_export_progress)
+    return result
+
+
+@contextlib.contextmanager
+def _broker(
+    config: BuildConfig, broker_url: str | None, observer: Observer | None
+) -> Iterator[tuple[str, ManagedBroker | None]]:
+    if broker_url:
+        yield broker_url, None
+        return
+    max_bytes = int(config.transfer.max_sample_mb * 2**20) + 2**16  # + wire header room
+    with ManagedBroker(max_message_bytes=max_bytes, preexec_fn=die_with_parent) as broker:
+        if observer:
+            observer("broker", {"url": broker.url, "pid": broker.pid})
+        yield broker.url, broker

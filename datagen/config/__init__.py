@@ -1,0 +1,212 @@
+"""Build configuration: strict, versioned, every field with its unit.
+
+A YAML file is turned into nested frozen dataclasses by ``dacite`` in strict mode (unknown keys
+fail), then every range is checked. Every error names the file, the dotted key and what was
+expected, and is raised as :class:`ConfigError` for the CLI to print without a traceback.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import os
+import typing
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import dacite
+import yaml
+
+from datagen.config.sections import (
+    SAMPLE_ERROR_POLICIES,
+    SHAPE_FAMILIES,
+    BuildPolicyConfig,
+    CameraConfig,
+    CampaignConfig,
+    ExecutorConfig,
+    LightingConfig,
+    MaterialsConfig,
+    NavigationConfig,
+    ObjectsConfig,
+    OutputConfig,
+    PhysicsConfig,
+    RenderConfig,
+    RobotConfig,
+    TransferConfig,
+    _range,
+)
+from datagen.errors import ConfigError
+from datagen.registries import EXPORTS, FAMILIES, LAYOUTS, SAMPLERS, STORE
+
+CONFIG_VERSION = 1
+
+
+@dataclass(frozen=True)
+class BuildConfig:
+    version: int = CONFIG_VERSION
+    scene: str = "grasp_tabletop"
+    num_samples: int = field(default=100, metadata=_range(1, 10**9 - 1, "samples"))
+    seed: int = field(default=0, metadata=_range(0, 2**63 - 1, "build seed"))
+    render: RenderConfig = field(default_factory=RenderConfig)
+    objects: ObjectsConfig = field(default_factory=ObjectsConfig)
+    materials: MaterialsConfig = field(default_factory=MaterialsConfig)
+    lighting: LightingConfig = field(default_factory=LightingConfig)
+    camera: CameraConfig = field(default_factory=CameraConfig)
+    robot: RobotConfig = field(default_factory=RobotConfig)
+    physics: PhysicsConfig = field(default_factory=PhysicsConfig)
+    output: OutputConfig = field(default_factory=OutputConfig)
+    transfer: TransferConfig = field(default_factory=TransferConfig)
+    executor: ExecutorConfig = field(default_factory=ExecutorConfig)
+    campaign: CampaignConfig = field(default_factory=CampaignConfig)
+    navigation: NavigationConfig = field(default_factory=NavigationConfig)
+    build: BuildPolicyConfig = field(default_factory=BuildPolicyConfig)
+
+    def to_dict(self) -> dict[str, Any]:
+        return _jsonable(dataclasses.asdict(self))
+
+    def replace(self, **changes: Any) -> BuildConfig:
+        return dataclasses.replace(self, **changes)
+
+
+def _jsonable(value: Any) -> Any:
+    if isinstance(value, dict):
+        return {k: _jsonable(v) for k, v in value.items()}
+    if isinstance(value, list | tuple):
+        return [_jsonable(v) for v in value]
+    return value
+
+
+def load_config(path: str | os.PathLike) -> BuildConfig:
+    path = Path(path)
+    if not path.is_file():
+        raise ConfigError(f"{path}: no such config file")
+    try:
+        data = yaml.safe_load(path.read_text())
+    except yaml.YAMLError as exc:
+        raise ConfigError(f"{path}: not valid YAML: {exc}") from None
+    return config_from_dict(data if data is not None else {}, source=str(path))
+
+
+def config_from_dict(data: Any, source: str = "<config>") -> BuildConfig:
+    if not isinstance(data, dict):
+        raise ConfigError(f"{source}: expected a mapping of keys at the top level")
+    version = data.get("version", CONFIG_VERSION)
+    if version != CONFIG_VERSION:
+        raise ConfigError(
+            f"{source}: version: this datagen reads config version {CONFIG_VERSION}, got {version!r}"
+        )
+    _check_unknown_keys(BuildConfig, data, source, prefix="")
+    try:
+        config = dacite.from_dict(
+            BuildConfig, data, config=dacite.Config(strict=True, cast=[tuple])
+        )
+    except dacite.UnexpectedDataError as exc:
+        keys = ", ".join(sorted(exc.keys))
+        raise ConfigError(f"{source}: unknown key(s) {keys} (see configs/README.md)") from None
+    except dacite.WrongTypeError as exc:
+        raise ConfigError(
+            f"{source}: {exc.field_path}: expected {_type_name(exc.field_type)}, got {exc.value!r}"
+        ) from None
+    except dacite.DaciteError as exc:
+        raise ConfigError(f"{source}: {exc}") from None
+    if config.objects.assets_dir and not Path(config.objects.assets_dir).is_absolute():
+        base = Path(source).parent if Path(source).is_file() else Path.cwd()
+        objects = dataclasses.replace(
+            config.objects, assets_dir=str((base / config.objects.assets_dir).resolve())
+        )
+        config = dataclasses.replace(config, objects=objects)
+    _check_ranges(config, source, prefix="")
+    _check_semantics(config, source)
+    return config
+
+
+def _check_unknown_keys(cls: type, data: dict[str, Any], source: str, prefix: str) -> None:
+    """dacite reports unknown keys without their section; this names the full dotted key."""
+    fields = {f.name: f for f in dataclasses.fields(cls)}
+    unknown = [f"{prefix}{k}" for k in data if k not in fields]
+    if unknown:
+        expected = ", ".join(fields)
+        raise ConfigError(
+            f"{source}: unknown key(s) {', '.join(unknown)}; expected keys here: {expected}"
+        )
+    for name, value in data.items():
+        nested = typing.get_type_hints(cls).get(name)
+        if isinstance(nested, type) and dataclasses.is_dataclass(nested):
+            if not isinstance(value, dict):
+                raise ConfigError(
+                    f"{source}: {prefix}{name}: expected a mapping of keys, got {value!r}"
+                )
+            _check_unknown_keys(nested, value, source, prefix=f"{prefix}{name}.")
+
+
+def _type_name(tp: Any) -> str:
+    return getattr(tp, "__name__", None) or str(tp).replace("typing.", "")
+
+
+def _check_ranges(obj: Any, source: str, prefix: str) -> None:
+    for f in dataclasses.fields(obj):
+        key = f"{prefix}{f.name}"
+        value = getattr(obj, f.name)
+        if dataclasses.is_dataclass(value):
+            _check_ranges(value, source, prefix=f"{key}.")
+            continue
+        if "min" not in f.metadata or value is None:
+            continue
+        lo, hi, doc = f.metadata["min"], f.metadata["max"], f.metadata["doc"]
+        values = value if isinstance(value, tuple) else (value,)
+        unit = f" ({doc})" if doc else ""
+        for v in values:
+            if isinstance(v, bool) or not lo <= v <= hi:
+                raise ConfigError(
+                    f"{source}: {key}: expected values in [{lo}, {hi}]{unit}, got {v!r}"
+                )
+        if isinstance(value, tuple) and len(value) == 2 and value[0] > value[1]:
+            raise ConfigError(
+                f"{source}: {key}: expected [min, max] with min <= max, got {list(value)}"
+            )
+
+
+def _check_semantics(config: BuildConfig, source: str) -> None:
+    family = FAMILIES.check(config.scene, f"{source}: scene")
+    objects = config.objects
+    if objects.source not in ("procedural", "folder"):
+        raise ConfigError(
+            f"{source}: objects.source: expected 'procedural' or 'folder', got {objects.source!r}"
+        )
+    if objects.source == "folder" and not Path(objects.assets_dir).is_dir():
+        raise ConfigError(
+            f"{source}: objects.assets_dir: expected a folder of DIR/<class>/<mesh> files "
+            f"(objects.source is 'folder'), got {objects.assets_dir!r}"
+        )
+    unknown = [f for f in config.objects.families if f not in SHAPE_FAMILIES]
+    if unknown or not config.objects.families:
+        raise ConfigError(
+            f"{source}: objects.families: expected a non-empty list from {list(SHAPE_FAMILIES)}, "
+            f"got {list(config.objects.families)}"
+        )
+    SAMPLERS.check(config.campaign.sampler, f"{source}: campaign.sampler")
+    LAYOUTS.check(config.navigation.family, f"{source}: navigation.family")
+    _check_sinks(list(config.output.sinks), family, source)
+    if config.build.on_sample_error not in SAMPLE_ERROR_POLICIES:
+        raise ConfigError(
+            f"{source}: build.on_sample_error: expected one of {list(SAMPLE_ERROR_POLICIES)}, "
+            f"got {config.build.on_sample_error!r}"
+        )
+    if config.render.near >= config.render.far:
+        raise ConfigError(f"{source}: render.near: must be smaller than render.far")
+
+
+def _check_sinks(sinks: list[str], family, source: str) -> None:
+    choices = [STORE, *EXPORTS]
+    if STORE not in sinks or any(s not in choices for s in sinks) or len(set(sinks)) != len(sinks):
+        raise ConfigError(
+            f"{source}: output.sinks: expected distinct names from {choices} including "
+            f"{STORE!r} (the store the other formats are exported from), got {sinks}"
+        )
+    for name in sinks[1:] if sinks[0] == STORE else [s for s in sinks if s != STORE]:
+        worlds = EXPORTS[name].worlds
+        if worlds is not None and family.world not in worlds:
+            raise ConfigError(
+                f"{source}: output.sinks: {name!r} exports scenes of the {' or '.join(worlds)} "
+                f"world only, not scene {family.name!r} ({family.world} world)"
+            )

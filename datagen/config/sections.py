@@ -1,0 +1,212 @@
+"""The sections of a build config: frozen dataclasses, every field with its unit and range
+(``metadata`` ``min``/``max``/``doc``, checked by :func:`datagen.config.config_from_dict`)."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any
+
+SHAPE_FAMILIES = ("box", "cylinder", "sphere", "capsule", "convex", "compound")
+SAMPLE_ERROR_POLICIES = ("fail", "retry")
+
+
+def _range(lo: float, hi: float, doc: str) -> Any:
+    return {"min": lo, "max": hi, "doc": doc}
+
+
+@dataclass(frozen=True)
+class RenderConfig:
+    width: int = field(default=640, metadata=_range(16, 4096, "image width, pixels"))
+    height: int = field(default=480, metadata=_range(16, 4096, "image height, pixels"))
+    wrist_camera: bool = False
+    near: float = field(default=0.05, metadata=_range(0.001, 10.0, "near clip plane, metres"))
+    far: float = field(default=5.0, metadata=_range(0.1, 100.0, "far clip plane, metres"))
+    shadow_map_size: int = field(default=1024, metadata=_range(128, 8192, "pixels"))
+
+
+@dataclass(frozen=True)
+class ObjectsConfig:
+    count: tuple[int, int] = field(default=(3, 12), metadata=_range(1, 32, "objects per scene"))
+    families: tuple[str, ...] = SHAPE_FAMILIES
+    source: str = "procedural"  # or "folder": users' meshes from assets_dir
+    assets_dir: str = ""  # DIR/<class>/<mesh>; relative to the config file
+    size: tuple[float, float] = field(
+        default=(0.045, 0.1), metadata=_range(0.005, 0.5, "largest extent of an object, metres")
+    )
+    density: tuple[float, float] = field(
+        default=(200.0, 1200.0), metadata=_range(1.0, 20000.0, "kg/m^3")
+    )
+    friction: tuple[float, float] = field(
+        default=(0.3, 1.0), metadata=_range(0.0, 2.0, "Coulomb coefficient")
+    )
+    restitution: tuple[float, float] = field(
+        default=(0.0, 0.1), metadata=_range(0.0, 1.0, "coefficient")
+    )
+    drop_height: tuple[float, float] = field(
+        default=(0.03, 0.25), metadata=_range(0.0, 1.0, "metres above the tray floor")
+    )
+
+
+@dataclass(frozen=True)
+class MaterialsConfig:
+    roughness: tuple[float, float] = field(default=(0.1, 0.9), metadata=_range(0.0, 1.0, ""))
+    metallic: tuple[float, float] = field(default=(0.0, 0.5), metadata=_range(0.0, 1.0, ""))
+    saturation: tuple[float, float] = field(
+        default=(0.3, 1.0), metadata=_range(0.0, 1.0, "HSV saturation of object colours")
+    )
+    value: tuple[float, float] = field(
+        default=(0.35, 1.0), metadata=_range(0.0, 1.0, "HSV value of object colours")
+    )
+
+
+@dataclass(frozen=True)
+class LightingConfig:
+    ambient: tuple[float, float] = field(
+        default=(0.15, 0.45), metadata=_range(0.0, 2.0, "ambient level")
+    )
+    lights: tuple[int, int] = field(default=(1, 3), metadata=_range(0, 8, "number of lights"))
+    intensity: tuple[float, float] = field(
+        default=(0.6, 2.0), metadata=_range(0.0, 20.0, "directional light radiance")
+    )
+    elevation_deg: tuple[float, float] = field(
+        default=(35.0, 85.0), metadata=_range(5.0, 90.0, "light elevation above horizon, degrees")
+    )
+    colour_temperature_jitter: float = field(
+        default=0.15, metadata=_range(0.0, 1.0, "max per-channel colour deviation")
+    )
+    shadows: bool = True
+
+
+@dataclass(frozen=True)
+class CameraConfig:
+    eye: tuple[float, float, float] = (-0.22, 0.28, 1.22)
+    target: tuple[float, float, float] = (0.08, 0.0, 0.76)
+    eye_jitter: float = field(default=0.05, metadata=_range(0.0, 1.0, "metres, per axis"))
+    target_jitter: float = field(default=0.03, metadata=_range(0.0, 1.0, "metres, per axis"))
+    fovy_deg: tuple[float, float] = field(
+        default=(42.0, 52.0), metadata=_range(5.0, 150.0, "vertical field of view, degrees")
+    )
+
+
+@dataclass(frozen=True)
+class RobotConfig:
+    joint_jitter: float = field(
+        default=0.15, metadata=_range(0.0, 1.0, "radians around the ready pose, per arm joint")
+    )
+
+
+@dataclass(frozen=True)
+class PhysicsConfig:
+    timestep: float = field(default=0.005, metadata=_range(0.0005, 0.05, "seconds"))
+    settle_time: float = field(
+        default=1.5, metadata=_range(0.0, 30.0, "simulated seconds before rendering")
+    )
+
+
+@dataclass(frozen=True)
+class OutputConfig:
+    shard_size: int = field(default=200, metadata=_range(1, 1_000_000, "samples per tar shard"))
+    sinks: tuple[str, ...] = ("webdataset",)
+
+
+@dataclass(frozen=True)
+class ExecutorConfig:
+    recycle_after: int = field(
+        default=2000,
+        metadata=_range(
+            0, 10**9, "samples a worker makes before a fresh one replaces it; 0 = never"
+        ),
+    )
+    cpus_per_worker: float = field(
+        default=1.0, metadata=_range(0.0, 256.0, "CPUs a Ray worker actor reserves")
+    )
+    gpus_per_worker: float = field(
+        default=0.0,
+        metadata=_range(0.0, 16.0, "GPUs a Ray worker actor reserves (SAPIEN renders on it)"),
+    )
+
+
+@dataclass(frozen=True)
+class TransferConfig:
+    window: int = field(default=8, metadata=_range(1, 256, "in-flight samples per worker"))
+    max_sample_mb: float = field(default=32.0, metadata=_range(0.1, 256.0, "MiB per sample"))
+    ack_timeout_s: float = field(
+        default=60.0,
+        metadata=_range(1.0, 86400.0, "seconds from publish to the writer's ack before re-issue"),
+    )
+
+
+@dataclass(frozen=True)
+class CampaignConfig:
+    """Grasp-attempt campaigns (scene ``grasp_attempts``): one physically executed grasp per sample."""
+
+    sampler: str = "antipodal"
+    sampler_tries: int = field(
+        default=200, metadata=_range(1, 100000, "candidates tried per attempt")
+    )
+    friction: float = field(
+        default=0.5,
+        metadata=_range(0.05, 2.0, "friction coefficient the antipodal sampler assumes"),
+    )
+    pre_grasp_distance: float = field(
+        default=0.1, metadata=_range(0.0, 0.5, "metres back along the approach")
+    )
+    lift_height: float = field(default=0.1, metadata=_range(0.01, 0.5, "metres"))
+    hold_time: float = field(default=1.0, metadata=_range(0.0, 10.0, "simulated seconds"))
+    post_grasp_frame: bool = True
+
+
+@dataclass(frozen=True)
+class NavigationConfig:
+    """Navigation episodes (scene ``navigation``): Fetch drives from a start to a goal."""
+
+    family: str = "rooms"
+    clutter: tuple[int, int] | None = field(
+        default=None, metadata=_range(0, 40, "obstacles placed in the layout (None: per family)")
+    )
+    clutter_size: tuple[float, float] = field(
+        default=(0.3, 0.7), metadata=_range(0.05, 2.0, "obstacle footprint side, metres")
+    )
+    obstacle_height: tuple[float, float] = field(
+        default=(0.3, 1.2), metadata=_range(0.02, 3.0, "metres")
+    )
+    wall_height: tuple[float, float] = field(
+        default=(2.3, 2.8), metadata=_range(0.5, 5.0, "metres")
+    )
+    robot_radius: float = field(
+        default=0.3, metadata=_range(0.05, 1.0, "footprint disk for planning and collisions, m")
+    )
+    planning_margin: float = field(
+        default=0.1, metadata=_range(0.0, 0.5, "clearance added to the radius when planning, m")
+    )
+    min_goal_distance: float = field(
+        default=3.0, metadata=_range(0.0, 50.0, "straight-line start-goal distance, metres")
+    )
+    control_rate_hz: float = field(default=10.0, metadata=_range(1.0, 100.0, "Hz"))
+    frame_rate_hz: float = field(
+        default=2.0, metadata=_range(0.01, 100.0, "rendered frames per simulated second")
+    )
+    max_linear: float = field(default=0.6, metadata=_range(0.05, 3.0, "m/s"))
+    max_angular: float = field(default=1.5, metadata=_range(0.1, 6.0, "rad/s"))
+    lookahead: float = field(default=0.3, metadata=_range(0.05, 3.0, "pure-pursuit lookahead, m"))
+    torso_lift: tuple[float, float] = field(
+        default=(0.0, 0.386),
+        metadata=_range(0.0, 0.386, "Fetch torso lift, metres (camera at about 1.03-1.42 m)"),
+    )
+    camera_pitch_deg: tuple[float, float] = field(
+        default=(5.0, 30.0), metadata=_range(-60.0, 85.0, "head tilt below horizontal, degrees")
+    )
+    camera_fovy_deg: tuple[float, float] = field(
+        default=(50.0, 70.0), metadata=_range(10.0, 150.0, "vertical field of view, degrees")
+    )
+
+
+@dataclass(frozen=True)
+class BuildPolicyConfig:
+    """What a build does when producing a sample raises: ``fail`` ends the build at once;
+    ``retry`` re-draws the sample from the streams of attempt k = 1..retries (still a function
+    of (seed, index) alone), and after the last attempt goes on with the other samples and
+    fails at the end listing every failed index with its errors."""
+
+    on_sample_error: str = "retry"
+    retries: int = field(default=3, metadata=_range(0, 10, "attempts after the first"))

@@ -1,0 +1,134 @@
+"""The files a ``ManagedBroker`` gives Mosquitto: ``mosquitto.conf``, the password file, TLS and
+ACL copies, owned by user ``mosquitto`` when started as root.
+
+The configuration raises Mosquitto's queue limits (docs/mqtt-pitfalls.md, pitfall 1), sets a
+maximum packet size that paho will not check for us (pitfall 4), and hands the broker's files
+to user ``mosquitto``, which Mosquitto drops to when started as root (pitfall 9).
+"""
+
+from __future__ import annotations
+
+import base64
+import hashlib
+import logging
+import os
+import pwd
+import secrets
+import shutil
+import stat
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:
+    from datagen.engines.transfer.mosquitto import ManagedBroker
+
+log = logging.getLogger(__name__)
+
+# Room for the topic, properties and fixed header around the largest payload.
+PACKET_OVERHEAD_BYTES = 64 * 1024
+
+
+def mosquitto_password_hash(password: str, iterations: int = 101) -> str:
+    """Mosquitto 2.x ``$7$`` entry: PBKDF2-HMAC-SHA512, 12-byte salt, as mosquitto_passwd writes."""
+    salt = secrets.token_bytes(12)
+    digest = hashlib.pbkdf2_hmac("sha512", password.encode("utf-8"), salt, iterations)
+    b64 = base64.b64encode
+    return f"$7${iterations}${b64(salt).decode()}${b64(digest).decode()}"
+
+
+def _traversable(directory: Path, uid: int, gid: int) -> bool:
+    """Whether user ``uid`` (group ``gid``) may pass through ``directory`` and its parents."""
+    for d in [directory, *directory.parents]:
+        st = d.stat()
+        bit = (
+            stat.S_IXUSR if st.st_uid == uid else stat.S_IXGRP if st.st_gid == gid else stat.S_IXOTH
+        )
+        if not st.st_mode & bit:
+            return False
+    return True
+
+
+def write_config(broker: ManagedBroker) -> pwd.struct_passwd | None:
+    """Writes ``broker``'s files into ``broker.dir``; returns user ``mosquitto``'s entry when
+    the broker should be started as that user (as root, with no privileged port to bind)."""
+    assert broker.dir is not None
+    d = broker.dir
+    (d / "data").mkdir(exist_ok=True)
+    (d / "passwd").write_text(
+        f"{broker.username}:{mosquitto_password_hash(broker.password)}\n", encoding="utf-8"
+    )
+    os.chmod(d / "passwd", 0o600)
+    lines = [
+        # password_file and allow_anonymous are global (per_listener_settings false):
+        # every listener requires the credentials
+        f"listener {broker.port} {broker.plain_host}",
+    ]
+    owned = [d, d / "data", d / "passwd"]
+    if broker.tls:
+        assert broker.tls_cert is not None and broker.tls_key is not None
+        tls_dir = d / "tls"
+        tls_dir.mkdir(exist_ok=True)
+        # copies: mosquitto may run as user "mosquitto", which cannot read the originals
+        shutil.copyfile(broker.tls_cert, tls_dir / "server.crt")
+        shutil.copyfile(broker.tls_key, tls_dir / "server.key")
+        os.chmod(tls_dir / "server.key", 0o600)
+        owned += [tls_dir, tls_dir / "server.crt", tls_dir / "server.key"]
+        lines += [
+            f"listener {broker.tls_port} {broker.host}",
+            f"certfile {tls_dir / 'server.crt'}",
+            f"keyfile {tls_dir / 'server.key'}",
+        ]
+    if broker.acl_file is not None:
+        shutil.copyfile(broker.acl_file, d / "acl")
+        owned.append(d / "acl")
+        lines.append(f"acl_file {d / 'acl'}")
+    lines += [
+        "allow_anonymous false",
+        f"password_file {d / 'passwd'}",
+        "persistence true",
+        f"persistence_location {d / 'data'}/",
+        f"autosave_interval {broker.autosave_interval_s}",
+        f"max_queued_messages {broker.max_queued_messages}",
+        f"max_queued_bytes {broker.max_queued_bytes}",
+        f"max_inflight_messages {broker.max_inflight_messages}",
+        f"max_packet_size {broker.max_message_bytes + PACKET_OVERHEAD_BYTES}",
+        "set_tcp_nodelay true",
+        "log_dest stderr",
+        "log_type error",
+        "log_type warning",
+        "log_type notice",
+        "log_type information",
+        "connection_messages true",
+        "log_timestamp_format %Y-%m-%dT%H:%M:%S",
+    ]
+    run_as = None
+    if os.geteuid() == 0:
+        user_line, run_as = _root_user_line(broker, owned)
+        lines.append(user_line)
+    (d / "mosquitto.conf").write_text("\n".join(lines) + "\n", encoding="utf-8")
+    return run_as
+
+
+def _root_user_line(
+    broker: ManagedBroker, paths: list[Path]
+) -> tuple[str, pwd.struct_passwd | None]:
+    # Mosquitto started as root drops to user "mosquitto": its files must be that user's,
+    # and it must be able to reach them.
+    assert broker.dir is not None
+    try:
+        entry = pwd.getpwnam("mosquitto")
+    except KeyError:
+        return "user root", None
+    if not _traversable(broker.dir.resolve().parent, entry.pw_uid, entry.pw_gid):
+        log.warning(
+            "user mosquitto cannot reach %s (a parent directory is closed to it); "
+            "running mosquitto as root",
+            broker.dir,
+        )
+        return "user root", None
+    for path in paths:
+        os.chown(path, entry.pw_uid, entry.pw_gid)
+    if min(p for p in (broker.port, broker.tls_port) if p is not None) >= 1024:
+        # no privileged port to bind first: start it as that user
+        return "user mosquitto", entry
+    return "user mosquitto", None

@@ -1,0 +1,79 @@
+"""Topics of one build, and the messages on them (all QoS 1; see docs/wire-format.md):
+
+- ``datagen/<build_id>/samples``  wire-format samples, workers -> writers; writers share it
+  (``$share/datagen-<build_id>/datagen/<build_id>/samples``): each sample goes to one writer
+- ``datagen/<build_id>/acks``     ``{"key", "index", "writer"}`` (or ``{"indices": [...],
+  "writer"}``) once samples are durable in the build's directory
+- ``datagen/<build_id>/control``  ``finalize`` / ``announce`` commands -> every writer
+- ``datagen/<build_id>/status/<writer_id>``  each writer's state, retained: ready / sealed /
+  prepared / finalized / error / stopped / lost
+"""
+
+from __future__ import annotations
+
+import re
+from dataclasses import dataclass
+from typing import Any
+
+from datagen.sample import KEY_DIGITS, sample_key
+
+_BUILD_ID = re.compile(r"^[A-Za-z0-9][A-Za-z0-9_.-]{0,63}$")
+WRITER_STATES = ("ready", "sealed", "prepared", "finalized", "error", "stopped", "lost")
+DEFAULT_FINALIZE_TIMEOUT_S = 300.0
+
+
+def valid_build_id(build_id: str) -> bool:
+    """Build ids go into topics and client ids: no ``/``, ``+``, ``#`` or spaces."""
+    return bool(_BUILD_ID.match(build_id))
+
+
+@dataclass(frozen=True)
+class Topics:
+    samples: str
+    acks: str
+    control: str
+    status_prefix: str  # + writer id
+    shared_samples: str  # what writers subscribe to
+
+    def status(self, writer_id: str) -> str:
+        return self.status_prefix + writer_id
+
+    @property
+    def status_all(self) -> str:
+        return self.status_prefix + "+"
+
+
+def topics(build_id: str) -> Topics:
+    if not valid_build_id(build_id):
+        raise ValueError(f"invalid build id {build_id!r}: use 1-64 of [A-Za-z0-9_.-]")
+    base = f"datagen/{build_id}"
+    return Topics(
+        samples=f"{base}/samples",
+        acks=f"{base}/acks",
+        control=f"{base}/control",
+        status_prefix=f"{base}/status/",
+        shared_samples=f"$share/datagen-{build_id}/{base}/samples",
+    )
+
+
+def ack_indices(obj: Any) -> list[int] | None:
+    """Sample indices of an ack message (``{"key", "index"}`` or ``{"indices": [...]}``);
+    None if malformed (a key not matching its index, a negative or non-integer index)."""
+    if not isinstance(obj, dict):
+        return None
+    if "indices" in obj:
+        indices = obj["indices"]
+        if not isinstance(indices, list) or not all(_is_index(i) for i in indices):
+            return None
+        return indices
+    index = obj.get("index")
+    if not _is_index(index):
+        return None
+    try:
+        return [index] if obj.get("key") == sample_key(index) else None
+    except ValueError:
+        return None
+
+
+def _is_index(value: Any) -> bool:
+    return isinstance(value, int) and not isinstance(value, bool) and 0 <= value < 10**KEY_DIGITS

@@ -1,0 +1,105 @@
+"""A writer's status channel: its own retained status, and every writer's latest one.
+
+A writer publishes its state on ``topics.status(writer_id)`` (QoS 1, retained): ``ready``,
+``sealed``, ``prepared``, ``finalized``, ``stopped`` or ``error``, and ``lost`` as its will.
+After a reconnect it publishes its last status again: the broker may have published the will
+meanwhile, as Mosquitto does for every client when it shuts down. It also keeps the latest status
+of every writer of the build (``topics.status_all``), which the finalize round waits on.
+"""
+
+from __future__ import annotations
+
+import json
+import logging
+import threading
+import time
+from typing import Any
+
+import paho.mqtt.client as mqtt
+
+from datagen.engines.transfer.connection import MqttConnection
+from datagen.engines.transfer.topics import Topics
+from datagen.sinks.finalize import FinalizeError
+
+log = logging.getLogger("datagen.writer")  # the writer process's log
+
+
+class WriterStatus:
+    """The status channel of writer ``writer_id``; ``conn`` is set once it is connected."""
+
+    def __init__(self, build_topics: Topics, writer_id: str):
+        self.topics = build_topics
+        self.writer_id = writer_id
+        self.conn: MqttConnection | None = None  # set once the connection exists
+        self._last: dict[str, Any] | None = None
+        self._peers: dict[str, dict[str, Any]] = {}
+        self._peers_cond = threading.Condition()
+
+    def will(self) -> tuple[str, bytes, int, bool]:
+        """The connection's will: ``lost``, retained."""
+        lost = {"state": "lost", "writer": self.writer_id}
+        return (self.topics.status(self.writer_id), json.dumps(lost).encode(), 1, True)
+
+    def publish(self, state: str, **fields: Any) -> None:
+        msg = {"state": state, "writer": self.writer_id, **fields}
+        self._last = msg
+        try:
+            if self.conn is None:
+                raise RuntimeError("not connected yet")
+            info = self.conn.publish_json(
+                self.topics.status(self.writer_id), msg, qos=1, retain=True
+            )
+            info.wait_for_publish(10)
+        except (RuntimeError, ValueError) as exc:
+            log.warning("could not publish status %r: %s", state, exc)
+
+    def reassert(self) -> None:
+        """After a reconnect (``on_connected``): publishes the last status again."""
+        msg = self._last
+        if msg is not None and self.conn is not None:
+            self.conn.publish_json(self.topics.status(self.writer_id), msg, qos=1, retain=True)
+
+    def receive(self, msg: mqtt.MQTTMessage) -> bool:
+        """paho's thread: keeps ``msg`` if it is a writer's status; False if it is no status."""
+        if not msg.topic.startswith(self.topics.status_prefix):
+            return False
+        try:
+            status = json.loads(msg.payload) if msg.payload else None
+        except ValueError:
+            status = None
+        if isinstance(status, dict):
+            with self._peers_cond:
+                self._peers[msg.topic[len(self.topics.status_prefix) :]] = status
+                self._peers_cond.notify_all()
+        return True
+
+    def wait(
+        self, writers: list[str], round_id: str, states: set[str], deadline: float
+    ) -> dict[str, dict[str, Any]]:
+        """Waits until every writer's latest status of this round is in ``states``; raises
+        ``FinalizeError`` when another writer reports an error or at ``deadline``."""
+
+        def reached(w: str) -> bool:
+            msg = self._peers.get(w, {})
+            return msg.get("round") == round_id and msg.get("state") in states
+
+        with self._peers_cond:
+            while True:
+                for w in writers:
+                    msg = self._peers.get(w, {})
+                    if (
+                        msg.get("round") == round_id
+                        and msg.get("state") == "error"
+                        and w != self.writer_id
+                    ):
+                        raise FinalizeError(f"writer {w!r}: {msg.get('reason')}")
+                missing = [w for w in writers if not reached(w)]
+                if not missing:
+                    return {w: self._peers[w] for w in writers}
+                left = deadline - time.monotonic()
+                if left <= 0:
+                    raise FinalizeError(
+                        f"writers {missing} did not reach {'/'.join(sorted(states))} in time; "
+                        "is every listed writer running?"
+                    )
+                self._peers_cond.wait(min(left, 1.0))

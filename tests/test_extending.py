@@ -1,0 +1,166 @@
+"""docs/extending.md, done for real: a scene family (with its randomiser), a grasp sampler and an
+export format added as plug-ins from tests/plugins (one module each, registered by entry points
+the way an installed package registers them), built and exported through the real pipeline:
+workers, Mosquitto, writer. Also the sample-error policy, with faults injected into chosen
+indices of the example family."""
+
+from __future__ import annotations
+
+import csv
+import json
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+import trimesh
+
+from datagen.dataset.loader import load
+
+REPO = Path(__file__).resolve().parents[1]
+PLUGINS = REPO / "tests" / "plugins"
+CONFIG = """\
+scene: example_blocks
+num_samples: 5
+seed: 7
+render: {width: 128, height: 96}
+"""
+
+
+def datagen(*args: str, faults: str = "", **env: str) -> subprocess.CompletedProcess:
+    path = os.pathsep.join(filter(None, [str(PLUGINS), os.environ.get("PYTHONPATH")]))
+    return subprocess.run(
+        [sys.executable, "-m", "datagen.cli", *args],
+        capture_output=True,
+        text=True,
+        cwd=REPO,
+        timeout=600,
+        env=os.environ | {"PYTHONPATH": path, "EXAMPLE_BLOCKS_FAIL": faults} | env,
+    )
+
+
+def config_file(tmp_path: Path, extra: str = "") -> Path:
+    path = tmp_path / "blocks.yaml"
+    path.write_text(CONFIG + extra)
+    return path
+
+
+def samples(out: Path) -> dict[str, dict[str, bytes]]:
+    dataset = load(out)
+    return {key: dataset.raw(i) for i, key in enumerate(dataset.keys)}
+
+
+@pytest.mark.sim
+@pytest.mark.mqtt
+@pytest.mark.slow
+def test_a_plugin_family_builds_and_every_generic_tool_reads_it(tmp_path):
+    out = tmp_path / "blocks"
+    built = datagen("build", str(config_file(tmp_path)), "--out", str(out), "--workers", "2")
+    assert built.returncode == 0, built.stderr
+    dataset = load(out)
+    assert len(dataset) == 5 and dataset.manifest["classes"] == ["background", "floor", "block"]
+    meta = dataset.metadata(0)
+    visible = [o for o in meta["views"]["workspace"]["objects"] if o["visible"]]
+    assert visible, "the camera sees at least one block"
+    assert (out / "preview.png").is_file()
+
+    exported = datagen("export", str(out), "--to", "labels_csv,coco,hdf5,pointcloud")
+    assert exported.returncode == 0, exported.stderr
+    rows = list(csv.DictReader((out / "labels.csv").read_text().splitlines()))
+    expected = sum(
+        o["visible"] for i in range(5) for o in dataset.metadata(i)["views"]["workspace"]["objects"]
+    )
+    assert len(rows) == expected and {r["class"] for r in rows} == {"block"}
+    coco = json.loads(next((out / "coco").glob("*.json")).read_text())
+    assert len(coco["annotations"]) == expected
+    assert len(list((out / "pointclouds").glob("*.ply"))) == 5
+
+    inspected = datagen("inspect", str(out))
+    assert inspected.returncode == 0, inspected.stderr
+
+    refused = datagen("export", str(out), "--to", "usd")
+    assert refused.returncode != 0 and "Traceback" not in refused.stderr
+    assert "usd" in refused.stderr and "example_blocks" in refused.stderr
+
+
+@pytest.mark.sim
+@pytest.mark.mqtt
+@pytest.mark.slow
+def test_a_failing_sample_is_retried_from_its_own_streams(tmp_path):
+    config = config_file(tmp_path)
+    one = datagen("build", str(config), "--out", str(tmp_path / "a"), "--workers", "1", "--no-preview", faults="2:1")  # fmt: skip
+    assert one.returncode == 0, one.stderr
+    two = datagen("build", str(config), "--out", str(tmp_path / "b"), "--workers", "2", "--no-preview", faults="2:2")  # fmt: skip
+    assert two.returncode == 0, two.stderr
+    a, b = samples(tmp_path / "a"), samples(tmp_path / "b")
+    assert sorted(a) == sorted(b) == [f"{i:09d}" for i in range(5)]
+    for key in a:  # only sample 2 was retried, and it is a function of (seed, index, attempt)
+        if key != "000000002":
+            assert a[key] == b[key]
+    first = json.loads(a["000000002"]["json"])["production"]
+    second = json.loads(b["000000002"]["json"])["production"]
+    assert first["attempt"] == 1 and len(first["failures"]) == 1
+    assert second["attempt"] == 2 and len(second["failures"]) == 2
+    assert "injected fault in sample 2, attempt 0" in first["failures"][0]
+    assert all("production" not in json.loads(a[k]["json"]) for k in a if k != "000000002")
+    manifest = json.loads((tmp_path / "a" / "manifest.json").read_text())
+    assert manifest["retried_samples"]["2"]["attempt"] == 1
+
+
+@pytest.mark.sim
+@pytest.mark.mqtt
+@pytest.mark.slow
+def test_samples_failing_every_attempt_fail_the_build_listing_them_and_resume_finishes(tmp_path):
+    config, out = config_file(tmp_path, "build: {retries: 2}\n"), tmp_path / "out"
+    failed = datagen("build", str(config), "--out", str(out), "--workers", "2", "--no-preview", faults="1:99,3:99")  # fmt: skip
+    assert failed.returncode == 1
+    assert "Traceback" not in failed.stderr
+    assert "2 of 5 samples failed on every attempt" in failed.stderr
+    assert "[1, 3]" in failed.stderr and "injected fault in sample 3, attempt 2" in failed.stderr
+    assert not (out / "manifest.json").exists()
+    resumed = datagen("build", str(config), "--out", str(out), "--workers", "2", "--no-preview", "--resume")  # fmt: skip
+    assert resumed.returncode == 0, resumed.stderr
+    assert "3 were already durable" in resumed.stdout
+    assert len(load(out)) == 5
+
+
+@pytest.mark.sim
+@pytest.mark.mqtt
+def test_policy_fail_stops_at_the_first_failing_sample(tmp_path):
+    config = config_file(tmp_path, "build: {on_sample_error: fail}\n")
+    failed = datagen("build", str(config), "--out", str(tmp_path / "out"), "--workers", "1", "--no-preview", faults="0:1")  # fmt: skip
+    assert failed.returncode == 1 and "Traceback" not in failed.stderr
+    assert "sample 0 failed 1 time(s)" in failed.stderr and "on_sample_error: fail" in failed.stderr
+
+
+def test_plugin_names_are_choices_of_the_config_and_the_cli():
+    script = (
+        "from datagen.config import config_from_dict\n"
+        "c = config_from_dict({'scene': 'grasp_attempts', 'campaign': {'sampler': 'top_down'}})\n"
+        "print(c.campaign.sampler)\n"
+    )
+    path = os.pathsep.join([str(PLUGINS), os.environ.get("PYTHONPATH", "")])
+    env = os.environ | {"PYTHONPATH": path}
+    ran = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, env=env)
+    assert ran.stdout.strip() == "top_down", ran.stderr
+    helped = datagen("campaign", "grasp", "x.yaml", "--out", "x", "--sampler", "nope")
+    assert helped.returncode == 2
+    assert "expected one of ['antipodal', 'random', 'top_down']" in helped.stderr
+
+
+def test_the_example_sampler_grasps_a_box_from_above():
+    sys.path.insert(0, str(PLUGINS))
+    try:
+        from example_top_down import TopDownSampler
+    finally:
+        sys.path.remove(str(PLUGINS))
+    from datagen.grasping.samplers.base import GraspTarget, Obstacles
+
+    box = trimesh.creation.box(extents=[0.04, 0.1, 0.05])
+    box.apply_translation([0.1, 0.0, 0.775])
+    result = TopDownSampler().sample(np.random.default_rng(0), GraspTarget([box], np.eye(4)), Obstacles([]))  # fmt: skip
+    candidate = result.candidate
+    assert candidate is not None and candidate.width == pytest.approx(0.05)
+    assert np.allclose(candidate.approach, [0, 0, -1]) and np.allclose(candidate.closing, [1, 0, 0])
