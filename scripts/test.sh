@@ -5,8 +5,9 @@ set -euo pipefail
 ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 bash "$ROOT/scripts/install.sh"
 cd "$ROOT"
-echo "[test] ruff format --check, ruff check"
+echo "[test] ruff format --check, ruff check, lint-imports (import contracts in pyproject.toml)"
 .venv/bin/ruff format --check --quiet .
 .venv/bin/ruff check --quiet .
+.venv/bin/lint-imports --no-cache >/dev/null || .venv/bin/lint-imports --no-cache
 echo "[test] pytest"
 exec .venv/bin/pytest "$@"

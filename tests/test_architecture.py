@@ -1,0 +1,76 @@
+"""The architecture as docs/architecture.md describes it: small modules, no shadowed names, no
+path outside the repository, and registries whose every entry loads. (Import direction and
+cycles are import-linter's contracts in pyproject.toml, run by scripts/test.sh.)"""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+from importlib import metadata
+from pathlib import Path
+
+import pytest
+
+from datagen.registries import EXECUTORS, EXPORTS, FAMILIES, LAYOUTS, SAMPLERS, resolve
+
+REPO = Path(__file__).resolve().parents[1]
+MAX_MODULE_LINES = 400
+
+
+def package_modules() -> list[Path]:
+    return sorted((REPO / "datagen").rglob("*.py"))
+
+
+def test_no_module_is_over_400_lines():
+    long = {
+        str(p.relative_to(REPO)): n
+        for p in package_modules()
+        if (n := len(p.read_text().splitlines())) > MAX_MODULE_LINES
+    }
+    assert not long, f"split these modules: {long}"
+
+
+def test_no_module_shadows_a_standard_or_installed_module():
+    taken = set(sys.stdlib_module_names) | set(metadata.packages_distributions())
+    shadowing = [
+        str(p.relative_to(REPO))
+        for p in package_modules()
+        if p.stem in taken and p.stem not in ("__init__", "__main__")
+    ]
+    assert not shadowing, f"rename these modules: {shadowing}"
+
+
+def test_no_tracked_file_names_a_path_outside_the_repository():
+    files = subprocess.run(
+        ["git", "ls-files"], cwd=REPO, capture_output=True, text=True, check=True
+    ).stdout.split()
+    outside = ("/work/", "shared/notes", "../shared")
+    offenders = [
+        f
+        for f in files
+        if f != "tests/test_architecture.py"
+        and (REPO / f).is_file()
+        and (REPO / f).suffix in (".py", ".md", ".sh", ".toml", ".yaml", ".ipynb", ".txt", "")
+        and any(o in (REPO / f).read_text(errors="replace") for o in outside)
+    ]
+    assert not offenders, offenders
+
+
+def test_registry_names_are_unique_across_plug_in_kinds_and_well_formed():
+    for registry in (FAMILIES, SAMPLERS, EXPORTS, EXECUTORS, LAYOUTS):
+        names = registry.names()
+        assert names and len(names) == len(set(names))
+        assert all(n.isidentifier() for n in names), names
+
+
+@pytest.mark.sim
+def test_every_registry_entry_loads():
+    for family in FAMILIES.values():
+        for ref in filter(None, (family.produce, family.classes, family.finish)):
+            assert callable(resolve(ref)), ref
+    for export in EXPORTS.values():
+        assert callable(resolve(export.export))
+    for plugin in (*SAMPLERS.values(), *EXECUTORS.values()):
+        assert callable(plugin.load())
+    for layout in LAYOUTS.values():
+        assert callable(resolve(layout.make)) and callable(resolve(layout.params))
