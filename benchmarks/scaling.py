@@ -10,8 +10,9 @@ any run. Per run: wall frames/s (start-up included) and steady frames/s (from th
 last durable frame). The Ray ÷ local ratio uses steady frames/s (target: within 10 %).
 
 Stage shares come from the local runs: each worker logs, per frame, the time spent in scene +
-physics + render + annotation, in PNG/JSON encoding, and in publishing (serialisation, signing,
-MQTT with its in-flight window), via ``DATAGEN_STAGE_LOG``.
+physics + render + annotation (``render``: the family's ``produce`` less encoding), in PNG/JSON
+encoding, and in publishing (serialisation, signing, MQTT with its in-flight window), via
+``DATAGEN_STAGE_LOG``.
 """
 
 from __future__ import annotations

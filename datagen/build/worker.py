@@ -23,6 +23,7 @@ from typing import Any
 
 from datagen.build.production import SampleFailed, produce_with_policy
 from datagen.config import config_from_dict
+from datagen.engines.sim.stage_clock import take
 from datagen.engines.transfer.publisher import SamplePublisher, SampleTooLarge
 
 log = logging.getLogger(__name__)
@@ -74,6 +75,7 @@ def worker_main(
         ) as publisher:
             stage_log = os.environ.get(STAGE_LOG_ENV)
             while (index := conn.recv()) is not None:
+                take()  # what a failed sample left behind is not this sample's
                 start = time.perf_counter()
                 try:
                     produced = produce_with_policy(config, index)
@@ -82,7 +84,8 @@ def worker_main(
                         raise
                     conn.send(("failed", {"index": index, "failures": exc.failures}))
                     continue
-                timings = {"produce_s": time.perf_counter() - start}
+                timings = take()  # seconds per stage within produce: encode_s, ...
+                timings["render_s"] = time.perf_counter() - start - sum(timings.values())
                 start = time.perf_counter()
                 publisher.publish(produced.sample)
                 timings["publish_s"] = time.perf_counter() - start

@@ -171,6 +171,7 @@ def run_build_command(args: argparse.Namespace, config=None) -> int:
             build_id=args.build_id,
             executor=args.executor,
             ray_address=args.ray_address,
+            on_export_progress=_export_bars(),
         )
     if result.already_complete:
         print(f"datagen: {out} already holds this build ({result.samples} samples); nothing to do.")
@@ -195,3 +196,19 @@ def run_build_command(args: argparse.Namespace, config=None) -> int:
         path = write_preview(out, out / "preview.png")
         print(f"datagen: preview with annotation overlays: {path}")
     return 0
+
+
+def _export_bars():
+    """A progress bar per export format the build runs after its samples are durable."""
+    from tqdm import tqdm
+
+    bars: dict = {}
+
+    def on_progress(name: str, done: int, total: int) -> None:
+        if name not in bars:
+            bars[name] = tqdm(total=total, unit="sample", desc=f"export {name}", leave=False)
+        bars[name].update(done - bars[name].n)
+        if done >= total:
+            bars.pop(name).close()
+
+    return on_progress

@@ -9,6 +9,8 @@ from typing import Any
 import cv2
 import numpy as np
 
+from datagen.engines.sim.stage_clock import timed
+
 
 @dataclass
 class View:
@@ -19,7 +21,8 @@ class View:
 
 
 def png_bytes(image: np.ndarray) -> bytes:
-    ok, encoded = cv2.imencode(".png", image)
+    with timed("encode"):
+        ok, encoded = cv2.imencode(".png", image)
     if not ok:
         raise RuntimeError(f"PNG encoding failed for an image of shape {image.shape}")
     return encoded.tobytes()
@@ -36,4 +39,5 @@ def encode_view(view: View, prefix: str = "") -> dict[str, bytes]:
 
 
 def metadata_bytes(metadata: dict[str, Any]) -> bytes:
-    return json.dumps(metadata, sort_keys=True, separators=(",", ":")).encode()
+    with timed("encode"):
+        return json.dumps(metadata, sort_keys=True, separators=(",", ":")).encode()
