@@ -120,7 +120,7 @@ class Registry(Mapping[str, T], Generic[T]):
         """The record of ``name``, or a ConfigError naming ``where`` and the choices."""
         if name not in self:
             raise ConfigError(
-                f"{where}: unknown {self.kind} {name!r}; expected one of {self.names()}"
+                f"{where}: expected one of {self.names()} ({self.kind}), got {name!r}"
             )
         return self[name]
 

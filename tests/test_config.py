@@ -59,15 +59,16 @@ def test_config_round_trips_through_dict():
 
 def test_reference_documents_every_key():
     import dataclasses
+    import typing
     from pathlib import Path
 
     reference = (Path(__file__).resolve().parents[1] / "configs" / "README.md").read_text()
 
     def keys(cls, prefix=""):
+        hints = typing.get_type_hints(cls)
         for f in dataclasses.fields(cls):
-            value = f.default
-            if dataclasses.is_dataclass(value):
-                yield from keys(type(value), f"{prefix}{f.name}.")
+            if dataclasses.is_dataclass(hints[f.name]):
+                yield from keys(hints[f.name], f"{prefix}{f.name}.")
             else:
                 yield f"{prefix}{f.name}"
 

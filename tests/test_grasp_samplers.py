@@ -6,9 +6,11 @@ import numpy as np
 import pytest
 import trimesh
 
+from datagen.errors import ConfigError
 from datagen.grasping import PANDA_MAX_WIDTH
 from datagen.grasping.gripper import ConvexBody, collides, gripper_boxes
-from datagen.grasping.samplers import GraspTarget, Obstacles, make_sampler
+from datagen.grasping.samplers import GraspTarget, Obstacles
+from datagen.registries import SAMPLERS
 from datagen.shapes import build_geometry
 
 TABLE = 0.75
@@ -144,9 +146,15 @@ def test_random_sampler_near_object_above_table():
         assert cand.width == PANDA_MAX_WIDTH and cand.contacts_world is None
 
 
-def test_unknown_sampler_name():
-    with pytest.raises(ValueError, match=r"unknown grasp sampler 'nope'.*antipodal.*random"):
-        make_sampler("nope")
+def make_sampler(name: str, **params):
+    return SAMPLERS[name].load()(**params)
+
+
+def test_unknown_sampler_name_lists_the_registered_ones():
+    with pytest.raises(
+        ConfigError, match=r"campaign.sampler: expected one of \['antipodal', 'random'.*got 'nope'"
+    ):
+        SAMPLERS.check("nope", "campaign.sampler")
 
 
 def translated_box(extents, position):

@@ -19,8 +19,8 @@ from datagen.config import BuildConfig, load_config
 from datagen.config.sections import NavigationConfig, OutputConfig, RenderConfig
 from datagen.dataset.loader import load, load_frames, verify
 from datagen.navigation.episode import plan_episode
-from datagen.navigation.planning import footprint_collides
 from datagen.navigation.grid import inflate
+from datagen.navigation.planning import footprint_collides
 from datagen.scenes.navigation import planar_pose, produce
 from datagen.tools.inspection import inspect_dataset
 from datagen.tools.preview import write_preview

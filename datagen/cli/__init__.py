@@ -40,10 +40,10 @@ def main(argv: list[str] | None = None) -> int:
         level=logging.INFO if args.verbose else logging.WARNING,
         format="%(levelname)s %(name)s: %(message)s",
     )
-    from datagen.errors import BuildError
     from datagen.dataset.loader import DatasetError
     from datagen.engines.transfer.connection import MqttConnectError
     from datagen.engines.transfer.mosquitto import BrokerError
+    from datagen.errors import BuildError
 
     try:
         return args.run(args)

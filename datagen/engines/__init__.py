@@ -1,0 +1,2 @@
+"""Engines: ``sim`` (render, annotate, encode a scene's views) and ``transfer`` (the DataTransfer
+engine over MQTT)."""

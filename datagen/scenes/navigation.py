@@ -18,8 +18,8 @@ from datagen.config import BuildConfig
 from datagen.engines.sim.encode import View, encode_view, metadata_bytes, png_bytes
 from datagen.engines.sim.render import DEPTH_SCALE, capture, keep_renderer_alive
 from datagen.navigation.episode import Episode, frame_steps, plan_episode
-from datagen.navigation.map_image import episode_map, occupancy_image
 from datagen.navigation.grid import inflate
+from datagen.navigation.map_image import episode_map, occupancy_image
 from datagen.randomisers.navigation import sample_nav_scene
 from datagen.sample import Sample, sample_key
 from datagen.worlds.floorplan import NAV_CLASSES, NavScene, build_nav_scene
