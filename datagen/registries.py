@@ -35,7 +35,7 @@ class SceneFamily:
     """A kind of sample a build makes (``scene:`` in the config)."""
 
     name: str
-    summary: str  # one line for --help and the docs
+    summary: str  # one line, shown by `datagen build --help`
     produce: str  # (config, seed, index, attempt) -> datagen.sample.Sample
     classes: str  # (config) -> tuple of class names; a class's id is its position
     section: str | None = None  # the config section holding its own settings, if any

@@ -10,7 +10,7 @@ from pathlib import Path
 
 from datagen.cli.common import positive_int, seed
 from datagen.config import load_config
-from datagen.registries import EXECUTORS, SAMPLERS, choices
+from datagen.registries import EXECUTORS, FAMILIES, SAMPLERS, choices
 
 
 def add_parsers(commands) -> None:
@@ -18,6 +18,8 @@ def add_parsers(commands) -> None:
         "build",
         help="render a dataset from a config into WebDataset shards",
         description="Render a dataset: scene workers -> MQTT -> dataset writer -> tar shards + manifest.",
+        epilog="scene families (the config's 'scene'): "
+        + "; ".join(f"{f.name}: {f.summary}" for f in FAMILIES.values()),
     )
     build.add_argument("config", help="YAML build config, e.g. configs/grasp_tabletop.yaml")
     build.add_argument(
