@@ -9,6 +9,7 @@ workers; where a frame's time goes; worker memory over a long build.
 
 from __future__ import annotations
 
+import argparse
 import json
 import sys
 from pathlib import Path
@@ -36,7 +37,10 @@ def _bars(ax, labels, values, title, unit="frames/s"):
     ax.set_title(title, fontsize=10)
 
 
-def main() -> int:
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--out", help="PNG to write (default: docs/images/benchmarks.png)")
+    args = parser.parse_args(argv)
     fig = Figure(figsize=(15, 8.5))
     axes = fig.subplots(2, 3).ravel()
     used = 0
@@ -86,7 +90,7 @@ def main() -> int:
     for ax in axes[used:]:
         ax.axis("off")
     fig.tight_layout()
-    out = REPO / "docs/images/benchmarks.png"
+    out = Path(args.out) if args.out else REPO / "docs/images/benchmarks.png"
     fig.savefig(out, dpi=70)
     print(f"wrote {out}")
     return 0

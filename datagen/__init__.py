@@ -6,9 +6,11 @@ Loading a dataset needs neither the simulator nor a broker::
     dataset = datagen.load("datasets/grasp_tabletop")
     frames = datagen.load_frames("datasets/nav_rooms")  # navigation: one item per frame
     stream = datagen.stream("datasets/grasp_tabletop", shuffle=True)  # torch IterableDataset
+    loader = DataLoader(dataset, batch_size=8, collate_fn=datagen.collate)  # batches of tensors
 """
 
 from datagen.config import BuildConfig, load_config
+from datagen.dataset.batching import collate
 from datagen.dataset.loader import DatasetError, load, load_frames, verify
 from datagen.errors import ConfigError
 
@@ -26,6 +28,7 @@ __all__ = [
     "BuildConfig",
     "ConfigError",
     "DatasetError",
+    "collate",
     "load",
     "load_config",
     "load_frames",

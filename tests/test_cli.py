@@ -46,7 +46,9 @@ def test_bad_arguments_are_clear_errors(tmp_path):
     result = datagen(
         "build", "configs/grasp_tabletop.yaml", "--out", str(tmp_path), "--workers", "0"
     )
-    assert result.returncode == 2 and "expected a number >= 1" in result.stderr
+    assert (
+        result.returncode == 2 and "expected a whole number from 1 to 1024, got 0" in result.stderr
+    )
     result = datagen("build", "configs/nope.yaml", "--out", str(tmp_path))
     assert result.returncode == 2 and "no such config file" in result.stderr
 
@@ -56,7 +58,7 @@ def test_non_empty_output_directory_is_refused(tmp_path):
     result = datagen(
         "build", "configs/grasp_tabletop.yaml", "--out", str(tmp_path), "--num-samples", "2"
     )
-    assert result.returncode == 1
+    assert result.returncode == 2
     assert "is not empty" in result.stderr and "Traceback" not in result.stderr
     assert (tmp_path / "something.txt").read_text() == "mine"
 

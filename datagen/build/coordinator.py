@@ -30,6 +30,7 @@ from datagen.build.out_dir import BuildIdentity
 from datagen.build.result import BuildResult, Observer, ProgressCallback
 from datagen.build.schedule import Schedule
 from datagen.config import BuildConfig
+from datagen.dataset.loader import DatasetError, check_complete
 from datagen.engines.transfer.collector import AckCollector
 from datagen.engines.transfer.mosquitto import ManagedBroker
 from datagen.errors import BuildError
@@ -124,6 +125,7 @@ class Coordinator:
                     raise BuildError(
                         f"the writers could not finalize the dataset: {status.get('reason', status)}"
                     )
+                self._check_on_disk()
                 self._stop_workers(graceful=True)
                 if self.writer is not None:
                     self.writer.wait(timeout_s=30)
@@ -289,6 +291,14 @@ class Coordinator:
         total = self.config.num_samples
         shown = ", ".join(map(str, missing[:20])) + (" ..." if len(missing) > 20 else "")
         return f"{reason}; {len(missing)} of {total} samples are not durable: {shown}"
+
+    def _check_on_disk(self) -> None:
+        """Success means the data is there: the finished manifest is this build's, and the
+        shards hold every sample 0..N-1 exactly once with the sizes and digests it lists."""
+        try:
+            check_complete(self.out_dir, self.config.num_samples, self.build_id)
+        except DatasetError as exc:
+            raise BuildError(f"the writers reported the dataset finished, but {exc}") from None
 
     def _failed_report(self) -> str:
         lines = [

@@ -8,12 +8,11 @@ import platform
 from importlib import metadata
 from typing import Any
 
-from datagen.build.out_dir import now_utc
+from datagen.build.out_dir import DATASET_FORMAT, now_utc
 from datagen.config import BuildConfig
 from datagen.engines.transfer.wire import VERSION as WIRE_VERSION
 from datagen.registries import FAMILIES
 
-DATASET_FORMAT = "datagen.dataset/1"
 _VERSIONED_PACKAGES = (
     "datagen",
     "sapien",

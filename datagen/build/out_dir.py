@@ -8,6 +8,7 @@ import json
 import os
 import secrets
 import shutil
+import tempfile
 from dataclasses import dataclass
 from datetime import UTC, datetime
 from pathlib import Path
@@ -15,10 +16,11 @@ from typing import Any
 
 from datagen.config import BuildConfig
 from datagen.engines.transfer.wire import SECRET_ENV, parse_secret
-from datagen.errors import BuildError
+from datagen.errors import BuildError, OutDirError
 from datagen.shards import MANIFEST, write_manifest
 
 BUILD_STATE = "build.json"
+DATASET_FORMAT = "datagen.dataset/1"  # manifest.json's "dataset_format"
 
 
 def _read_json(path: Path) -> dict[str, Any] | None:
@@ -38,41 +40,14 @@ def prepare_out_dir(
     out_dir: Path, config: BuildConfig, overwrite: bool, resume: bool, build_id: str | None
 ) -> tuple[BuildIdentity | None, bool]:
     """Returns (build identity, already complete). Refuses to mix builds in one directory."""
-    manifest = _read_json(out_dir / MANIFEST)
-    if (
-        not overwrite
-        and manifest
-        and manifest.get("config") == config.to_dict()
-        and manifest.get("samples") == config.num_samples
-    ):
+    plan = plan_out_dir(out_dir, config, overwrite, resume)
+    if plan == "complete":
         return None, True
-    state = _read_json(out_dir / BUILD_STATE)
-    if resume and not overwrite:
-        if state is None:
-            raise BuildError(
-                f"{out_dir}: nothing to resume (no {BUILD_STATE}); start it without --resume"
-            )
-        if state.get("config") != config.to_dict():
-            differing = sorted(
-                k for k in config.to_dict() if state.get("config", {}).get(k) != config.to_dict()[k]
-            )
-            raise BuildError(
-                f"{out_dir} was started with another config (differs in: {', '.join(differing)}); "
-                "resume with the same config, seed and sample count"
-            )
-        try:
-            return BuildIdentity(state["build_id"], parse_secret(state["secret"])), False
-        except (KeyError, ValueError) as exc:
-            raise BuildError(f"{out_dir / BUILD_STATE}: unreadable build state ({exc})") from None
-    if out_dir.exists() and any(out_dir.iterdir()):
-        if not overwrite:
-            hint = " or pass --resume to finish it" if state else ""
-            raise BuildError(
-                f"{out_dir} is not empty and does not hold a complete build of this config "
-                f"(same config, seed and sample count); choose another --out{hint}, "
-                f"or pass --overwrite to replace it"
-            )
-        shutil.rmtree(out_dir)
+    if plan == "resume":
+        state = _read_json(out_dir / BUILD_STATE) or {}
+        return BuildIdentity(state["build_id"], parse_secret(state["secret"])), False
+    if plan == "overwrite":
+        _clear(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
     try:
         secret = parse_secret(os.environ[SECRET_ENV]) if os.environ.get(SECRET_ENV) else None
@@ -87,6 +62,114 @@ def prepare_out_dir(
     }
     write_manifest(out_dir, state, name=BUILD_STATE, mode=0o600)  # it holds the secret
     return identity, False
+
+
+def plan_out_dir(out_dir: Path, config: BuildConfig, overwrite: bool, resume: bool) -> str:
+    """What a build of ``config`` with these options does with ``out_dir``, changing nothing:
+    ``complete`` (it holds this build: nothing to do), ``resume``, ``overwrite`` (a datagen
+    output, cleared first) or ``new`` (absent or empty). Raises OutDirError, saying what it
+    found, for a directory the build must not use: not a directory, not writable, holding
+    something else (without ``--overwrite``), or not a datagen output (with it)."""
+    _check_writable(out_dir)
+    manifest = _read_json(out_dir / MANIFEST)
+    if (
+        not overwrite
+        and manifest
+        and manifest.get("config") == config.to_dict()
+        and manifest.get("samples") == config.num_samples
+    ):
+        return "complete"
+    state = _read_json(out_dir / BUILD_STATE)
+    if resume and not overwrite:
+        if state is None:
+            raise OutDirError(
+                f"{out_dir}: nothing to resume (no {BUILD_STATE}); start it without --resume"
+            )
+        if state.get("config") != config.to_dict():
+            previous = state.get("config") if isinstance(state.get("config"), dict) else {}
+            differing = sorted(k for k, v in config.to_dict().items() if previous.get(k) != v)
+            raise OutDirError(
+                f"{out_dir} was started with another config (differs in: {', '.join(differing)}); "
+                "resume with the same config, seed and sample count"
+            )
+        try:
+            parse_secret(state["secret"])
+            if not isinstance(state["build_id"], str):
+                raise ValueError("build_id is not a string")
+        except (KeyError, TypeError, ValueError) as exc:
+            raise OutDirError(f"{out_dir / BUILD_STATE}: unreadable build state ({exc})") from None
+        return "resume"
+    entries = _entries(out_dir)
+    if not entries:
+        return "new"
+    if not overwrite:
+        hint = " or pass --resume to finish it" if state else ""
+        raise OutDirError(
+            f"{out_dir} is not empty and does not hold a complete build of this config "
+            f"(same config, seed and sample count); choose another --out{hint}, "
+            f"or pass --overwrite to replace it"
+        )
+    if not _is_datagen_output(manifest, state):
+        shown = ", ".join(entries[:5]) + (f" and {len(entries) - 5} more" if entries[5:] else "")
+        raise OutDirError(
+            f"{out_dir}: --overwrite deletes only a datagen output (with its {BUILD_STATE}, or a "
+            f"{MANIFEST} of format {DATASET_FORMAT!r}) or an empty directory; this one holds "
+            f"{shown} and neither, so it is left as it is: choose another --out"
+        )
+    return "overwrite"
+
+
+def _is_datagen_output(manifest: dict[str, Any] | None, state: dict[str, Any] | None) -> bool:
+    """A directory a build made: its build state (id, secret, config) or a datagen manifest."""
+    if isinstance(state, dict) and {"build_id", "secret", "config"} <= state.keys():
+        return True
+    return isinstance(manifest, dict) and manifest.get("dataset_format") == DATASET_FORMAT
+
+
+def _entries(out_dir: Path) -> list[str]:
+    try:
+        return sorted(p.name for p in out_dir.iterdir()) if out_dir.is_dir() else []
+    except OSError as exc:
+        raise OutDirError(f"{out_dir}: cannot list it: {exc.strerror}") from None
+
+
+def _check_writable(out_dir: Path) -> None:
+    """``out_dir`` is a directory, or can be made one, and a file can be created in it: checked
+    by creating (and deleting) one, as permission bits do not stop root but a read-only file
+    system does."""
+    try:
+        if out_dir.exists() and not out_dir.is_dir():
+            raise OutDirError(
+                f"{out_dir}: exists and is not a directory; --out names the dataset's directory"
+            )
+        nearest = next(p for p in (out_dir.absolute(), *out_dir.absolute().parents) if p.exists())
+        if not nearest.is_dir():
+            raise OutDirError(f"{out_dir}: cannot be created: {nearest} is not a directory")
+        try:
+            fd, probe = tempfile.mkstemp(dir=nearest, prefix=".datagen-write-test-")
+        except OSError as exc:
+            raise OutDirError(
+                f"{out_dir}: cannot create files in {nearest}: {exc.strerror or exc}"
+            ) from None
+        os.close(fd)
+        os.unlink(probe)
+        if not os.access(nearest, os.W_OK | os.X_OK):  # for the real user id as well
+            raise OutDirError(f"{out_dir}: cannot create files in {nearest}: permission denied")
+    except OutDirError:
+        raise
+    except OSError as exc:
+        raise OutDirError(f"{out_dir}: {exc.strerror or exc} ({exc.filename or out_dir})") from None
+    except ValueError as exc:  # a NUL character in the path
+        raise OutDirError(f"{out_dir!r}: not a usable path: {exc}") from None
+
+
+def _clear(out_dir: Path) -> None:
+    """Deletes what is in ``out_dir`` (a datagen output), keeping the directory itself."""
+    for entry in out_dir.iterdir():
+        if entry.is_dir() and not entry.is_symlink():
+            shutil.rmtree(entry)
+        else:
+            entry.unlink()
 
 
 def now_utc() -> str:

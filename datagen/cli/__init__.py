@@ -14,10 +14,22 @@ import signal
 import sys
 
 from datagen.cli import build_commands, dataset_commands, service_commands
-from datagen.cli.common import EXIT_INTERRUPTED, EXIT_USER_ERROR
-from datagen.errors import ConfigError
+from datagen.cli.common import EXIT_INTERRUPTED, EXIT_USER_ERROR, one_line
+from datagen.errors import ConfigError, UserInputError
 
 COMMAND_MODULES = (build_commands, service_commands, dataset_commands)
+
+
+def version() -> str:
+    """The installed package's version, else the one in the source tree."""
+    from importlib import metadata
+
+    try:
+        return metadata.version("datagen")
+    except metadata.PackageNotFoundError:
+        import datagen
+
+        return datagen.__version__
 
 
 def parser() -> argparse.ArgumentParser:
@@ -26,6 +38,7 @@ def parser() -> argparse.ArgumentParser:
         description="Synthetic, annotated, reproducible datasets for robot learning.",
     )
     root.add_argument("-v", "--verbose", action="store_true", help="log what every part does")
+    root.add_argument("--version", action="version", version=f"datagen {version()}")
     commands = root.add_subparsers(dest="command", metavar="COMMAND", required=True)
     for module in COMMAND_MODULES:
         module.add_parsers(commands)
@@ -48,7 +61,10 @@ def main(argv: list[str] | None = None) -> int:
     try:
         return args.run(args)
     except ConfigError as exc:
-        print(f"datagen: config error: {exc}", file=sys.stderr)
+        print(f"datagen: config error: {one_line(str(exc))}", file=sys.stderr)
+        return EXIT_USER_ERROR
+    except UserInputError as exc:  # an option, --out, a dataset directory: before anything starts
+        print(f"datagen {args.command}: error: {one_line(str(exc))}", file=sys.stderr)
         return EXIT_USER_ERROR
     except (BuildError, BrokerError, MqttConnectError, DatasetError) as exc:
         print(f"datagen: {args.command} failed: {exc}", file=sys.stderr)
@@ -56,8 +72,7 @@ def main(argv: list[str] | None = None) -> int:
     except KeyboardInterrupt:
         hint = ""
         if args.command in ("build", "campaign"):
-            command = "build" if args.command == "build" else "campaign grasp"
-            hint = f" Finish it with: datagen {command} {args.config} --out {args.out} --resume"
+            hint = f" Finish it with: {build_commands.resume_command(args)}"
         print(
             f"\ndatagen: interrupted; the output is incomplete (no manifest).{hint}",
             file=sys.stderr,

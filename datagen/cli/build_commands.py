@@ -6,11 +6,35 @@ import argparse
 import dataclasses
 import json
 import os
+import shlex
 from pathlib import Path
 
-from datagen.cli.common import positive_int, seed
-from datagen.config import load_config
+from datagen.cli.common import (
+    MAX_WORKERS,
+    broker_url,
+    build_id,
+    readable_file,
+    seed,
+    whole_number,
+    writer_ids,
+)
+from datagen.cli.progress import progress
+from datagen.config import BuildConfig, load_config
 from datagen.registries import EXECUTORS, FAMILIES, SAMPLERS, choices
+
+_SAMPLES = {f.name: f for f in dataclasses.fields(BuildConfig)}["num_samples"].metadata
+NUM_SAMPLES = whole_number(_SAMPLES["min"], _SAMPLES["max"])
+WORKERS = whole_number(1, MAX_WORKERS)
+DEFAULT_WORKERS = min(os.cpu_count() or 1, MAX_WORKERS)
+OVERWRITE_HELP = (
+    "replace what is in --out: only a datagen output (its build.json or datagen manifest.json) "
+    "or an empty directory; anything else is refused"
+)
+CHECK_HELP = (
+    "only validate: the config, the options and --out (exists or can be created, is writable, "
+    "and what the build would do with it); print the result and exit 0 (2 on an error) without "
+    "starting anything or leaving anything on disk"
+)
 
 
 def add_parsers(commands) -> None:
@@ -25,15 +49,19 @@ def add_parsers(commands) -> None:
     build.add_argument(
         "--out", required=True, help="output directory for shards, manifest and preview"
     )
-    build.add_argument("--num-samples", type=positive_int, help="override the config's num_samples")
+    build.add_argument(
+        "--num-samples",
+        type=NUM_SAMPLES,
+        help="override the config's num_samples (1 .. 10^9-1)",
+    )
     build.add_argument(
         "--workers",
-        type=positive_int,
-        default=os.cpu_count() or 1,
-        help="scene worker processes (default: number of cores)",
+        type=WORKERS,
+        default=DEFAULT_WORKERS,
+        help=f"scene worker processes or Ray actors (1 .. {MAX_WORKERS}; default: number of cores)",
     )
     build.add_argument("--seed", type=seed, help="override the config's seed")
-    build.add_argument("--overwrite", action="store_true", help="replace whatever is in --out")
+    build.add_argument("--overwrite", action="store_true", help=OVERWRITE_HELP)
     build.add_argument(
         "--resume",
         action="store_true",
@@ -42,21 +70,27 @@ def add_parsers(commands) -> None:
     build.add_argument(
         "--broker",
         metavar="URL",
+        type=broker_url,
         help="use this MQTT v5 broker (mqtt://[user:pass@]host:port or mqtts://...) instead of "
         "starting Mosquitto; default: $DATAGEN_BROKER_URL, else a private Mosquitto",
     )
     build.add_argument(
         "--writers",
         metavar="IDS",
+        type=writer_ids,
         help="comma-separated ids of writers started elsewhere ('datagen writer') to use instead "
         "of starting one; they must write into the same directory (shared file system)",
     )
     build.add_argument(
         "--build-id",
+        type=build_id,
         help="topic namespace of the build (default: random); external writers need it",
     )
-    build.add_argument("--ca-file", help="CA certificate to verify an mqtts:// broker")
+    build.add_argument(
+        "--ca-file", type=readable_file, help="CA certificate to verify an mqtts:// broker"
+    )
     build.add_argument("--no-preview", action="store_true", help="skip writing preview.png")
+    build.add_argument("--check", action="store_true", help=CHECK_HELP)
 
     build.add_argument(
         "--executor",
@@ -71,7 +105,7 @@ def add_parsers(commands) -> None:
         "local Ray instance); a cluster needs --broker",
     )
 
-    build.set_defaults(run=run_build_command)
+    build.set_defaults(run=run_build_command, command_parser=build)
 
     campaign = commands.add_parser(
         "campaign",
@@ -86,17 +120,23 @@ def add_parsers(commands) -> None:
         "--attempts",
         dest="num_samples",
         metavar="N",
-        type=positive_int,
-        help="attempts to record (overrides num_samples)",
+        type=NUM_SAMPLES,
+        help="attempts to record (overrides num_samples; 1 .. 10^9-1)",
     )
     grasp.add_argument("--out", required=True, help="output directory")
     grasp.add_argument("--sampler", type=choices(SAMPLERS), help="override campaign.sampler")
-    grasp.add_argument("--workers", type=positive_int, default=os.cpu_count() or 1)
+    grasp.add_argument(
+        "--workers",
+        type=WORKERS,
+        default=DEFAULT_WORKERS,
+        help=f"scene worker processes (1 .. {MAX_WORKERS}; default: number of cores)",
+    )
     grasp.add_argument("--seed", type=seed, help="override the config's seed")
     grasp.add_argument(
         "--resume", action="store_true", help="finish an interrupted campaign in --out"
     )
-    grasp.add_argument("--overwrite", action="store_true", help="replace whatever is in --out")
+    grasp.add_argument("--overwrite", action="store_true", help=OVERWRITE_HELP)
+    grasp.add_argument("--check", action="store_true", help=CHECK_HELP)
     # a campaign is a build: the build options it does not expose take their defaults
     grasp.set_defaults(
         broker=None,
@@ -108,7 +148,40 @@ def add_parsers(commands) -> None:
         ray_address=None,
     )
 
-    grasp.set_defaults(run=run_campaign)
+    grasp.set_defaults(run=run_campaign, command_parser=grasp)
+
+
+# options a resumed build must not repeat; options repeated even at their default
+_NOT_RESUMED = {"help", "resume", "overwrite"}
+_ALWAYS_RESUMED = {"workers"}  # its default is the number of cores: one value may be given
+
+
+def resume_command(args: argparse.Namespace) -> str:
+    """The command that finishes the interrupted build or campaign of ``args``: every option
+    given (those at their default omitted, but for ``--workers``) plus ``--resume``, values
+    shell-quoted, the broker URL's password replaced by ``***``."""
+    from datagen.engines.transfer.broker_url import redact
+
+    words = ["datagen", *(["-v"] if args.verbose else [])]
+    words += ["build"] if args.command == "build" else ["campaign", args.kind]
+    note = ""
+    for action in args.command_parser._actions:
+        value = getattr(args, action.dest, None)
+        if action.dest in _NOT_RESUMED or value is None or value is False:
+            continue
+        if not action.option_strings:  # positional
+            words.append(shlex.quote(str(value)))
+            continue
+        if value == action.default and action.dest not in _ALWAYS_RESUMED:
+            continue
+        flag = max(action.option_strings, key=len)
+        if action.nargs == 0:  # a switch
+            words.append(flag)
+            continue
+        if action.dest == "broker" and redact(value) != value:
+            value, note = redact(value), " (put the broker's password back in place of ***)"
+        words += [flag, shlex.quote(str(value))]
+    return " ".join([*words, "--resume"]) + note
 
 
 def run_campaign(args: argparse.Namespace) -> int:
@@ -118,7 +191,7 @@ def run_campaign(args: argparse.Namespace) -> int:
         campaign = dataclasses.replace(campaign, sampler=args.sampler)
     config = config.replace(scene="grasp_attempts", campaign=campaign)
     result = run_build_command(args, config)
-    if result == 0:
+    if result == 0 and not args.check:
         _print_campaign(Path(args.out))
     return result
 
@@ -134,8 +207,6 @@ def _print_campaign(out: Path) -> None:
 
 
 def run_build_command(args: argparse.Namespace, config=None) -> int:
-    from tqdm import tqdm
-
     from datagen.build.run import run_build
     from datagen.tools.preview import write_preview
 
@@ -147,6 +218,10 @@ def run_build_command(args: argparse.Namespace, config=None) -> int:
         overrides["seed"] = args.seed
     config = config.replace(**overrides)
     out = Path(args.out)
+    plan = check_build(args, config, out)  # before anything starts: UserInputError -> exit 2
+    if args.check:
+        print(f"datagen: check passed: {args.config}: {_PLANS[plan].format(out=out)}")
+        return 0
     if args.ca_file:  # read by every MQTT client of the build, workers and writer included
         os.environ["DATAGEN_MQTT_CA_FILE"] = args.ca_file
     writers = [w.strip() for w in args.writers.split(",") if w.strip()] if args.writers else None
@@ -154,19 +229,14 @@ def run_build_command(args: argparse.Namespace, config=None) -> int:
         f"datagen: building {config.num_samples} samples of '{config.scene}' "
         f"(seed {config.seed}) with {args.workers} workers into {out}"
     )
-    with tqdm(
-        total=config.num_samples, unit="sample", dynamic_ncols=True, desc="durable", smoothing=0.1
-    ) as bar:
-
-        def on_progress(done: int, total: int) -> None:
-            bar.update(done - bar.n)
-
+    bar = progress(config.num_samples, "durable")
+    try:
         result = run_build(
             config,
             out,
             args.workers,
             overwrite=args.overwrite,
-            on_progress=on_progress,
+            on_progress=lambda done, _total: bar.update_to(done),
             resume=args.resume,
             broker_url=args.broker or os.environ.get("DATAGEN_BROKER_URL"),
             writers=writers,
@@ -175,6 +245,8 @@ def run_build_command(args: argparse.Namespace, config=None) -> int:
             ray_address=args.ray_address,
             on_export_progress=_export_bars(),
         )
+    finally:
+        bar.close()
     if result.already_complete:
         print(f"datagen: {out} already holds this build ({result.samples} samples); nothing to do.")
     else:
@@ -201,16 +273,48 @@ def run_build_command(args: argparse.Namespace, config=None) -> int:
 
 
 def _export_bars():
-    """A progress bar per export format the build runs after its samples are durable."""
-    from tqdm import tqdm
-
+    """A progress bar (or plain lines) per export format the build runs after its samples are
+    durable."""
     bars: dict = {}
 
     def on_progress(name: str, done: int, total: int) -> None:
         if name not in bars:
-            bars[name] = tqdm(total=total, unit="sample", desc=f"export {name}", leave=False)
-        bars[name].update(done - bars[name].n)
+            bars[name] = progress(total, f"exported to {name}", leave=False)
+        bars[name].update_to(done)
         if done >= total:
             bars.pop(name).close()
 
     return on_progress
+
+
+# what ``--check`` reports a build would do with --out
+_PLANS = {
+    "new": "the config and options are valid; {out} is new or empty and writable",
+    "complete": "{out} already holds this build (same config, seed and sample count): "
+    "nothing to do",
+    "resume": "the config and options are valid; the interrupted build in {out} can be resumed",
+    "overwrite": "the config and options are valid; {out} holds a datagen output that "
+    "--overwrite would replace",
+}
+
+
+def check_build(args: argparse.Namespace, config: BuildConfig, out: Path) -> str:
+    """What a build with ``args`` would do with ``out`` (a key of ``_PLANS``), after checking
+    everything that can be checked before anything starts; raises UserInputError (exit 2)."""
+    from datagen.build.out_dir import plan_out_dir
+    from datagen.engines.transfer.broker_url import parse_broker_url, redact
+    from datagen.errors import UserInputError
+
+    env_url = os.environ.get("DATAGEN_BROKER_URL")
+    if not args.broker and env_url:
+        try:
+            parse_broker_url(env_url)
+        except ValueError as exc:
+            message = str(exc).replace(repr(env_url), repr(redact(env_url)))
+            raise UserInputError(f"$DATAGEN_BROKER_URL: {message}") from None
+    if args.executor == "ray" and args.ray_address and not (args.broker or env_url):
+        raise UserInputError(
+            "--executor ray on a cluster needs a broker every node can reach: pass --broker "
+            "mqtt://HOST:PORT (see docs/deployment.md, 'Ray cluster')"
+        )
+    return plan_out_dir(out, config, args.overwrite, args.resume)

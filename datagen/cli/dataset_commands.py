@@ -3,11 +3,17 @@
 from __future__ import annotations
 
 import argparse
+import functools
+import logging
 import sys
 from pathlib import Path
 
-from datagen.cli.common import positive_int
+from datagen.cli.common import whole_number
+from datagen.errors import UserInputError
 from datagen.registries import EXPORTS, choices
+
+log = logging.getLogger(__name__)
+MAX_PREVIEW = 256  # samples in a preview grid
 
 
 def add_parsers(commands) -> None:
@@ -22,7 +28,9 @@ def add_parsers(commands) -> None:
     replay.add_argument("dataset", help="dataset directory (with manifest.json and usd/)")
     replay.add_argument("key", help="sample key, e.g. 000000042")
     replay.add_argument(
-        "--out", help="PNG: stored | replayed | difference (default: DATASET/replay-KEY.png)"
+        "--out",
+        type=_image_path,
+        help="PNG: stored | replayed | difference (default: DATASET/replay-KEY.png)",
     )
 
     export = commands.add_parser(
@@ -42,13 +50,63 @@ def add_parsers(commands) -> None:
         "preview", help="draw annotated samples of a dataset into a PNG grid"
     )
     preview.add_argument("dataset", help="dataset directory (with manifest.json)")
-    preview.add_argument("--out", help="PNG path (default: DATASET/preview.png)")
-    preview.add_argument("--count", type=positive_int, default=8, help="samples in the grid")
+    preview.add_argument("--out", type=_image_path, help="PNG path (default: DATASET/preview.png)")
+    preview.add_argument(
+        "--count",
+        type=whole_number(1, MAX_PREVIEW),
+        default=8,
+        help=f"samples in the grid (1 .. {MAX_PREVIEW})",
+    )
 
-    inspect.set_defaults(run=run_inspect)
-    replay.set_defaults(run=run_replay)
-    export.set_defaults(run=run_export)
-    preview.set_defaults(run=run_preview)
+    inspect.set_defaults(run=_reading(run_inspect))
+    replay.set_defaults(run=_reading(run_replay))
+    export.set_defaults(run=_reading(run_export))
+    preview.set_defaults(run=_reading(run_preview))
+    verify = commands.add_parser(
+        "verify",
+        help="re-read every shard of a dataset and check it against its manifest",
+        description="Recompute every shard's size and sha256, and check that the shards hold "
+        "the keys of samples 0..N-1 exactly once (N from the manifest). Exit 0 if so, 1 "
+        "saying what is missing, extra, duplicated or altered.",
+    )
+    verify.add_argument("dataset", help="dataset directory (with manifest.json)")
+    verify.set_defaults(run=run_verify)
+
+
+def _image_path(text: str) -> str:
+    """argparse type: an image file name OpenCV writes by its extension."""
+    if Path(text).suffix.lower() not in (".png", ".jpg", ".jpeg"):
+        raise argparse.ArgumentTypeError(f"expected a .png or .jpg file name, got {text[:200]!r}")
+    return text
+
+
+def _reading(run):
+    """``run`` of a command that reads the user's dataset directory: whatever is wrong with the
+    directory or its content (DatasetError, or a value of an unexpected type met while reading)
+    is a UserInputError naming the directory: one line and exit status 2, no traceback (-v logs
+    it)."""
+
+    @functools.wraps(run)
+    def checked(args: argparse.Namespace) -> int:
+        from datagen.dataset.loader import DatasetError
+
+        try:
+            return run(args)
+        except UserInputError:
+            raise
+        except DatasetError as exc:
+            raise UserInputError(str(exc)) from None
+        except OSError as exc:
+            where = exc.filename or args.dataset
+            raise UserInputError(f"{where}: {exc.strerror or exc}") from None
+        except (KeyError, IndexError, TypeError, AttributeError, ValueError) as exc:
+            log.info("reading %s failed", args.dataset, exc_info=True)
+            raise UserInputError(
+                f"{args.dataset}: the dataset's content is not what datagen writes "
+                f"({type(exc).__name__}: {str(exc)[:200]}); -v shows where"
+            ) from None
+
+    return checked
 
 
 def _format_list(text: str) -> list[str]:
@@ -66,8 +124,11 @@ def run_replay(args: argparse.Namespace) -> int:
     import numpy as np
 
     from datagen.dataset.loader import load
-    from datagen.tools.replay import replay
+    from datagen.tools.replay import refusal, replay
 
+    if reason := refusal(args.dataset):
+        print(f"datagen: {reason}", file=sys.stderr)
+        return 2
     dataset = load(args.dataset)
     if args.key not in dataset.keys:
         print(f"datagen: {args.dataset} has no sample {args.key!r}", file=sys.stderr)
@@ -89,17 +150,16 @@ def run_replay(args: argparse.Namespace) -> int:
 
 
 def run_export(args: argparse.Namespace) -> int:
-    from tqdm import tqdm
-
+    from datagen.cli.progress import progress as start_progress
     from datagen.exports.runner import run_exports
 
-    bars: dict[str, tqdm] = {}
+    bars: dict = {}
 
-    def progress(name: str, done: int, total: int) -> None:  # one bar per format
+    def progress(name: str, done: int, total: int) -> None:  # one bar (or plain lines) per format
         bar = bars.get(name)
         if bar is None:
-            bar = bars[name] = tqdm(total=total, desc=name, unit="sample", leave=False)
-        bar.update(done - bar.n)
+            bar = bars[name] = start_progress(total, f"exported to {name}", leave=False)
+        bar.update_to(done)
         if done >= total:
             bar.close()
 
@@ -149,4 +209,19 @@ def run_preview(args: argparse.Namespace) -> int:
     out = Path(args.out) if args.out else Path(args.dataset) / "preview.png"
     path = write_preview(Path(args.dataset), out, count=args.count)
     print(f"datagen: wrote {path}")
+    return 0
+
+
+def run_verify(args: argparse.Namespace) -> int:
+    from datagen.dataset.loader import check_complete, read_manifest
+
+    expected = read_manifest(args.dataset).get("samples")
+    if not isinstance(expected, int) or expected < 0:
+        print(f"datagen: {args.dataset}: the manifest has no sample count", file=sys.stderr)
+        return 1
+    manifest = check_complete(args.dataset, expected)
+    print(
+        f"datagen: {args.dataset}: {expected} samples in {len(manifest['shards'])} shards verified "
+        "(every shard's size and sha256, every key 0..N-1 exactly once)"
+    )
     return 0

@@ -8,6 +8,7 @@ expected, and is raised as :class:`ConfigError` for the CLI to print without a t
 from __future__ import annotations
 
 import dataclasses
+import math
 import os
 import typing
 from dataclasses import dataclass, field
@@ -15,7 +16,6 @@ from pathlib import Path
 from typing import Any
 
 import dacite
-import yaml
 
 from datagen.config.sections import (
     SAMPLE_ERROR_POLICIES,
@@ -35,6 +35,8 @@ from datagen.config.sections import (
     TransferConfig,
     _range,
 )
+from datagen.config.values import fits, shape, show, show_key
+from datagen.config.yaml_file import read_yaml
 from datagen.errors import ConfigError
 from datagen.registries import EXPORTS, FAMILIES, LAYOUTS, SAMPLERS, STORE
 
@@ -78,24 +80,22 @@ def _jsonable(value: Any) -> Any:
 
 def load_config(path: str | os.PathLike) -> BuildConfig:
     path = Path(path)
-    if not path.is_file():
-        raise ConfigError(f"{path}: no such config file")
-    try:
-        data = yaml.safe_load(path.read_text())
-    except yaml.YAMLError as exc:
-        raise ConfigError(f"{path}: not valid YAML: {exc}") from None
+    data = read_yaml(path)
     return config_from_dict(data if data is not None else {}, source=str(path))
 
 
 def config_from_dict(data: Any, source: str = "<config>") -> BuildConfig:
     if not isinstance(data, dict):
-        raise ConfigError(f"{source}: expected a mapping of keys at the top level")
-    version = data.get("version", CONFIG_VERSION)
-    if version != CONFIG_VERSION:
         raise ConfigError(
-            f"{source}: version: this datagen reads config version {CONFIG_VERSION}, got {version!r}"
+            f"{source}: expected a mapping of keys at the top level, got {show(data)}"
         )
-    _check_unknown_keys(BuildConfig, data, source, prefix="")
+    version = data.get("version", CONFIG_VERSION)
+    if type(version) is not int or version != CONFIG_VERSION:
+        raise ConfigError(
+            f"{source}: version: this datagen reads config version {CONFIG_VERSION}, "
+            f"got {show(version)}"
+        )
+    _check_keys_and_types(BuildConfig, data, source, prefix="")
     try:
         config = dacite.from_dict(
             BuildConfig, data, config=dacite.Config(strict=True, cast=[tuple])
@@ -105,14 +105,13 @@ def config_from_dict(data: Any, source: str = "<config>") -> BuildConfig:
         raise ConfigError(f"{source}: unknown key(s) {keys} (see configs/README.md)") from None
     except dacite.WrongTypeError as exc:
         raise ConfigError(
-            f"{source}: {exc.field_path}: expected {_type_name(exc.field_type)}, got {exc.value!r}"
+            f"{source}: {exc.field_path}: expected {shape(exc.field_type)}, got {show(exc.value)}"
         ) from None
     except dacite.DaciteError as exc:
         raise ConfigError(f"{source}: {exc}") from None
     if config.objects.assets_dir and not Path(config.objects.assets_dir).is_absolute():
-        base = Path(source).parent if Path(source).is_file() else Path.cwd()
         objects = dataclasses.replace(
-            config.objects, assets_dir=str((base / config.objects.assets_dir).resolve())
+            config.objects, assets_dir=_resolved(config.objects.assets_dir, source)
         )
         config = dataclasses.replace(config, objects=objects)
     _check_ranges(config, source, prefix="")
@@ -120,27 +119,37 @@ def config_from_dict(data: Any, source: str = "<config>") -> BuildConfig:
     return config
 
 
-def _check_unknown_keys(cls: type, data: dict[str, Any], source: str, prefix: str) -> None:
-    """dacite reports unknown keys without their section; this names the full dotted key."""
+def _resolved(assets_dir: str, source: str) -> str:
+    """``objects.assets_dir`` relative to the config file (else to the working directory)."""
+    try:
+        base = Path(source).parent if Path(source).is_file() else Path.cwd()
+        return str((base / assets_dir).resolve())
+    except (OSError, RuntimeError, ValueError) as exc:  # too long, a symlink loop, ...
+        raise ConfigError(f"{source}: objects.assets_dir: not a usable path ({exc})") from None
+
+
+def _check_keys_and_types(cls: type, data: dict[str, Any], source: str, prefix: str) -> None:
+    """Names the full dotted key of an unknown key (dacite does not) and of a value of the wrong
+    type or shape, saying what was expected, before dacite sees the data."""
     fields = {f.name: f for f in dataclasses.fields(cls)}
-    unknown = [f"{prefix}{k}" for k in data if k not in fields]
+    unknown = [f"{prefix}{show_key(k)}" for k in data if k not in fields]
     if unknown:
-        expected = ", ".join(fields)
+        shown = ", ".join(unknown[:10]) + (f" and {len(unknown) - 10} more" if unknown[10:] else "")
         raise ConfigError(
-            f"{source}: unknown key(s) {', '.join(unknown)}; expected keys here: {expected}"
+            f"{source}: unknown key(s) {shown}; expected keys here: {', '.join(fields)}"
         )
+    hints = typing.get_type_hints(cls)
     for name, value in data.items():
-        nested = typing.get_type_hints(cls).get(name)
-        if isinstance(nested, type) and dataclasses.is_dataclass(nested):
+        tp, key = hints[name], f"{prefix}{name}"
+        if isinstance(tp, type) and dataclasses.is_dataclass(tp):
             if not isinstance(value, dict):
-                raise ConfigError(
-                    f"{source}: {prefix}{name}: expected a mapping of keys, got {value!r}"
-                )
-            _check_unknown_keys(nested, value, source, prefix=f"{prefix}{name}.")
-
-
-def _type_name(tp: Any) -> str:
-    return getattr(tp, "__name__", None) or str(tp).replace("typing.", "")
+                raise ConfigError(f"{source}: {key}: expected a mapping of keys, got {show(value)}")
+            _check_keys_and_types(tp, value, source, prefix=f"{key}.")
+        elif not fits(tp, value):
+            expected = shape(tp, fields[name].default)
+            if isinstance(value, str) and tp is str:
+                expected = "a string without NUL characters"
+            raise ConfigError(f"{source}: {key}: expected {expected}, got {show(value)}")
 
 
 def _check_ranges(obj: Any, source: str, prefix: str) -> None:
@@ -158,7 +167,7 @@ def _check_ranges(obj: Any, source: str, prefix: str) -> None:
         for v in values:
             if isinstance(v, bool) or not lo <= v <= hi:
                 raise ConfigError(
-                    f"{source}: {key}: expected values in [{lo}, {hi}]{unit}, got {v!r}"
+                    f"{source}: {key}: expected values in [{lo}, {hi}]{unit}, got {show(v)}"
                 )
         if isinstance(value, tuple) and len(value) == 2 and value[0] > value[1]:
             raise ConfigError(
@@ -173,7 +182,7 @@ def _check_semantics(config: BuildConfig, source: str) -> None:
         raise ConfigError(
             f"{source}: objects.source: expected 'procedural' or 'folder', got {objects.source!r}"
         )
-    if objects.source == "folder" and not Path(objects.assets_dir).is_dir():
+    if objects.source == "folder" and not _is_dir(objects.assets_dir):
         raise ConfigError(
             f"{source}: objects.assets_dir: expected a folder of DIR/<class>/<mesh> files "
             f"(objects.source is 'folder'), got {objects.assets_dir!r}"
@@ -194,6 +203,27 @@ def _check_semantics(config: BuildConfig, source: str) -> None:
         )
     if config.render.near >= config.render.far:
         raise ConfigError(f"{source}: render.near: must be smaller than render.far")
+    _check_camera(config.camera, source)
+
+
+def _check_camera(camera: CameraConfig, source: str) -> None:
+    """The jittered eye must never reach the jittered target (the view direction would be
+    undefined): each moves up to its jitter along each axis."""
+    distance = math.dist(camera.eye, camera.target)
+    needed = math.sqrt(3) * (camera.eye_jitter + camera.target_jitter)
+    if distance <= needed:
+        raise ConfigError(
+            f"{source}: camera.eye: expected a point other than camera.target, farther from it "
+            f"than the jitter reaches (sqrt(3) * (eye_jitter + target_jitter) = {needed:.3g} m), "
+            f"got eye {list(camera.eye)} and target {list(camera.target)}, {distance:.3g} m apart"
+        )
+
+
+def _is_dir(path: str) -> bool:
+    try:
+        return Path(path).is_dir()
+    except OSError:  # a name too long, a directory we may not enter, ...
+        return False
 
 
 def _check_sinks(sinks: list[str], family, source: str) -> None:

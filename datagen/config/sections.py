@@ -79,8 +79,12 @@ class LightingConfig:
 
 @dataclass(frozen=True)
 class CameraConfig:
-    eye: tuple[float, float, float] = (-0.22, 0.28, 1.22)
-    target: tuple[float, float, float] = (0.08, 0.0, 0.76)
+    eye: tuple[float, float, float] = field(
+        default=(-0.22, 0.28, 1.22), metadata=_range(-100.0, 100.0, "world metres, per axis")
+    )
+    target: tuple[float, float, float] = field(
+        default=(0.08, 0.0, 0.76), metadata=_range(-100.0, 100.0, "world metres, per axis")
+    )
     eye_jitter: float = field(default=0.05, metadata=_range(0.0, 1.0, "metres, per axis"))
     target_jitter: float = field(default=0.03, metadata=_range(0.0, 1.0, "metres, per axis"))
     fovy_deg: tuple[float, float] = field(

@@ -22,6 +22,7 @@ from typing import Any
 import cv2
 import numpy as np
 
+from datagen.sample import sample_key
 from datagen.shards import MANIFEST, file_sha256, keys_sha256, member_key, scan_members
 
 # part name -> item field, for the parts decoded as images
@@ -33,16 +34,48 @@ class DatasetError(ValueError):
 
 
 def read_manifest(root: str | Path) -> dict[str, Any]:
+    """``root/manifest.json``, checked to be a datagen manifest: a ``shards`` list of records
+    naming files in ``root``, a ``samples`` count. Raises DatasetError naming the path."""
     path = Path(root) / MANIFEST
-    if not path.is_file():
+    try:
+        found = None if Path(root).is_dir() else Path(root).exists()
+        text = path.read_text(encoding="utf-8") if found is None and path.is_file() else None
+    except OSError as exc:
+        raise DatasetError(f"{exc.filename or path}: cannot read it: {exc.strerror}") from None
+    except UnicodeDecodeError as exc:
+        raise DatasetError(f"{path}: not valid JSON: {exc}") from None
+    if found is not None:
+        found = "not a directory" if found else "no such directory"
+        raise DatasetError(f"{root}: {found}; expected a dataset directory (with {MANIFEST})")
+    if text is None:
         raise DatasetError(f"{root} is not a datagen dataset: no {MANIFEST} (not finalized?)")
     try:
-        manifest = json.loads(path.read_text(encoding="utf-8"))
-    except ValueError as exc:
+        manifest = json.loads(text)
+    except (ValueError, RecursionError) as exc:
         raise DatasetError(f"{path}: not valid JSON: {exc}") from None
     if not isinstance(manifest, dict) or not isinstance(manifest.get("shards"), list):
         raise DatasetError(f"{path}: no 'shards' list; not a datagen manifest")
+    for i, record in enumerate(manifest["shards"]):
+        if problem := _shard_record_problem(record):
+            raise DatasetError(f"{path}: shards[{i}]: {problem}; not a datagen manifest")
+    samples = manifest.get("samples")
+    if samples is not None and (type(samples) is not int or samples < 0):
+        raise DatasetError(f"{path}: 'samples' is {repr(samples)[:60]}, expected a count")
     return manifest
+
+
+def _shard_record_problem(record: Any) -> str | None:
+    """What is wrong with one record of a manifest's ``shards``, or None."""
+    if not isinstance(record, dict):
+        return f"expected a record with a 'name', got {repr(record)[:60]}"
+    name = record.get("name")
+    if not isinstance(name, str) or name in ("", ".", "..") or any(c in name for c in "/\\\0"):
+        return f"'name' is {repr(name)[:60]}, expected the file name of a shard in the dataset"
+    for count in ("bytes", "samples"):
+        value = record.get(count, 0)
+        if type(value) is not int or value < 0:
+            return f"'{count}' is {repr(value)[:60]}, expected a count"
+    return None
 
 
 _FRAME_PART = re.compile(r"^f(\d{4})\.(rgb|depth|seg|semantic)\.png$")
@@ -130,6 +163,12 @@ class ShardDataset:
             path = self.root / name
             if not path.is_file():
                 raise DatasetError(f"{self.root}: shard {name} listed in the manifest is missing")
+            listed = self.manifest["shards"][i].get("bytes")
+            if listed is not None and path.stat().st_size != listed:
+                raise DatasetError(
+                    f"{path}: {path.stat().st_size} bytes, the manifest lists {listed} "
+                    "(truncated or altered)"
+                )
             for m in scan_members(path):
                 key = member_key(m.name)
                 members.setdefault(key, []).append(
@@ -287,6 +326,30 @@ def verify(root: str | Path) -> dict[str, Any]:
         keys = ShardDataset(root).keys
         if keys_sha256(keys) != manifest["keys_sha256"]:
             problems.append("keys_sha256 differs from the keys in the shards")
+    if problems:
+        raise DatasetError(f"{root}: " + "; ".join(problems))
+    return manifest
+
+
+def check_complete(root: str | Path, expected: int, build_id: str | None = None) -> dict[str, Any]:
+    """:func:`verify`, and the shards hold exactly the keys of samples 0..expected-1, each once
+    (the manifest of build ``build_id``, if given); raises DatasetError saying what is missing,
+    extra or duplicated."""
+    manifest = verify(root)
+    keys = ShardDataset(root).keys
+    wanted = {sample_key(i) for i in range(expected)}
+    seen: set[str] = set()
+    duplicated = sorted({k for k in keys if k in seen or seen.add(k)})
+    missing, extra = sorted(wanted - seen), sorted(seen - wanted)
+    problems = [
+        f"{label} {len(items)}: {', '.join(items[:10])}{' ...' if len(items) > 10 else ''}"
+        for label, items in (("missing", missing), ("extra", extra), ("duplicated", duplicated))
+        if items
+    ]
+    if manifest.get("samples") != expected:
+        problems.append(f"the manifest says {manifest.get('samples')} samples, expected {expected}")
+    if build_id is not None and manifest.get("build_id") != build_id:
+        problems.append(f"the manifest is of build {manifest.get('build_id')!r}, not {build_id!r}")
     if problems:
         raise DatasetError(f"{root}: " + "; ".join(problems))
     return manifest

@@ -31,6 +31,13 @@ def _size(path: Path) -> int:
     return sum(p.stat().st_size for p in path.rglob("*") if p.is_file())
 
 
+def _remove(path: Path) -> None:
+    if path.is_dir() and not path.is_symlink():
+        shutil.rmtree(path, ignore_errors=True)
+    else:
+        path.unlink(missing_ok=True)
+
+
 def check_world(fmt: ExportFormat, manifest: dict[str, Any], root: Path) -> None:
     """Raises DatasetError unless ``fmt`` can describe the dataset's scenes (its ``worlds``)."""
     from datagen.dataset.loader import DatasetError
@@ -82,7 +89,11 @@ def run_exports(
                 stale.unlink(missing_ok=True)
         start = time.monotonic()
         progress = functools.partial(on_progress, fmt.name) if on_progress else None
-        export(dataset, manifest, tmp, on_progress=progress)
+        try:
+            export(dataset, manifest, tmp, on_progress=progress)
+        except BaseException:
+            _remove(tmp)  # a failed export leaves nothing behind (Ctrl-C included)
+            raise
         os.replace(tmp, final)
         done[fmt.name] = {
             "path": fmt.path,

@@ -6,6 +6,7 @@ family's name: a time sequence by :func:`sequence_tile`, cameras by :func:`camer
 
 from __future__ import annotations
 
+import errno
 from pathlib import Path
 from typing import Any
 
@@ -240,12 +241,13 @@ def tile_grid(tiles: list[np.ndarray], columns: int = 4, max_width: int = 2400) 
 
 def write_preview(dataset_dir: Path, out_path: Path, count: int = 8, columns: int = 4) -> Path:
     """A grid of the first ``count`` samples, drawn by :func:`sample_tile`."""
-    from datagen.dataset.loader import load
+    from datagen.dataset.loader import DatasetError, load
 
     dataset = load(dataset_dir)
     tiles = [sample_tile(dataset[i]) for i in range(min(count, len(dataset)))]
     if not tiles:
-        raise ValueError(f"{dataset_dir}: the dataset has no samples to preview")
+        raise DatasetError(f"{dataset_dir}: the dataset has no samples to preview")
     out_path.parent.mkdir(parents=True, exist_ok=True)
-    cv2.imwrite(str(out_path), tile_grid(tiles, columns))
+    if not cv2.imwrite(str(out_path), tile_grid(tiles, columns)):
+        raise OSError(errno.EIO, "OpenCV could not write the image", str(out_path))
     return out_path

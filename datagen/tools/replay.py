@@ -32,6 +32,23 @@ def stored_description(usd_path: Path) -> tuple[dict[str, Any], list[dict[str, A
     return params, poses, qpos
 
 
+REPLAYABLE_WORLDS = ("tabletop",)  # the scenes replay can rebuild: grasp samples and attempts
+
+
+def refusal(root: str | Path) -> str | None:
+    """Why ``replay`` cannot re-render the samples of the dataset in ``root``, or None."""
+    from datagen.registries import FAMILIES
+
+    scene = read_manifest(root).get("scene")
+    family = FAMILIES.get(scene) if isinstance(scene, str) else None
+    if family is None or family.world in REPLAYABLE_WORLDS:
+        return None
+    return (
+        f"{root}: replay re-renders grasp samples only (scenes of the "
+        f"{' or '.join(REPLAYABLE_WORLDS)} world); this dataset's scene is {scene!r}"
+    )
+
+
 def replay(root: str | Path, key: str) -> dict[str, np.ndarray]:
     """RGB image (H, W, 3) per camera of the replayed scene."""
     from datagen.engines.sim.render import capture, keep_renderer_alive
@@ -39,6 +56,8 @@ def replay(root: str | Path, key: str) -> dict[str, np.ndarray]:
 
     root = Path(root)
     manifest = read_manifest(root)
+    if reason := refusal(root):
+        raise DatasetError(reason)
     usd_path = root / "usd" / f"{key}.usda"
     if not usd_path.is_file():
         raise DatasetError(

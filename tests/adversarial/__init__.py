@@ -1,0 +1,1 @@
+"""Fuzz tests (marker ``adversarial``): generated bad input never gives a traceback."""
