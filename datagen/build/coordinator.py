@@ -92,7 +92,9 @@ class Coordinator:
         spec = WorkerSpec(self.config.to_dict(), url, self.build_id, self.secret)
         self.executor = EXECUTORS[self.executor_name].load()(spec, **self.executor_options)
         total = self.config.num_samples
-        with AckCollector(url, self.build_id, on_ack=self.acks.append) as collector:
+        with AckCollector(
+            url, self.build_id, on_ack=self.acks.append, secret=self.secret
+        ) as collector:
             self.collector = collector
             try:
                 if self.writer is not None:
@@ -114,6 +116,8 @@ class Coordinator:
                 if self.failed:
                     raise BuildError(self._failed_report())
                 manifest = build_manifest(self.config, self.build_id, self.num_workers)
+                self.result.rejected = collector.rejected
+                manifest["rejected_control_messages_coordinator"] = self.result.rejected
                 if self.result.retried:
                     manifest["retried_samples"] = {
                         str(i): r for i, r in sorted(self.result.retried.items())
@@ -257,7 +261,9 @@ class Coordinator:
                     raise BuildError(
                         f"writer {writer_id!r} is not ready on the broker after "
                         f"{WRITER_READY_TIMEOUT_S:.0f} s; start it with: datagen writer --broker URL "
-                        f"--build-id {self.build_id} --writer-id {writer_id} --out DIR"
+                        f"--build-id {self.build_id} --writer-id {writer_id} --out DIR, with "
+                        f"$DATAGEN_BUILD_SECRET set to the secret in DIR/build.json"
+                        + _unsigned_hint(self.collector.rejected)
                     )
 
     def _supervise_writer(self) -> None:
@@ -309,3 +315,12 @@ class Coordinator:
         for index, failures in sorted(self.failed.items())[:20]:
             lines += [f"  sample {index}:", *(f"    {f}" for f in failures)]
         return "\n".join(lines)
+
+
+def _unsigned_hint(rejected: dict[str, int]) -> str:
+    if not rejected:
+        return ""
+    return (
+        f" (the coordinator dropped control-plane messages it could not authenticate: "
+        f"{rejected}; a writer without the build secret sends unsigned ones)"
+    )

@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import json
 import os
+import re
 import secrets
 import shutil
 import tempfile
@@ -100,7 +101,7 @@ def plan_out_dir(out_dir: Path, config: BuildConfig, overwrite: bool, resume: bo
             raise OutDirError(f"{out_dir / BUILD_STATE}: unreadable build state ({exc})") from None
         return "resume"
     entries = _entries(out_dir)
-    if not entries:
+    if not entries or _only_waiting_writers(out_dir, entries):
         return "new"
     if not overwrite:
         hint = " or pass --resume to finish it" if state else ""
@@ -124,6 +125,19 @@ def _is_datagen_output(manifest: dict[str, Any] | None, state: dict[str, Any] | 
     if isinstance(state, dict) and {"build_id", "secret", "config"} <= state.keys():
         return True
     return isinstance(manifest, dict) and manifest.get("dataset_format") == DATASET_FORMAT
+
+
+_WRITER_FILE = re.compile(r"^\.writer-[A-Za-z0-9_-]{1,32}\.(lock|journal)$")
+
+
+def _only_waiting_writers(out_dir: Path, entries: list[str]) -> bool:
+    """Writers started before the build (``datagen writer``) hold a lock and an empty journal
+    in the directory and have written nothing yet: it is still a fresh one."""
+    return all(
+        (match := _WRITER_FILE.match(name))
+        and (match[1] == "lock" or (out_dir / name).stat().st_size == 0)
+        for name in entries
+    )
 
 
 def _entries(out_dir: Path) -> list[str]:

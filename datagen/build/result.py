@@ -18,6 +18,7 @@ class BuildResult:
     reissued: int = 0
     restarts: dict[str, int] = field(default_factory=dict)
     retried: dict[int, dict[str, Any]] = field(default_factory=dict)  # index -> attempt, failures
+    rejected: dict[str, int] = field(default_factory=dict)  # control messages dropped, by reason
 
 
 ProgressCallback = Callable[[int, int], None]  # (samples durable, samples requested)

@@ -262,6 +262,11 @@ def run_build_command(args: argparse.Namespace, config=None) -> int:
                 f"datagen: recovered from faults: restarts {recovered or 'none'}, "
                 f"samples issued again {result.reissued}"
             )
+        if result.rejected:
+            print(
+                "datagen: dropped control-plane messages that were not the build's "
+                f"(unsigned, forged or replayed): {result.rejected}"
+            )
     from datagen.dataset.loader import read_manifest
 
     for name, record in read_manifest(out).get("exports", {}).items():

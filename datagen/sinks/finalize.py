@@ -131,6 +131,9 @@ def combine(
         "keys_sha256": keys_sha256(owner),
         "writers": sorted(writers),
         "rejected_messages": sum(p.get("rejected_messages", 0) for p in parts.values()),
+        "rejected_control_messages": sum(
+            p.get("rejected_control_messages", 0) for p in parts.values()
+        ),
         "duplicate_messages": sum(p.get("duplicate_messages", 0) for p in parts.values()),
         "duplicate_copies_removed": sum(p.get("copies_removed", 0) for p in parts.values()),
     }

@@ -9,7 +9,6 @@ of every writer of the build (``topics.status_all``), which the finalize round w
 
 from __future__ import annotations
 
-import json
 import logging
 import threading
 import time
@@ -18,6 +17,7 @@ from typing import Any
 import paho.mqtt.client as mqtt
 
 from datagen.engines.transfer.connection import MqttConnection
+from datagen.engines.transfer.envelope import Opener, Sealer
 from datagen.engines.transfer.topics import Topics
 from datagen.sinks.finalize import FinalizeError
 
@@ -27,9 +27,10 @@ log = logging.getLogger("datagen.writer")  # the writer process's log
 class WriterStatus:
     """The status channel of writer ``writer_id``; ``conn`` is set once it is connected."""
 
-    def __init__(self, build_topics: Topics, writer_id: str):
+    def __init__(self, build_topics: Topics, writer_id: str, sealer: Sealer, opener: Opener):
         self.topics = build_topics
         self.writer_id = writer_id
+        self.sealer, self.opener = sealer, opener
         self.conn: MqttConnection | None = None  # set once the connection exists
         self._last: dict[str, Any] | None = None
         self._peers: dict[str, dict[str, Any]] = {}
@@ -38,7 +39,9 @@ class WriterStatus:
     def will(self) -> tuple[str, bytes, int, bool]:
         """The connection's will: ``lost``, retained."""
         lost = {"state": "lost", "writer": self.writer_id}
-        return (self.topics.status(self.writer_id), json.dumps(lost).encode(), 1, True)
+        topic = self.topics.status(self.writer_id)
+        # its own sequence: the broker publishes it after messages with higher numbers
+        return (topic, self.sealer.seal(topic, lost, session=self.sealer.session + "w"), 1, True)
 
     def publish(self, state: str, **fields: Any) -> None:
         msg = {"state": state, "writer": self.writer_id, **fields}
@@ -46,9 +49,8 @@ class WriterStatus:
         try:
             if self.conn is None:
                 raise RuntimeError("not connected yet")
-            info = self.conn.publish_json(
-                self.topics.status(self.writer_id), msg, qos=1, retain=True
-            )
+            topic = self.topics.status(self.writer_id)
+            info = self.conn.publish(topic, self.sealer.seal(topic, msg), qos=1, retain=True)
             info.wait_for_publish(10)
         except (RuntimeError, ValueError) as exc:
             log.warning("could not publish status %r: %s", state, exc)
@@ -57,17 +59,15 @@ class WriterStatus:
         """After a reconnect (``on_connected``): publishes the last status again."""
         msg = self._last
         if msg is not None and self.conn is not None:
-            self.conn.publish_json(self.topics.status(self.writer_id), msg, qos=1, retain=True)
+            topic = self.topics.status(self.writer_id)
+            self.conn.publish(topic, self.sealer.seal(topic, msg), qos=1, retain=True)
 
     def receive(self, msg: mqtt.MQTTMessage) -> bool:
         """paho's thread: keeps ``msg`` if it is a writer's status; False if it is no status."""
         if not msg.topic.startswith(self.topics.status_prefix):
             return False
-        try:
-            status = json.loads(msg.payload) if msg.payload else None
-        except ValueError:
-            status = None
-        if isinstance(status, dict):
+        status = self.opener.open(msg.topic, msg.payload) if msg.payload else None
+        if status is not None:
             with self._peers_cond:
                 self._peers[msg.topic[len(self.topics.status_prefix) :]] = status
                 self._peers_cond.notify_all()

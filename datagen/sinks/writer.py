@@ -34,6 +34,7 @@ import paho.mqtt.client as mqtt
 from paho.mqtt.subscribeoptions import SubscribeOptions
 
 from datagen.engines.transfer.connection import MqttConnectError, MqttConnection
+from datagen.engines.transfer.envelope import Opener, Sealer
 from datagen.engines.transfer.topics import ack_indices, topics
 from datagen.engines.transfer.wire import (
     DEFAULT_MAX_MESSAGE_BYTES,
@@ -119,7 +120,9 @@ class DatasetWriter:
         self.duplicates = 0
         self._inbox: queue.Queue[mqtt.MQTTMessage] = queue.Queue()
         self._stop = threading.Event()
-        self._status = WriterStatus(self.topics, writer_id)
+        self._sealer = Sealer(secret, self.topics, "writer", writer_id)
+        self._opener = Opener(secret, self.topics)  # acks, status and commands must be signed
+        self._status = WriterStatus(self.topics, writer_id, self._sealer, self._opener)
         self._finalized = False
 
     def stop(self) -> None:
@@ -250,11 +253,8 @@ class DatasetWriter:
 
     def _learn_acks(self, msg: mqtt.MQTTMessage) -> None:
         """Another writer's acks: those samples are durable in the directory already."""
-        try:
-            obj = json.loads(msg.payload)
-        except ValueError:
-            return
-        indices = ack_indices(obj)
+        obj = self._opener.open(msg.topic, msg.payload)
+        indices = ack_indices(obj) if obj is not None else None
         if indices is not None and obj.get("writer") != self.writer_id:
             self._seen.update(sample_key(i) for i in indices)
 
@@ -289,7 +289,7 @@ class DatasetWriter:
         for msg, sample in pending:
             if sample is not None:
                 ack = {"key": sample.key, "index": sample.index, "writer": self.writer_id}
-                self._conn.publish_json(self.topics.acks, ack, qos=1)
+                self._conn.publish(self.topics.acks, self._sealer.seal(self.topics.acks, ack))
             # Published ack packets go out before this PUBACK on the same connection.
             self._conn.client.ack(msg.mid, msg.qos)
 
@@ -298,17 +298,19 @@ class DatasetWriter:
         indices = sorted(int(k) for k in keys)
         for start in range(0, len(indices), ANNOUNCE_BATCH):
             chunk = indices[start : start + ANNOUNCE_BATCH]
-            self._conn.publish_json(
-                self.topics.acks, {"indices": chunk, "writer": self.writer_id}, qos=1
-            )
+            ack = {"indices": chunk, "writer": self.writer_id}
+            self._conn.publish(self.topics.acks, self._sealer.seal(self.topics.acks, ack))
         if indices:
             log.info("announced %d durable samples", len(indices))
 
     def _control(self, msg: mqtt.MQTTMessage) -> int | None:
         code = None
         try:
-            cmd = json.loads(msg.payload)
-            kind = cmd.get("cmd") if isinstance(cmd, dict) else None
+            cmd = self._opener.open(msg.topic, msg.payload)
+            if cmd is None:  # not the coordinator's (unsigned, forged, replayed): counted
+                self._conn.client.ack(msg.mid, msg.qos)
+                return None
+            kind = cmd.get("cmd")
             if kind == "finalize":
                 code = self._finalize(finalize_args(cmd, self.writer_id))
             elif kind == "announce":
@@ -332,7 +334,11 @@ class DatasetWriter:
             return None
         deadline = time.monotonic() + args["timeout_s"]
         self._shards += self._sink.close()  # sealed: nothing more is written
-        counters = {"rejected_messages": self.rejected, "duplicate_messages": self.duplicates}
+        counters = {
+            "rejected_messages": self.rejected,
+            "duplicate_messages": self.duplicates,
+            "rejected_control_messages": sum(self._opener.rejected.values()),
+        }
         done = run_round(
             args,
             deadline,

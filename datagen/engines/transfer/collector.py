@@ -5,7 +5,6 @@
 
 from __future__ import annotations
 
-import json
 import logging
 import threading
 import uuid
@@ -15,6 +14,7 @@ from typing import Any
 import paho.mqtt.client as mqtt
 
 from datagen.engines.transfer.connection import MqttConnection
+from datagen.engines.transfer.envelope import Opener, Sealer
 from datagen.engines.transfer.topics import DEFAULT_FINALIZE_TIMEOUT_S, ack_indices, topics
 
 log = logging.getLogger(__name__)
@@ -38,8 +38,12 @@ class AckCollector:
         connect_timeout_s: float = 10.0,
         session_expiry_s: int = 24 * 3600,
         ca_file: str | None = None,
+        secret: bytes | None = None,
     ):
         self.topics = topics(build_id)
+        # with the build secret: commands signed, acks and status accepted only when signed
+        self._sealer = Sealer(secret, self.topics, "coordinator", "coordinator")
+        self._opener = Opener(secret, self.topics)
         self._on_ack = on_ack
         self._on_status = on_status
         self._cond = threading.Condition()
@@ -68,6 +72,11 @@ class AckCollector:
     def acked(self) -> set[int]:
         with self._cond:
             return set(self._acked)
+
+    @property
+    def rejected(self) -> dict[str, int]:
+        """Control-plane messages dropped, by reason (unsigned, bad_mac, replayed, ...)."""
+        return dict(self._opener.rejected)
 
     @property
     def count(self) -> int:
@@ -182,7 +191,8 @@ class AckCollector:
         self._conn.close(end_session=end_session)
 
     def _send(self, cmd: dict[str, Any], timeout_s: float | None) -> None:
-        info = self._conn.publish_json(self.topics.control, cmd, qos=1)
+        payload = self._sealer.seal(self.topics.control, cmd)
+        info = self._conn.publish(self.topics.control, payload, qos=1)
         info.wait_for_publish(timeout_s)
 
     def _wait_for(
@@ -205,10 +215,9 @@ class AckCollector:
     def _handle_message(self, message: mqtt.MQTTMessage) -> None:
         if not message.payload:
             return  # a cleared retained status
-        try:
-            obj = json.loads(message.payload)
-        except ValueError:
-            log.warning("ignoring non-JSON message on %s", message.topic)
+        obj = self._opener.open(message.topic, message.payload)
+        if obj is None:
+            log.debug("dropped a message on %s: %s", message.topic, dict(self._opener.rejected))
             return
         if message.topic == self.topics.acks:
             self._handle_ack(obj)

@@ -170,6 +170,11 @@ class MqttConnection:
         payload = json.dumps(obj, separators=(",", ":")).encode("utf-8")
         return self.client.publish(topic, payload, qos=qos, retain=retain)
 
+    def publish(
+        self, topic: str, payload: bytes, qos: int = 1, retain: bool = False
+    ) -> mqtt.MQTTMessageInfo:
+        return self.client.publish(topic, payload, qos=qos, retain=retain)
+
     def unsubscribe(self, topic: str, timeout_s: float = 10.0) -> bool:
         """Drops ``topic`` (also from the re-subscriptions after a reconnect); True once the
         broker confirmed it."""

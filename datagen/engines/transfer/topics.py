@@ -29,6 +29,7 @@ def valid_build_id(build_id: str) -> bool:
 
 @dataclass(frozen=True)
 class Topics:
+    build_id: str
     samples: str
     acks: str
     control: str
@@ -48,6 +49,7 @@ def topics(build_id: str) -> Topics:
         raise ValueError(f"invalid build id {build_id!r}: use 1-64 of [A-Za-z0-9_.-]")
     base = f"datagen/{build_id}"
     return Topics(
+        build_id=build_id,
         samples=f"{base}/samples",
         acks=f"{base}/acks",
         control=f"{base}/control",
