@@ -44,12 +44,12 @@ def test_no_tracked_file_names_a_path_outside_the_repository():
     files = subprocess.run(
         ["git", "ls-files"], cwd=REPO, capture_output=True, text=True, check=True
     ).stdout.split()
-    outside = ("/work/", "shared/notes", "../shared")
+    # spelt in pieces so that this file does not name them itself
+    outside = ("/" + "work/", "shared" + "/notes", ".." + "/shared")
     offenders = [
         f
         for f in files
-        if f != "tests/test_architecture.py"
-        and (REPO / f).is_file()
+        if (REPO / f).is_file()
         and (REPO / f).suffix in (".py", ".md", ".sh", ".toml", ".yaml", ".ipynb", ".txt", "")
         and any(o in (REPO / f).read_text(errors="replace") for o in outside)
     ]
