@@ -61,7 +61,13 @@ def _run(config, workers: int, executor: str, stage_log: Path | None) -> dict:
 
 def _shares(path: Path) -> dict:
     rows = [json.loads(line) for line in path.read_text().splitlines() if line.strip()]
-    mean = {k: statistics.fmean(r[k] for r in rows) for k in ("render_s", "encode_s", "publish_s")}
+    for r in rows:  # scene + physics + render + annotation: every stage but encode and publish
+        stages = [k for k in r if k.endswith("_s") and k not in ("encode_s", "publish_s")]
+        r["render_s"] = sum(r.pop(k) for k in stages)
+    mean = {
+        k: statistics.fmean(r.get(k, 0.0) for r in rows)
+        for k in ("render_s", "encode_s", "publish_s")
+    }
     total = sum(mean.values())
     return {
         "frames": len(rows),

@@ -13,7 +13,9 @@
   True})`` and one step: RecordEpisode saves no episode without a step), closer to what datagen
   does (a freshly randomised, settled scene for every frame) and still in ManiSkill's favour.
 - **datagen**: ``run_build`` of the default grasping config at the same resolution, the same
-  number of frames, with W workers. Each frame is a fresh randomised scene settled by physics,
+  number of frames, with W workers, once with one view per scene and once with ``--views``
+  (default 4, ``render.views``: each settled scene rendered from that many randomised cameras,
+  every view a fully annotated frame). Each scene is freshly randomised and settled by physics,
   annotated with boxes, 3D boxes, poses and visibility, published through Mosquitto and written
   by the writer process. Timed as a user sees it (start-up included).
 
@@ -74,15 +76,17 @@ def maniskill_fps(
             "rgb_shape": list(shape), "bytes": size}  # fmt: skip
 
 
-def datagen_fps(frames: int, width: int, height: int, workers: int) -> dict:
+def datagen_fps(frames: int, width: int, height: int, workers: int, views: int = 1) -> dict:
+    import dataclasses
+
     from datagen.build.run import run_build
     from datagen.config import load_config
-    from datagen.config.sections import RenderConfig
 
     base = load_config(REPO / "configs/grasp_tabletop.yaml")
-    config = base.replace(
-        num_samples=frames, render=RenderConfig(width=width, height=height, far=base.render.far)
-    )
+    scenes = -(-frames // views)  # every view is a frame
+    frames = scenes * views
+    render = dataclasses.replace(base.render, width=width, height=height, views=views)
+    config = base.replace(num_samples=scenes, render=render)
     out = Path(tempfile.mkdtemp(prefix="datagen-vs-maniskill-"))
     try:
         start = time.monotonic()
@@ -92,7 +96,7 @@ def datagen_fps(frames: int, width: int, height: int, workers: int) -> dict:
     finally:
         shutil.rmtree(out, ignore_errors=True)
     return {"frames": frames, "seconds": round(seconds, 2), "frames_per_s": round(frames / seconds, 2),
-            "workers": workers, "bytes": size}  # fmt: skip
+            "workers": workers, "views": views, "bytes": size}  # fmt: skip
 
 
 def main() -> int:
@@ -101,6 +105,7 @@ def main() -> int:
     parser.add_argument("--width", type=int, default=640)
     parser.add_argument("--height", type=int, default=480)
     parser.add_argument("--workers", type=int, default=os.cpu_count() or 1)
+    parser.add_argument("--views", type=int, default=4, help="render.views of the multi-view side")
     parser.add_argument("--out", default=str(REPO / "benchmarks/results/vs_maniskill.json"))
     args = parser.parse_args()
     rows = {
@@ -110,6 +115,9 @@ def main() -> int:
         ),
         f"datagen, {args.workers} workers": datagen_fps(
             args.frames, args.width, args.height, args.workers
+        ),
+        f"datagen, {args.workers} workers, {args.views} views": datagen_fps(
+            args.frames, args.width, args.height, args.workers, args.views
         ),
         "datagen, 1 worker": datagen_fps(args.frames, args.width, args.height, 1),
     }

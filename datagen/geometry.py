@@ -46,12 +46,24 @@ def pose_record(transform: np.ndarray) -> dict[str, list]:
     }
 
 
-def project(
+def image_points(
     points_world: np.ndarray, intrinsics: np.ndarray, extrinsics: np.ndarray
 ) -> tuple[np.ndarray, np.ndarray]:
-    """World points (N, 3) -> pixel coordinates (N, 2) (pixel centres at integers) and depth (N,)."""
+    """World points (N, 3) -> image-plane coordinates (N, 2) as the intrinsics define them, and
+    depth (N,) in metres. The origin is the top-left corner of the top-left pixel, so pixel
+    (col, row) covers [col, col + 1) x [row, row + 1) and has its centre at (col + 0.5, row + 0.5).
+    Labels (``obb_corners_px``) use these coordinates."""
     cam = points_world @ extrinsics[:3, :3].T + extrinsics[:3, 3]
     uvw = cam @ intrinsics.T
     with np.errstate(divide="ignore", invalid="ignore"):
-        uv = uvw[:, :2] / uvw[:, 2:3] - 0.5
+        uv = uvw[:, :2] / uvw[:, 2:3]
     return uv, cam[:, 2]
+
+
+def project(
+    points_world: np.ndarray, intrinsics: np.ndarray, extrinsics: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
+    """World points (N, 3) -> pixel coordinates (N, 2) with pixel centres at integers, as
+    OpenCV's drawing functions take them (``image_points`` - 0.5), and depth (N,)."""
+    uv, depth = image_points(points_world, intrinsics, extrinsics)
+    return uv - 0.5, depth

@@ -5,14 +5,18 @@ usd-core). Each mesh is centred on its bounding box and scaled so its largest ex
 sample scales it to a size drawn from ``objects.size``. Collision shapes come from a convex
 decomposition (CoACD, seeded, so the same file always gives the same parts). A file that cannot
 be read, is empty, has non-finite or degenerate geometry, or fails to decompose is skipped and
-reported, never fatal; the build fails only if no mesh at all is usable.
+reported, never fatal; the build fails only if no mesh at all is usable. A mesh with more faces
+than ``objects.max_mesh_faces`` is refused before anything starts (config validation,
+:func:`oversized_meshes`): its decomposition would take minutes in every worker.
 """
 
 from __future__ import annotations
 
 import functools
 import hashlib
+import json
 import logging
+import struct
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -122,6 +126,85 @@ def convex_parts(mesh: trimesh.Trimesh) -> tuple[np.ndarray, ...]:
     if not hulls:
         raise ValueError("convex decomposition produced no part")
     return hulls
+
+
+def face_count(path: Path) -> int:
+    """The faces a mesh file holds, read cheaply: from the header (binary STL, PLY, GLB/GLTF
+    accessors) or by counting face records (OBJ, ASCII STL) without parsing the geometry; USD
+    stages are opened and their face counts summed. Raises ValueError if it cannot tell."""
+    suffix = path.suffix.lower()
+    if suffix == ".stl":
+        size = path.stat().st_size
+        with path.open("rb") as f:
+            head = f.read(84)
+        if len(head) == 84 and size == 84 + 50 * struct.unpack_from("<I", head, 80)[0]:
+            return struct.unpack_from("<I", head, 80)[0]  # binary STL: 50 bytes a triangle
+        return _count_in_file(path, b"endfacet")
+    if suffix == ".obj":
+        return _count_in_file(path, b"\nf ", first=b"\n")
+    if suffix == ".ply":
+        return _ply_faces(path)
+    if suffix in (".glb", ".gltf"):
+        return _gltf_faces(path)
+    from pxr import Usd, UsdGeom
+
+    stage = Usd.Stage.Open(str(path))
+    if stage is None:
+        raise ValueError("usd-core could not open it")
+    prims = [p for p in stage.Traverse() if p.IsA(UsdGeom.Mesh)]
+    return sum(len(UsdGeom.Mesh(p).GetFaceVertexCountsAttr().Get() or []) for p in prims)
+
+
+def _count_in_file(path: Path, token: bytes, first: bytes = b"") -> int:
+    count, tail = 0, first
+    with path.open("rb") as f:
+        while chunk := f.read(16 * 2**20):
+            data = tail + chunk
+            count += data.count(token)
+            tail = data[-(len(token) - 1) :]  # too short to hold a whole token: none counted twice
+    return count
+
+
+def _ply_faces(path: Path) -> int:
+    with path.open("rb") as f:
+        for _ in range(1000):  # header lines
+            words = f.readline(4096).split()
+            if words[:2] == [b"element", b"face"] and len(words) == 3:
+                return int(words[2])
+            if not words or words[0] == b"end_header":
+                break
+    raise ValueError("no 'element face' line in the PLY header")
+
+
+def _gltf_faces(path: Path) -> int:
+    with path.open("rb") as f:
+        head = f.read(20)
+        if head[:4] == b"glTF":  # GLB: 12-byte header, then the JSON chunk (length, type, data)
+            doc = json.loads(f.read(struct.unpack_from("<I", head, 12)[0]))
+        else:
+            doc = json.loads(head + f.read())
+    accessors = doc.get("accessors", [])
+    faces = 0
+    for mesh in doc.get("meshes", []):
+        for primitive in mesh.get("primitives", []):
+            key = primitive.get("indices", primitive.get("attributes", {}).get("POSITION"))
+            faces += int(accessors[key]["count"]) // 3 if key is not None else 0
+    return faces
+
+
+def oversized_meshes(root: str, max_faces: int) -> list[tuple[str, int]]:
+    """(path relative to ``root``, faces) of every mesh file in ``root`` with more than
+    ``max_faces`` faces; a file whose count cannot be read is left to :func:`load_library`."""
+    base, found = Path(root), []
+    for path in sorted(p for p in base.rglob("*") if p.suffix.lower() in MESH_SUFFIXES):
+        try:
+            faces = face_count(path) if path.is_file() else 0
+        except Exception as exc:  # an unreadable file of any kind: load_library reports it
+            log.debug("face count of %s unknown: %s", path, exc)
+            continue
+        if faces > max_faces:
+            found.append((path.relative_to(base).as_posix(), faces))
+    return found
 
 
 @functools.lru_cache(maxsize=4)

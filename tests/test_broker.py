@@ -61,10 +61,23 @@ def test_parse_broker_url_rejects(url, reason):
         ("mqtt://user@h:1883", "mqtt://user@h:1883"),
         ("mqtt://h", "mqtt://h"),
         ("not a url", "not a url"),
+        ("mqtt://u:pa/ss#w?@h:1", "mqtt://u:***@h:1"),  # unencoded '/', '#', '?'
+        ("u:secret@h:1883", "u:***@h:1883"),  # no scheme
     ],
 )
 def test_redact_hides_the_password(url, printed):
     assert redact(url) == printed
+
+
+@pytest.mark.parametrize(
+    "url",
+    ["mqtt://u:Qz7/Wk9@h:1", "mqtt://u:Qz7#Wk9@h", "mqtt://u:Qz7Wk9@h:99999", "mqtt://u:Qz7Wk9@h:x",
+     "u:Qz7Wk9@h:1", "http://u:Qz7Wk9@h", "mqtt://u:Qz7Wk9@[::1:1", "mqtt://u:Qz7?Wk9@h/t"],
+)  # fmt: skip
+def test_a_bad_url_is_refused_without_showing_any_piece_of_its_password(url):
+    with pytest.raises(ValueError, match="bad broker URL") as refused:
+        parse_broker_url(url)
+    assert "Qz" not in str(refused.value) and "Wk" not in str(refused.value)
 
 
 def test_broker_url_round_trips_through_the_parser():

@@ -63,6 +63,31 @@ def test_non_empty_output_directory_is_refused(tmp_path):
     assert (tmp_path / "something.txt").read_text() == "mine"
 
 
+def test_the_resume_hint_hides_the_password_of_both_broker_urls():
+    from datagen.cli import parser
+    from datagen.cli.build_commands import resume_command
+
+    args = parser().parse_args(
+        ["build", "c.yaml", "--out", "o", "--broker", "mqtt://coordinator:pw-1@h:1883",
+         "--worker-broker", "mqtt://worker:pw-2@h:1883", "--writers", "A"]
+    )  # fmt: skip
+    hint = resume_command(args)
+    assert "pw-1" not in hint and "pw-2" not in hint
+    assert "--broker 'mqtt://coordinator:***@h:1883'" in hint
+    assert "--worker-broker 'mqtt://worker:***@h:1883'" in hint
+
+
+def test_worker_broker_without_a_broker_is_refused(tmp_path):
+    result = datagen(
+        "build", "configs/grasp_tabletop.yaml", "--out", str(tmp_path / "o"),
+        "--worker-broker", "mqtt://worker:pw-2@h:1883", "--check",
+        env={k: v for k, v in os.environ.items() if k != "DATAGEN_BROKER_URL"},
+    )  # fmt: skip
+    assert result.returncode == 2 and "Traceback" not in result.stderr
+    assert "--worker-broker (or $DATAGEN_WORKER_BROKER_URL)" in result.stderr
+    assert "pw-2" not in result.stderr + result.stdout
+
+
 def _children_named(name: str) -> list[str]:
     out = subprocess.run(["pgrep", "-f", name], capture_output=True, text=True).stdout
     return out.split()

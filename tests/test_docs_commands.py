@@ -1,4 +1,6 @@
-"""Commands printed in docs/testing.md, run exactly as printed."""
+"""Commands printed in docs/testing.md, run exactly as printed; and every block the docs tag
+``<!-- test: TAG -->`` is one a test runs (README's snippets, docs/deployment.md's ACL
+commands: tests/adversarial/test_acl.py)."""
 
 from __future__ import annotations
 
@@ -38,3 +40,10 @@ def test_the_printed_pure_selection_runs_and_passes():
     output = result.stdout + result.stderr
     assert result.returncode == 0, output[-4000:]
     assert re.search(r"\d+ passed", output) and re.search(r"\d+ deselected", output), output[-4000:]
+
+
+def test_every_block_tagged_for_a_test_is_run_by_one():
+    tests = "".join(p.read_text() for p in (REPO / "tests").rglob("*.py"))
+    for doc in [REPO / "README.md", *sorted((REPO / "docs").glob("*.md"))]:
+        for tag in re.findall(r"<!-- test: ([\w-]+) -->", doc.read_text()):
+            assert f'"{tag}"' in tests, f"{doc.name}: no test runs the block tagged {tag!r}"

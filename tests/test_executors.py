@@ -3,6 +3,7 @@ exactly N samples, and a Ray worker killed for real is replaced."""
 
 from __future__ import annotations
 
+import contextlib
 import dataclasses
 import os
 import signal
@@ -83,3 +84,33 @@ def test_a_killed_ray_worker_is_replaced(tmp_path):
     assert killed, "no Ray worker process was found to kill"
     assert verify(out)["samples"] == 16 and len(set(load(out).keys)) == 16
     assert result.restarts["worker"] >= 1
+
+
+@pytest.mark.ray
+@pytest.mark.adversarial
+def test_a_stopped_ray_worker_is_killed_and_replaced(tmp_path):
+    """SIGSTOP: the actor is alive but answers no ping; ``ray.kill`` ends it (docs/liveness.md)."""
+    stopped: list[psutil.Process] = []
+
+    def on_progress(done: int, total: int) -> None:
+        if done >= 2 and not stopped:
+            workers = _ray_workers()
+            if workers:
+                workers[0].send_signal(signal.SIGSTOP)
+                stopped.append(workers[0])
+
+    config = dataclasses.replace(
+        CONFIG, build=dataclasses.replace(CONFIG.build, worker_timeout_s=10.0)
+    )
+    try:
+        result = run_build(
+            config, tmp_path / "ray-stop", workers=2, executor="ray", on_progress=on_progress
+        )
+    finally:
+        for process in stopped:
+            with contextlib.suppress(psutil.NoSuchProcess):
+                process.send_signal(signal.SIGCONT)
+    assert stopped, "no Ray worker process was found to stop"
+    assert not stopped[0].is_running()  # killed, although stopped
+    assert verify(out := tmp_path / "ray-stop")["samples"] == SAMPLES
+    assert len(set(load(out).keys)) == SAMPLES and result.restarts["worker"] >= 1

@@ -1,12 +1,24 @@
-"""Samples of fixed seed are byte-for-byte those of commit c1ba73d, before the scene families
-became plug-ins (tests/data/golden_parts.json: sha256 of every part). The digests were recorded
-with Mesa's lavapipe (llvmpipe) on x86-64, as on CI; another renderer draws other pixels, so the
-test runs only there."""
+"""Samples of fixed seed keep their bytes (tests/data/golden_parts.json: sha256 of every part).
+Images, depth and label maps are byte-for-byte those of commit c1ba73d, before the scene families
+became plug-ins; the JSON metadata was re-recorded once, deliberately, when issue 14 corrected
+``visible_fraction`` and ``obb_corners_px``. Every part of the grasp samples was re-recorded for
+issue 15: settling stops once the objects rest and holds the robot asleep meanwhile
+(datagen/worlds/settle.py), which moves objects and the arm; navigation kept its bytes. The
+digests were recorded with Mesa's lavapipe (llvmpipe) on x86-64, as on CI; another renderer draws
+other pixels, so the test runs only there.
+
+Re-record deliberately, naming the parts whose meaning changed; any other part that changed is
+an error and nothing is written::
+
+    .venv/bin/python tests/test_golden.py --record json
+"""
 
 from __future__ import annotations
 
+import argparse
 import hashlib
 import json
+import sys
 from pathlib import Path
 
 import pytest
@@ -16,10 +28,18 @@ from datagen.config import load_config
 from datagen.registries import FAMILIES
 
 REPO = Path(__file__).resolve().parents[1]
-GOLDEN = json.loads((REPO / "tests" / "data" / "golden_parts.json").read_text())
+GOLDEN_FILE = REPO / "tests" / "data" / "golden_parts.json"
+GOLDEN = json.loads(GOLDEN_FILE.read_text())
 SCENE = {"configs/grasp_campaign.yaml": "grasp_attempts"}
 
 pytestmark = [pytest.mark.sim, pytest.mark.slow]
+
+
+def part_digests(config: str, key: str) -> dict[str, str]:
+    cfg = load_config(REPO / config)
+    cfg = cfg.replace(scene=SCENE.get(config, cfg.scene))
+    sample = FAMILIES[cfg.scene].produce_sample(cfg, cfg.seed, int(key))
+    return {name: hashlib.sha256(data).hexdigest() for name, data in sample.parts.items()}
 
 
 @pytest.fixture(scope="module", autouse=True)
@@ -33,8 +53,33 @@ def lavapipe():
     ("config", "key"), [(c, k) for c, keys in sorted(GOLDEN.items()) for k in sorted(keys)]
 )
 def test_sample_bytes_are_unchanged(config, key):
-    cfg = load_config(REPO / config)
-    cfg = cfg.replace(scene=SCENE.get(config, cfg.scene))
-    sample = FAMILIES[cfg.scene].produce_sample(cfg, cfg.seed, int(key))
-    digests = {name: hashlib.sha256(data).hexdigest() for name, data in sample.parts.items()}
-    assert digests == GOLDEN[config][key]
+    assert part_digests(config, key) == GOLDEN[config][key]
+
+
+def record(parts: set[str]) -> int:
+    """Re-records the digests of ``parts``; returns 1, writing nothing, if any other changed."""
+    recorded, unexpected = {}, []
+    for config, keys in sorted(GOLDEN.items()):
+        for key, old in sorted(keys.items()):
+            new = part_digests(config, key)
+            unexpected += [
+                f"{config} {key} {name}"
+                for name in sorted(set(old) | set(new))
+                if name not in parts and old.get(name) != new.get(name)
+            ]
+            changed = sorted(name for name in parts if old.get(name) != new.get(name))
+            print(f"{config} {key}: re-recorded {changed or 'nothing'}")
+            recorded.setdefault(config, {})[key] = {
+                name: (new if name in parts else old)[name] for name in old
+            }
+    if unexpected:
+        print("not recorded: parts not named changed too:\n  " + "\n  ".join(unexpected))
+        return 1
+    GOLDEN_FILE.write_text(json.dumps(recorded, indent=1, sort_keys=True))
+    return 0
+
+
+if __name__ == "__main__":
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--record", nargs="+", required=True, metavar="PART")
+    sys.exit(record(set(parser.parse_args().record)))

@@ -1,5 +1,7 @@
 from __future__ import annotations
 
+import hashlib
+import hmac
 import json
 import re
 import struct
@@ -8,6 +10,7 @@ from pathlib import Path
 
 import pytest
 
+from datagen.engines.transfer.envelope import derive_key
 from datagen.engines.transfer.topics import ack_indices, topics
 from datagen.engines.transfer.wire import MAGIC, WireError, decode_sample, encode_sample
 from datagen.sample import Sample
@@ -175,3 +178,66 @@ def test_signed_samples_verify_only_with_the_builds_secret():
     tampered[-4:] = zlib.crc32(bytes(tampered[:-4])).to_bytes(4, "little")
     with pytest.raises(WireError, match="signature does not verify"):
         decode_sample(bytes(tampered), secret=secret)
+
+
+DOC_SECRET = bytes(range(32))  # the secret of docs/wire-format.md's signed example
+
+
+def _doc_value(tag: str) -> str:
+    doc = (REPO / "docs" / "wire-format.md").read_text()
+    found = re.search(rf"<!-- {tag} -->(?:\n```\n([0-9a-f]+)\n```|`([0-9a-f]+)`)", doc)
+    assert found, f"docs/wire-format.md has no value tagged <!-- {tag} -->"
+    return found[1] or found[2]
+
+
+def _documented_decoder(hex_line: str, secret: bytes | None) -> dict[str, bytes]:
+    """Runs the Python decoder printed in docs/wire-format.md, as printed."""
+    doc = (REPO / "docs" / "wire-format.md").read_text()
+    code = re.search(r"<!-- wire-decoder -->\n```python\n(.*?)```", doc, re.S)[1]
+    scope = {"hex_line": hex_line, "secret": secret}
+    exec(code, scope)
+    return scope["parts"]
+
+
+def test_signed_spec_example_is_the_encoders_test_vector():
+    sample = Sample(7, {"json": b'{"n":1}', "note.txt": b"hi"})
+    signed = encode_sample("demo", sample, DOC_SECRET)
+    assert signed.hex() == _doc_value("wire-example-signed")
+    assert derive_key(DOC_SECRET, "sample").hex() == _doc_value("sample-key")
+    assert signed[-36:-4].hex() == _doc_value("sample-mac")
+    assert decode_sample(signed, secret=DOC_SECRET)[1].parts == sample.parts
+
+
+def test_the_documented_decoder_verifies_as_the_writer_does():
+    signed, unsigned = _doc_value("wire-example-signed"), _doc_value("wire-example")
+    assert _documented_decoder(signed, DOC_SECRET) == {"json": b'{"n":1}', "note.txt": b"hi"}
+    assert _documented_decoder(unsigned, None) == {"json": b'{"n":1}', "note.txt": b"hi"}
+    with pytest.raises(AssertionError, match="not signed by this build"):
+        _documented_decoder(signed, bytes(32))
+    with pytest.raises(AssertionError, match="unsigned"):
+        _documented_decoder(unsigned, DOC_SECRET)
+
+
+def _signed_with(key: bytes, sample: Sample, build_id: str = "b1") -> bytes:
+    """A sample whose MAC is HMAC-SHA256 under ``key`` itself (no HKDF)."""
+    body = bytearray(encode_sample(build_id, sample)[:-4])
+    body[6] = 1  # flags: signed
+    body += hmac.new(key, bytes(body), hashlib.sha256).digest()
+    return bytes(body) + zlib.crc32(body).to_bytes(4, "little")
+
+
+def test_only_the_sample_key_of_the_secret_verifies_a_sample():
+    secret = DOC_SECRET
+    sample = Sample(1, {"json": b"{}"})
+    assert _signed_with(derive_key(secret, "sample"), sample) == encode_sample("b1", sample, secret)
+    for wrong in (secret, derive_key(secret, "ack"), derive_key(secret, "control")):
+        with pytest.raises(WireError, match="signature does not verify"):
+            decode_sample(_signed_with(wrong, sample), secret=secret)
+    genuine = encode_sample("b1", sample, secret)
+    renumbered = bytearray(
+        genuine.replace(b'"index":1,"key":"000000001"', b'"index":2,"key":"000000002"')
+    )
+    assert renumbered != genuine
+    renumbered[-4:] = zlib.crc32(bytes(renumbered[:-4])).to_bytes(4, "little")  # a valid CRC
+    with pytest.raises(WireError, match="signature does not verify"):
+        decode_sample(bytes(renumbered), secret=secret)

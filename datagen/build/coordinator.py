@@ -5,13 +5,15 @@ samples are durable, then the manifest.
          ▲                                                                              │
          └──────────────────────── MQTT acks (sample durable in a shard) ◄──────────────┘
 
-The coordinator supervises what it started: a dead worker is replaced and its samples issued
-again, a dead writer or broker is restarted, and a sample not acknowledged in time is issued
-again (writers deduplicate by key). A sample whose production failed on every attempt the
-config allows (``build.on_sample_error: retry``) is set aside and the build goes on; it fails at
-the end listing those samples. ``DIR/build.json`` names the build, so an interrupted build
-(Ctrl-C, or the coordinator killed) continues with ``resume=True``: the writers re-announce what
-is already durable and only the rest is rendered.
+The coordinator supervises what it started: a worker that died, fell silent or ran past the
+time limit of one sample is killed, replaced and its samples issued again; a writer or broker
+that exited or stopped answering is restarted (``datagen/build/supervise.py``; an external one
+is reported, then waited for, then the build stops: docs/liveness.md); a sample not
+acknowledged in time is issued again (writers deduplicate by key). A sample whose production
+failed (or timed out) on every attempt the config allows (``build.on_sample_error: retry``) is
+set aside and the build goes on; it fails at the end listing those samples. ``DIR/build.json``
+names the build, so an interrupted build (Ctrl-C, or the coordinator killed) continues with
+``resume=True``: the writers re-announce what is already durable and only the rest is rendered.
 """
 
 from __future__ import annotations
@@ -24,11 +26,14 @@ from pathlib import Path
 from typing import Any
 
 from datagen.build.executors.base import WorkerSpec
+from datagen.build.liveness import Attempt, WorkerWatch, timed_out
 from datagen.build.local_writer import LOCAL_WRITER_ID, LocalWriter
 from datagen.build.manifest import build_manifest
 from datagen.build.out_dir import BuildIdentity
+from datagen.build.production import Task
 from datagen.build.result import BuildResult, Observer, ProgressCallback
 from datagen.build.schedule import Schedule
+from datagen.build.supervise import MAX_RESTARTS, WRITER_READY_TIMEOUT_S, Supervisor
 from datagen.config import BuildConfig
 from datagen.dataset.loader import DatasetError, check_complete
 from datagen.engines.transfer.collector import AckCollector
@@ -37,9 +42,7 @@ from datagen.errors import BuildError
 from datagen.registries import EXECUTORS
 
 log = logging.getLogger(__name__)
-WRITER_READY_TIMEOUT_S = 60.0
 FINALIZE_TIMEOUT_S = 300.0
-MAX_RESTARTS = 10  # of each kind (worker, writer, broker) before the build gives up
 POLL_S = 0.1
 
 
@@ -82,27 +85,42 @@ class Coordinator:
             LocalWriter(config, out_dir, self.build_id, self.secret) if writers is None else None
         )
         self.failed: dict[int, list[str]] = {}  # index -> failures of every attempt
+        self.next_task: dict[int, Task] = {}  # samples to resume at a later attempt (timed out)
+        limits = config.build
+        self.watch = WorkerWatch(limits.worker_timeout_s, limits.sample_timeout_s)
+        self.schedule: Schedule | None = None
         self.restarts = {"worker": 0, "writer": 0, "broker": 0}
         self.acks: deque[int] = deque()
         self.result = BuildResult(out_dir, 0, 0.0)
 
     # --- the run -------------------------------------------------------------------------------
-    def run(self, url: str, broker: ManagedBroker | None) -> None:
+    def run(self, url: str, broker: ManagedBroker | None, worker_url: str | None = None) -> None:
+        """``worker_url``: the workers' own URL for the broker (their user), else ``url``."""
         self.url, self.broker = url, broker
-        spec = WorkerSpec(self.config.to_dict(), url, self.build_id, self.secret)
+        spec = WorkerSpec(self.config.to_dict(), worker_url or url, self.build_id, self.secret)
         self.executor = EXECUTORS[self.executor_name].load()(spec, **self.executor_options)
         total = self.config.num_samples
-        with AckCollector(
-            url, self.build_id, on_ack=self.acks.append, secret=self.secret
-        ) as collector:
-            self.collector = collector
+        self.supervisor = Supervisor(
+            self.config, self.build_id, url, broker, self.writer, self.writer_ids,
+            self.observer, self.restarts, self._missing,
+        )  # fmt: skip
+        with (
+            self.supervisor,
+            AckCollector(
+                url, self.build_id, on_ack=self.acks.append, secret=self.secret
+            ) as collector,
+        ):
+            self.collector = self.supervisor.collector = collector
             try:
                 if self.writer is not None:
-                    self._start_writer()
+                    self.supervisor.start_writer()
                 self._wait_writers_ready()
                 if self.external_writers is not None:
                     # writers started earlier re-announce what is durable; ours did before "ready"
-                    collector.announce(self.writer_ids, timeout_s=WRITER_READY_TIMEOUT_S)
+                    try:
+                        collector.announce(self.writer_ids, timeout_s=WRITER_READY_TIMEOUT_S)
+                    except TimeoutError as exc:
+                        raise BuildError(str(exc)) from None
                 durable = {i for i in collector.acked if 0 <= i < total}
                 self.result.resumed_from = len(durable)
                 self.schedule = Schedule(
@@ -122,13 +140,7 @@ class Coordinator:
                     manifest["retried_samples"] = {
                         str(i): r for i, r in sorted(self.result.retried.items())
                     }
-                status = collector.finalize(
-                    total, manifest, writers=self.writer_ids, timeout_s=FINALIZE_TIMEOUT_S
-                )
-                if status.get("state") != "finalized":
-                    raise BuildError(
-                        f"the writers could not finalize the dataset: {status.get('reason', status)}"
-                    )
+                self.supervisor.finalize(total, manifest, FINALIZE_TIMEOUT_S)
                 self._check_on_disk()
                 self._stop_workers(graceful=True)
                 if self.writer is not None:
@@ -150,10 +162,10 @@ class Coordinator:
             self._report(total - len(self.schedule.remaining))
             if self.schedule.done:
                 return
-            self._supervise_broker()
-            self._supervise_writer()
+            self.supervisor.check()
             self._handle_worker_messages()
             now = time.monotonic()
+            self._supervise_workers(now)
             overdue = self.schedule.reissue_overdue(now)
             if overdue:
                 log.warning(
@@ -174,6 +186,7 @@ class Coordinator:
         worker_id = self.next_worker_id
         self.next_worker_id += 1
         details = self.executor.start(worker_id)
+        self.watch.add(worker_id, time.monotonic())
         self.workers[worker_id] = 0
         self.schedule.add_worker(worker_id)
         self.observer("worker", {"id": worker_id, **details})
@@ -183,14 +196,21 @@ class Coordinator:
         if worker_id in self.retiring:
             return
         for index in self.schedule.next_for(worker_id):
-            if not self.executor.send(worker_id, index):
+            if not self.executor.send(worker_id, self.next_task.get(index, Task(index))):
                 return  # it died; poll reports it
 
     def _handle_worker_messages(self) -> None:
         recycle_after = self.config.executor.recycle_after
         for worker_id, kind, payload in self.executor.poll(POLL_S):
-            if kind == "published":
-                self.schedule.on_published(worker_id, payload, time.monotonic())
+            now = time.monotonic()
+            self.watch.heard_from(worker_id, now)
+            if kind == "ready":
+                self.watch.ready(worker_id)
+            elif kind == "started":
+                self.watch.started(worker_id, payload, now)
+            elif kind == "published":
+                self.watch.finished(worker_id, payload)
+                self.schedule.on_published(worker_id, payload, now)
                 self.workers[worker_id] += 1
                 if recycle_after and self.workers[worker_id] >= recycle_after:
                     self._retire(worker_id)
@@ -199,6 +219,7 @@ class Coordinator:
                     k: payload[k] for k in ("attempt", "failures")
                 }
             elif kind == "failed":
+                self.watch.finished(worker_id, payload["index"])
                 self.failed[payload["index"]] = payload["failures"]
                 self.schedule.on_given_up(worker_id, payload["index"])
             elif kind == "error":
@@ -206,6 +227,7 @@ class Coordinator:
             elif kind == "lost":
                 self._lose_worker(worker_id, payload)
             elif kind == "done":
+                self.watch.forget(worker_id)
                 self.workers.pop(worker_id, None)
                 if worker_id in self.retiring:  # recycled: published samples stay tracked
                     self.retiring.discard(worker_id)
@@ -220,18 +242,42 @@ class Coordinator:
             self.observer("recycle", {"id": worker_id, "samples": self.workers[worker_id]})
             self.executor.retire(worker_id)
 
+    def _supervise_workers(self, now: float) -> None:
+        """Kills a worker that fell silent or ran past the time limit of one sample; a timed-out
+        attempt counts as a failed one (``build.on_sample_error``)."""
+        for stuck in self.watch.unresponsive(now):
+            self.executor.kill(stuck.worker)
+            if stuck.attempt is not None:
+                self._attempt_timed_out(stuck.worker, stuck.attempt)
+            self._lose_worker(stuck.worker, f"killed: it {stuck.why}")
+
+    def _attempt_timed_out(self, worker_id: int, attempt: Attempt) -> None:
+        limits, index = self.config.build, attempt.index
+        failures = timed_out(attempt, limits.sample_timeout_s)
+        if limits.on_sample_error != "retry":
+            raise BuildError(
+                f"sample {index} timed out after {limits.sample_timeout_s:g} s "
+                f"(build.sample_timeout_s; build.on_sample_error: fail); its worker was killed"
+            )
+        if attempt.attempt >= limits.retries:
+            self.failed[index] = failures
+            self.schedule.on_given_up(worker_id, index)
+        else:
+            self.next_task[index] = Task(index, attempt.attempt + 1, tuple(failures))
+
     def _lose_worker(self, worker_id: int, why: str) -> None:
+        self.watch.forget(worker_id)
         self.workers.pop(worker_id, None)
         self.retiring.discard(worker_id)
         lost = self.schedule.on_worker_lost(worker_id)
         self.restarts["worker"] += 1
         log.warning(
-            "worker %d died (%s); issuing its %d unfinished samples again and starting a new worker",
+            "worker %d %s; issuing its %d unfinished samples again and starting a new worker",
             worker_id,
-            why,
+            why if why.startswith("killed") else f"died ({why})",
             len(lost),
         )
-        self.observer("restart", {"what": "worker", "id": worker_id, "reissued": lost})
+        self.observer("restart", {"what": "worker", "id": worker_id, "why": why, "reissued": lost})
         if self.restarts["worker"] > MAX_RESTARTS * max(1, self.num_workers):
             raise BuildError(self._missing("workers keep dying"))
         self._start_worker()
@@ -241,15 +287,12 @@ class Coordinator:
             self.executor.stop(graceful)
         self.workers.clear()
 
-    # --- writer (local) and broker (managed) ------------------------------------------------------
-    def _start_writer(self) -> None:
-        pid = self.writer.start(self.url)
-        self.observer("writer", {"id": LOCAL_WRITER_ID, "pid": pid})
-
+    # --- writers and the broker (restarts and reports: supervise.py) ---------------------------
     def _wait_writers_ready(self) -> None:
         for writer_id in self.writer_ids:
             deadline = time.monotonic() + WRITER_READY_TIMEOUT_S
             while True:
+                self.supervisor.check(writers=False)
                 if self.writer is not None and self.writer.exit_code is not None:
                     raise BuildError(
                         f"the dataset writer exited with code {self.writer.exit_code} before it was ready"
@@ -260,39 +303,23 @@ class Coordinator:
                 if time.monotonic() > deadline:
                     raise BuildError(
                         f"writer {writer_id!r} is not ready on the broker after "
-                        f"{WRITER_READY_TIMEOUT_S:.0f} s; start it with: datagen writer --broker URL "
+                        f"{WRITER_READY_TIMEOUT_S:.0f} s; start it with: datagen writer "
                         f"--build-id {self.build_id} --writer-id {writer_id} --out DIR, with "
-                        f"$DATAGEN_BUILD_SECRET set to the secret in DIR/build.json"
-                        + _unsigned_hint(self.collector.rejected)
+                        f"$DATAGEN_BROKER_URL set to the broker's URL and $DATAGEN_BUILD_SECRET "
+                        f"to the secret in DIR/build.json" + _unsigned_hint(self.collector.rejected)
                     )
 
-    def _supervise_writer(self) -> None:
-        if self.writer is None or self.writer.exit_code is None:
-            return
-        code = self.writer.exit_code
-        self.restarts["writer"] += 1
-        if self.restarts["writer"] > MAX_RESTARTS:
-            raise BuildError(self._missing(f"the writer keeps dying (exit code {code})"))
-        log.warning("the dataset writer exited with code %s; starting it again", code)
-        self.observer("restart", {"what": "writer", "exit_code": code})
-        self._start_writer()
-
-    def _supervise_broker(self) -> None:
-        if self.broker is None or self.broker.running:
-            return
-        self.restarts["broker"] += 1
-        if self.restarts["broker"] > MAX_RESTARTS:
-            raise BuildError(self._missing("the broker keeps dying"))
-        log.warning("the broker stopped; starting it again on the same port with its saved state")
-        self.observer("restart", {"what": "broker"})
-        self.broker.start()
-        self.observer("broker", {"url": self.broker.url, "pid": self.broker.pid})
-
     def _stop_writer(self) -> None:
-        if self.writer is not None:
+        if self.writer is None:
+            return
+        if self.supervisor.broker_answers():
             self.writer.stop()
+        else:  # it could not drain through a hung broker; its journal keeps what is durable
+            self.writer.kill()
 
     def _missing(self, reason: str) -> str:
+        if self.schedule is None:  # before any sample was issued
+            return reason
         missing = sorted(self.schedule.remaining)
         total = self.config.num_samples
         shown = ", ".join(map(str, missing[:20])) + (" ..." if len(missing) > 20 else "")

@@ -53,6 +53,12 @@ class LocalWriter:
         if self.process is not None:
             self.process.wait(timeout=timeout_s)
 
+    def kill(self) -> None:
+        """SIGKILL: ends a writer that stopped answering (a stopped process too)."""
+        if self.process is not None and self.process.poll() is None:
+            self.process.kill()
+            self.process.wait()
+
     def stop(self) -> None:
         if self.process is None or self.process.poll() is not None:
             return

@@ -10,7 +10,7 @@ import re
 import secrets
 import shutil
 import tempfile
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from datetime import UTC, datetime
 from pathlib import Path
 from typing import Any
@@ -18,10 +18,9 @@ from typing import Any
 from datagen.config import BuildConfig
 from datagen.engines.transfer.wire import SECRET_ENV, parse_secret
 from datagen.errors import BuildError, OutDirError
-from datagen.shards import MANIFEST, write_manifest
+from datagen.shards import DATASET_FORMAT, MANIFEST, write_manifest
 
 BUILD_STATE = "build.json"
-DATASET_FORMAT = "datagen.dataset/1"  # manifest.json's "dataset_format"
 
 
 def _read_json(path: Path) -> dict[str, Any] | None:
@@ -34,7 +33,7 @@ def _read_json(path: Path) -> dict[str, Any] | None:
 @dataclass(frozen=True)
 class BuildIdentity:
     build_id: str
-    secret: bytes  # signs every sample; writers with it reject samples not signed with it
+    secret: bytes = field(repr=False)  # signs every sample and message; never printed
 
 
 def prepare_out_dir(

@@ -5,6 +5,10 @@ A failure is retried by drawing the sample again from the streams of attempt k =
 alone. A sample that needed retries records them in its metadata under ``production``:
 ``{"attempt": k, "failures": ["attempt 0: ValueError: ...", ...]}``; a sample made at the first
 attempt is byte-identical to one made without this policy.
+
+An attempt that ran past ``build.sample_timeout_s`` (its worker was killed) is such a failure
+too: the coordinator issues the sample again as a :class:`Task` starting at the next attempt and
+carrying the failures so far.
 """
 
 from __future__ import annotations
@@ -12,6 +16,7 @@ from __future__ import annotations
 import json
 import logging
 import traceback
+from collections.abc import Callable
 from dataclasses import dataclass, field
 
 from datagen.config import BuildConfig
@@ -21,6 +26,16 @@ from datagen.sample import Sample
 
 log = logging.getLogger(__name__)
 MAX_ERROR_CHARS = 2000  # of each failure's message kept in metadata, manifest and reports
+
+
+@dataclass(frozen=True)
+class Task:
+    """One sample to make: ``index``, from ``attempt`` on, after ``failures`` (one message per
+    earlier attempt, e.g. one that timed out in a worker that was killed)."""
+
+    index: int
+    attempt: int = 0
+    failures: tuple[str, ...] = ()
 
 
 @dataclass
@@ -44,12 +59,20 @@ def _describe(attempt: int, exc: BaseException) -> str:
     return f"attempt {attempt}: {type(exc).__name__}: {exc}{at}"[:MAX_ERROR_CHARS]
 
 
-def produce_with_policy(config: BuildConfig, index: int) -> Produced:
-    """Sample ``index`` of the build, retried as the config allows; raises SampleFailed."""
+def produce_with_policy(
+    config: BuildConfig,
+    task: Task,
+    on_attempt: Callable[[int, list[str]], None] | None = None,
+) -> Produced:
+    """Sample ``task.index`` of the build, retried as the config allows; raises SampleFailed.
+    ``on_attempt(attempt, failures so far)`` runs as each attempt starts."""
     family = FAMILIES[config.scene]
+    index = task.index
     retries = config.build.retries if config.build.on_sample_error == "retry" else 0
-    failures: list[str] = []
-    for attempt in range(retries + 1):
+    failures: list[str] = list(task.failures)
+    for attempt in range(task.attempt, retries + 1):
+        if on_attempt is not None:
+            on_attempt(attempt, list(failures))
         try:
             sample = family.produce_sample(config, config.seed, index, attempt)
         except Exception as exc:  # any error of one sample: the policy decides, not the type

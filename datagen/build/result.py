@@ -22,5 +22,7 @@ class BuildResult:
 
 
 ProgressCallback = Callable[[int, int], None]  # (samples durable, samples requested)
-# (event, details): "broker" {url, pid}, "writer" {id, pid}, "worker" {id, pid}, "restart" {...}
+# (event, details): "broker" {url, pid}, "writer" {id, pid}, "worker" {id, pid}, "restart"
+# {what, why, ...} (a process restarted), "stall" {problem, wait_s} (an external writer or broker
+# is silent: the build waits wait_s more, then stops), "recycle" {id, samples}
 Observer = Callable[[str, dict[str, Any]], None]

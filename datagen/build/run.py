@@ -33,6 +33,7 @@ def run_build(
     *,
     resume: bool = False,
     broker_url: str | None = None,
+    worker_broker_url: str | None = None,
     writers: list[str] | None = None,
     build_id: str | None = None,
     observer: Observer | None = None,
@@ -42,7 +43,9 @@ def run_build(
 ) -> BuildResult:
     """Builds ``config.num_samples`` samples into ``out_dir``.
 
-    ``broker_url``: an MQTT v5 broker to use instead of starting Mosquitto. ``writers``: ids of
+    ``broker_url``: an MQTT v5 broker to use instead of starting Mosquitto;
+    ``worker_broker_url``: the workers' URL for it, when they have their own user (else
+    ``broker_url``). ``writers``: ids of
     writers started elsewhere (``datagen writer``) instead of one local writer. ``executor``:
     ``local`` (processes of this machine) or ``ray`` (actors; ``ray_address`` None starts a local
     Ray instance, ``auto`` or ``ray://host:port`` joins a cluster).
@@ -59,6 +62,8 @@ def run_build(
             "--executor ray on a cluster needs a broker every node can reach: pass --broker "
             "mqtt://HOST:PORT (see docs/deployment.md, 'Ray cluster')"
         )
+    if worker_broker_url and not broker_url:
+        raise BuildError("worker_broker_url names a user of an external broker: give broker_url")
     options = {}
     if executor == "ray":
         options = {
@@ -70,7 +75,7 @@ def run_build(
         config, out_dir, identity, workers, writers, observer, on_progress, executor, options
     )
     with _broker(config, broker_url, observer) as (url, broker):
-        coordinator.run(url, broker)
+        coordinator.run(url, broker, worker_url=worker_broker_url)
     result = coordinator.result
     result.seconds = time.monotonic() - start
     finish = FAMILIES[config.scene].finish

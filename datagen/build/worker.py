@@ -2,11 +2,16 @@
 
 Each worker has its own duplex pipe to the coordinator (not a queue shared by all workers: a
 worker killed while reading a shared queue would leave its lock held and stall the others).
-Messages to the worker: an index, or ``None`` to finish. From the worker:
-``("published", index)`` once the broker has the sample, ``("retried", {"index", "attempt",
-"failures"})`` before that when the sample needed retries, ``("failed", {"index", "failures"})``
-when every attempt allowed by ``build.on_sample_error: retry`` failed (the worker goes on with
-its next index), ``("done", None)``, ``("error", text)`` (the build cannot go on).
+Messages to the worker: a :class:`~datagen.build.production.Task`, or ``None`` to finish. From
+the worker: ``("heartbeat", None)`` every ``HEARTBEAT_S`` from a thread of its own, from the
+moment it starts (the coordinator kills a worker silent for ``build.worker_timeout_s``),
+``("ready", None)`` once its start-up (the renderer's warm-up, the broker connection) is over,
+``("started", {"index", "attempt", "failures"})`` as each attempt at a sample begins (one that
+runs past ``build.sample_timeout_s`` gets the worker killed), ``("published", index)`` once the
+broker has the sample, ``("retried", {"index", "attempt", "failures"})`` before that when the
+sample needed retries, ``("failed", {"index", "failures"})`` when every attempt allowed by
+``build.on_sample_error: retry`` failed (the worker goes on with its next index), ``("done",
+None)``, ``("error", text)`` (the build cannot go on).
 """
 
 from __future__ import annotations
@@ -16,19 +21,56 @@ import json
 import logging
 import os
 import signal
+import threading
 import time
 import traceback
 from multiprocessing.connection import Connection
 from typing import Any
 
-from datagen.build.production import SampleFailed, produce_with_policy
+from datagen.build.production import SampleFailed, Task, produce_with_policy
 from datagen.config import config_from_dict
+from datagen.engines.sim.render import keep_renderer_alive
 from datagen.engines.sim.stage_clock import take
 from datagen.engines.transfer.publisher import SamplePublisher, SampleTooLarge
 
 log = logging.getLogger(__name__)
 _PR_SET_PDEATHSIG = 1
 STAGE_LOG_ENV = "DATAGEN_STAGE_LOG"  # a file: one JSON line of stage timings per sample
+HEARTBEAT_S = 2.0
+
+
+class Channel:
+    """The worker's end of its pipe. Two threads send on it (the worker and its heartbeat), so
+    sends take a lock: two messages written at once would interleave on the pipe."""
+
+    def __init__(self, conn: Connection):
+        self.conn = conn
+        self._lock = threading.Lock()
+        self._stop = threading.Event()
+
+    def send(self, kind: str, payload: Any) -> None:
+        with self._lock:
+            self.conn.send((kind, payload))
+
+    def recv(self) -> Task | None:
+        return self.conn.recv()
+
+    def start_heartbeat(self) -> None:
+        threading.Thread(target=self._beat, name="heartbeat", daemon=True).start()
+
+    def stop_heartbeat(self) -> None:
+        self._stop.set()
+
+    def _beat(self) -> None:
+        # Needs the GIL: a C call that holds it (SAPIEN's first frame: ~3.5 s on lavapipe)
+        # delays the next beat; build.worker_timeout_s must be well above that.
+        while True:
+            try:
+                self.send("heartbeat", None)
+            except (OSError, EOFError):  # the coordinator is gone, or closed our pipe
+                return
+            if self._stop.wait(HEARTBEAT_S):
+                return
 
 
 def _log_stages(path: str, worker_id: int, index: int, timings: dict, sample) -> None:
@@ -58,13 +100,16 @@ def worker_main(
     die_with_parent()
     # Ctrl-C is the coordinator's to handle: it stops the workers itself, in order
     signal.signal(signal.SIGINT, signal.SIG_IGN)
+    channel = Channel(conn)
+    channel.start_heartbeat()  # before anything slow: start-up is watched too
     logging.basicConfig(
         level=os.environ.get("DATAGEN_LOG_LEVEL", "WARNING"),
         format=f"[worker {worker_id}] %(levelname)s %(message)s",
     )
-    index = None
+    task = None
     try:
         config = config_from_dict(config_dict)
+        keep_renderer_alive()  # its warm-up (~3.5 s on lavapipe) is start-up, not a sample's
         with SamplePublisher(
             broker_url,
             build_id,
@@ -74,36 +119,44 @@ def worker_main(
             secret=secret,
         ) as publisher:
             stage_log = os.environ.get(STAGE_LOG_ENV)
-            while (index := conn.recv()) is not None:
+            channel.send("ready", None)
+            while (task := channel.recv()) is not None:
+                index = task.index
                 take()  # what a failed sample left behind is not this sample's
                 start = time.perf_counter()
+
+                def started(attempt: int, failures: list[str], index: int = index) -> None:
+                    channel.send("started", {"index": index, "attempt": attempt, "failures": failures})  # fmt: skip
+
                 try:
-                    produced = produce_with_policy(config, index)
+                    produced = produce_with_policy(config, task, on_attempt=started)
                 except SampleFailed as exc:
                     if config.build.on_sample_error != "retry":
                         raise
-                    conn.send(("failed", {"index": index, "failures": exc.failures}))
+                    channel.send("failed", {"index": index, "failures": exc.failures})
                     continue
                 timings = take()  # seconds per stage within produce: encode_s, ...
-                timings["render_s"] = time.perf_counter() - start - sum(timings.values())
+                # what no stage timer covers: scene sampling, annotation, Python glue
+                timings["other_s"] = time.perf_counter() - start - sum(timings.values())
                 start = time.perf_counter()
                 publisher.publish(produced.sample)
                 timings["publish_s"] = time.perf_counter() - start
                 if stage_log:
                     _log_stages(stage_log, worker_id, index, timings, produced.sample)
                 if produced.failures:
-                    conn.send(("retried", {"index": index, "attempt": produced.attempt, "failures": produced.failures}))  # fmt: skip
-                conn.send(("published", index))
-        conn.send(("done", None))
+                    channel.send("retried", {"index": index, "attempt": produced.attempt, "failures": produced.failures})  # fmt: skip
+                channel.send("published", index)
+        channel.stop_heartbeat()
+        channel.send("done", None)
     except (EOFError, BrokenPipeError):
         pass  # the coordinator is gone
     except SampleTooLarge as exc:
-        conn.send(("error", f"{exc} (raise transfer.max_sample_mb in the config to allow it)"))
+        channel.send("error", f"{exc} (raise transfer.max_sample_mb in the config to allow it)")
         raise SystemExit(1) from None
     except SampleFailed as exc:
-        conn.send(("error", f"worker {worker_id}: {exc} (build.on_sample_error: fail)"))
+        channel.send("error", f"worker {worker_id}: {exc} (build.on_sample_error: fail)")
         raise SystemExit(1) from None
     except Exception:
-        where = f"sample {index}" if index is not None else "start-up"
-        conn.send(("error", f"worker {worker_id} failed at {where}:\n{traceback.format_exc()}"))
+        where = f"sample {task.index}" if task is not None else "start-up"
+        channel.send("error", f"worker {worker_id} failed at {where}:\n{traceback.format_exc()}")
         raise SystemExit(1) from None

@@ -20,6 +20,7 @@ from datagen.cli.common import (
 )
 from datagen.cli.progress import progress
 from datagen.config import BuildConfig, load_config
+from datagen.engines.transfer.broker_url import BROKER_URL_ENV, WORKER_BROKER_URL_ENV
 from datagen.registries import EXECUTORS, FAMILIES, SAMPLERS, choices
 
 _SAMPLES = {f.name: f for f in dataclasses.fields(BuildConfig)}["num_samples"].metadata
@@ -72,7 +73,16 @@ def add_parsers(commands) -> None:
         metavar="URL",
         type=broker_url,
         help="use this MQTT v5 broker (mqtt://[user:pass@]host:port or mqtts://...) instead of "
-        "starting Mosquitto; default: $DATAGEN_BROKER_URL, else a private Mosquitto",
+        "starting Mosquitto; default: $DATAGEN_BROKER_URL (prefer it: arguments show in ps), "
+        "else a private Mosquitto",
+    )
+    build.add_argument(
+        "--worker-broker",
+        metavar="URL",
+        type=broker_url,
+        help="the scene workers' own URL for the --broker broker, e.g. with a user that may "
+        "only publish samples (docs/deployment.md, 'Least privilege'); default: "
+        "$DATAGEN_WORKER_BROKER_URL, else the --broker URL",
     )
     build.add_argument(
         "--writers",
@@ -140,6 +150,7 @@ def add_parsers(commands) -> None:
     # a campaign is a build: the build options it does not expose take their defaults
     grasp.set_defaults(
         broker=None,
+        worker_broker=None,
         writers=None,
         build_id=None,
         ca_file=None,
@@ -154,6 +165,7 @@ def add_parsers(commands) -> None:
 # options a resumed build must not repeat; options repeated even at their default
 _NOT_RESUMED = {"help", "resume", "overwrite"}
 _ALWAYS_RESUMED = {"workers"}  # its default is the number of cores: one value may be given
+_URLS = {"broker", "worker_broker"}  # printed without their passwords
 
 
 def resume_command(args: argparse.Namespace) -> str:
@@ -178,7 +190,7 @@ def resume_command(args: argparse.Namespace) -> str:
         if action.nargs == 0:  # a switch
             words.append(flag)
             continue
-        if action.dest == "broker" and redact(value) != value:
+        if action.dest in _URLS and redact(value) != value:
             value, note = redact(value), " (put the broker's password back in place of ***)"
         words += [flag, shlex.quote(str(value))]
     return " ".join([*words, "--resume"]) + note
@@ -238,7 +250,8 @@ def run_build_command(args: argparse.Namespace, config=None) -> int:
             overwrite=args.overwrite,
             on_progress=lambda done, _total: bar.update_to(done),
             resume=args.resume,
-            broker_url=args.broker or os.environ.get("DATAGEN_BROKER_URL"),
+            broker_url=args.broker or os.environ.get(BROKER_URL_ENV),
+            worker_broker_url=args.worker_broker or os.environ.get(WORKER_BROKER_URL_ENV),
             writers=writers,
             build_id=args.build_id,
             executor=args.executor,
@@ -307,17 +320,23 @@ def check_build(args: argparse.Namespace, config: BuildConfig, out: Path) -> str
     """What a build with ``args`` would do with ``out`` (a key of ``_PLANS``), after checking
     everything that can be checked before anything starts; raises UserInputError (exit 2)."""
     from datagen.build.out_dir import plan_out_dir
-    from datagen.engines.transfer.broker_url import parse_broker_url, redact
+    from datagen.engines.transfer.broker_url import parse_broker_url
     from datagen.errors import UserInputError
 
-    env_url = os.environ.get("DATAGEN_BROKER_URL")
-    if not args.broker and env_url:
-        try:
-            parse_broker_url(env_url)
-        except ValueError as exc:
-            message = str(exc).replace(repr(env_url), repr(redact(env_url)))
-            raise UserInputError(f"$DATAGEN_BROKER_URL: {message}") from None
-    if args.executor == "ray" and args.ray_address and not (args.broker or env_url):
+    urls = {}
+    for option, env in (("broker", BROKER_URL_ENV), ("worker_broker", WORKER_BROKER_URL_ENV)):
+        urls[option] = getattr(args, option) or os.environ.get(env)
+        if not getattr(args, option) and os.environ.get(env):
+            try:
+                parse_broker_url(os.environ[env])
+            except ValueError as exc:  # the message shows the URL without its password
+                raise UserInputError(f"${env}: {exc}") from None
+    if urls["worker_broker"] and not urls["broker"]:
+        raise UserInputError(
+            f"--worker-broker (or ${WORKER_BROKER_URL_ENV}) names the workers' user on an "
+            f"external broker: give that broker with --broker (or ${BROKER_URL_ENV}) too"
+        )
+    if args.executor == "ray" and args.ray_address and not urls["broker"]:
         raise UserInputError(
             "--executor ray on a cluster needs a broker every node can reach: pass --broker "
             "mqtt://HOST:PORT (see docs/deployment.md, 'Ray cluster')"

@@ -187,6 +187,8 @@ def _check_semantics(config: BuildConfig, source: str) -> None:
             f"{source}: objects.assets_dir: expected a folder of DIR/<class>/<mesh> files "
             f"(objects.source is 'folder'), got {objects.assets_dir!r}"
         )
+    if objects.source == "folder":
+        _check_mesh_sizes(objects.assets_dir, objects.max_mesh_faces, source)
     unknown = [f for f in config.objects.families if f not in SHAPE_FAMILIES]
     if unknown or not config.objects.families:
         raise ConfigError(
@@ -204,6 +206,12 @@ def _check_semantics(config: BuildConfig, source: str) -> None:
     if config.render.near >= config.render.far:
         raise ConfigError(f"{source}: render.near: must be smaller than render.far")
     _check_camera(config.camera, source)
+    if config.render.views > 1 and family.world != "tabletop":
+        raise ConfigError(
+            f"{source}: render.views: expected 1 for scene {config.scene!r} (several views per "
+            f"scene are rendered by the tabletop scenes: grasp_tabletop, grasp_attempts), "
+            f"got {config.render.views}"
+        )
 
 
 def _check_camera(camera: CameraConfig, source: str) -> None:
@@ -216,6 +224,22 @@ def _check_camera(camera: CameraConfig, source: str) -> None:
             f"{source}: camera.eye: expected a point other than camera.target, farther from it "
             f"than the jitter reaches (sqrt(3) * (eye_jitter + target_jitter) = {needed:.3g} m), "
             f"got eye {list(camera.eye)} and target {list(camera.target)}, {distance:.3g} m apart"
+        )
+
+
+def _check_mesh_sizes(assets_dir: str, max_faces: int, source: str) -> None:
+    """A huge mesh would take minutes to decompose in every worker: refused before any
+    process starts (reading headers only, so this check stays cheap)."""
+    from datagen.mesh_library import oversized_meshes
+
+    oversized = oversized_meshes(assets_dir, max_faces)
+    if oversized:
+        path, faces = oversized[0]
+        more = f" (and {len(oversized) - 1} more)" if len(oversized) > 1 else ""
+        raise ConfigError(
+            f"{source}: objects.assets_dir: {Path(assets_dir) / path} has {faces} faces, more "
+            f"than objects.max_mesh_faces ({max_faces}){more}: simplify it (decimate it in "
+            f"MeshLab or Blender) or raise objects.max_mesh_faces"
         )
 
 

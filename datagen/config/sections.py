@@ -19,6 +19,9 @@ class RenderConfig:
     width: int = field(default=640, metadata=_range(16, 4096, "image width, pixels"))
     height: int = field(default=480, metadata=_range(16, 4096, "image height, pixels"))
     wrist_camera: bool = False
+    views: int = field(
+        default=1, metadata=_range(1, 16, "randomised cameras per settled scene (tabletop scenes)")
+    )
     near: float = field(default=0.05, metadata=_range(0.001, 10.0, "near clip plane, metres"))
     far: float = field(default=5.0, metadata=_range(0.1, 100.0, "far clip plane, metres"))
     shadow_map_size: int = field(default=1024, metadata=_range(128, 8192, "pixels"))
@@ -30,6 +33,9 @@ class ObjectsConfig:
     families: tuple[str, ...] = SHAPE_FAMILIES
     source: str = "procedural"  # or "folder": users' meshes from assets_dir
     assets_dir: str = ""  # DIR/<class>/<mesh>; relative to the config file
+    max_mesh_faces: int = field(
+        default=1_000_000, metadata=_range(4, 10**9, "faces of one mesh in assets_dir")
+    )
     size: tuple[float, float] = field(
         default=(0.045, 0.1), metadata=_range(0.005, 0.5, "largest extent of an object, metres")
     )
@@ -90,6 +96,10 @@ class CameraConfig:
     fovy_deg: tuple[float, float] = field(
         default=(42.0, 52.0), metadata=_range(5.0, 150.0, "vertical field of view, degrees")
     )
+    orbit_deg: float = field(
+        default=30.0,
+        metadata=_range(0.0, 180.0, "extra views turn about the target's vertical, +- degrees"),
+    )
 
 
 @dataclass(frozen=True)
@@ -105,12 +115,19 @@ class PhysicsConfig:
     settle_time: float = field(
         default=1.5, metadata=_range(0.0, 30.0, "simulated seconds before rendering")
     )
+    settle_velocity: float = field(
+        default=0.01, metadata=_range(0.0, 1.0, "m/s; settling ends early once objects are slower")
+    )
 
 
 @dataclass(frozen=True)
 class OutputConfig:
     shard_size: int = field(default=200, metadata=_range(1, 1_000_000, "samples per tar shard"))
     sinks: tuple[str, ...] = ("webdataset",)
+    png_level: int = field(
+        default=1,
+        metadata=_range(0, 9, "PNG compression: 1 fastest (default), 9 smallest, 0 none"),
+    )
 
 
 @dataclass(frozen=True)
@@ -210,7 +227,31 @@ class BuildPolicyConfig:
     """What a build does when producing a sample raises: ``fail`` ends the build at once;
     ``retry`` re-draws the sample from the streams of attempt k = 1..retries (still a function
     of (seed, index) alone), and after the last attempt goes on with the other samples and
-    fails at the end listing every failed index with its errors."""
+    fails at the end listing every failed index with its errors. An attempt that runs past
+    ``sample_timeout_s`` counts as a failed attempt (its worker is killed); a worker, writer or
+    broker silent past its timeout is killed and restarted, or reported (docs/liveness.md)."""
 
     on_sample_error: str = "retry"
     retries: int = field(default=3, metadata=_range(0, 10, "attempts after the first"))
+    # liveness (docs/liveness.md): what is silent or stuck this long is killed or reported
+    sample_timeout_s: float = field(
+        default=900.0,
+        metadata=_range(1.0, 86400.0, "seconds one attempt at one sample may take"),
+    )
+    worker_timeout_s: float = field(
+        default=120.0,
+        metadata=_range(5.0, 86400.0, "seconds a worker may send nothing (heartbeats: 2 s)"),
+    )
+    writer_timeout_s: float = field(
+        default=60.0,
+        metadata=_range(5.0, 86400.0, "seconds a writer may send nothing (heartbeats: 2 s)"),
+    )
+    broker_timeout_s: float = field(
+        default=60.0,
+        metadata=_range(5.0, 86400.0, "seconds the broker may not answer (probed every 2 s)"),
+    )
+    outage_wait_s: float = field(
+        default=600.0,
+        metadata=_range(0.0, 86400.0, "seconds an external writer or broker may stay silent "
+                        "after it was reported, before the build stops"),
+    )  # fmt: skip

@@ -1,4 +1,5 @@
-"""Reading a datagen dataset: ``load(dir)`` for training code, ``verify(dir)`` for checksums.
+"""Reading a datagen dataset: ``load(dir)`` for training code, ``verify(dir)`` for checksums
+(sample by sample: ``datagen.dataset.integrity``).
 
 ``load`` reads the tar headers of the shards listed in ``manifest.json`` once (``scan_members``:
 about 1.5 s per 10^5 samples of 5 parts), keeping each
@@ -22,75 +23,32 @@ from typing import Any
 import cv2
 import numpy as np
 
-from datagen.sample import sample_key
-from datagen.shards import MANIFEST, file_sha256, keys_sha256, member_key, scan_members
+from datagen.dataset.integrity import verify_dataset
+from datagen.dataset.manifest import DatasetError, read_manifest
+from datagen.shards import member_key, scan_members
 
 # part name -> item field, for the parts decoded as images
 _IMAGES = {"rgb.png": "rgb", "depth.png": "depth", "seg.png": "seg", "semantic.png": "semantic"}
 
 
-class DatasetError(ValueError):
-    """The directory is not a (valid) datagen dataset; the text says why."""
-
-
-def read_manifest(root: str | Path) -> dict[str, Any]:
-    """``root/manifest.json``, checked to be a datagen manifest: a ``shards`` list of records
-    naming files in ``root``, a ``samples`` count. Raises DatasetError naming the path."""
-    path = Path(root) / MANIFEST
-    try:
-        found = None if Path(root).is_dir() else Path(root).exists()
-        text = path.read_text(encoding="utf-8") if found is None and path.is_file() else None
-    except OSError as exc:
-        raise DatasetError(f"{exc.filename or path}: cannot read it: {exc.strerror}") from None
-    except UnicodeDecodeError as exc:
-        raise DatasetError(f"{path}: not valid JSON: {exc}") from None
-    if found is not None:
-        found = "not a directory" if found else "no such directory"
-        raise DatasetError(f"{root}: {found}; expected a dataset directory (with {MANIFEST})")
-    if text is None:
-        raise DatasetError(f"{root} is not a datagen dataset: no {MANIFEST} (not finalized?)")
-    try:
-        manifest = json.loads(text)
-    except (ValueError, RecursionError) as exc:
-        raise DatasetError(f"{path}: not valid JSON: {exc}") from None
-    if not isinstance(manifest, dict) or not isinstance(manifest.get("shards"), list):
-        raise DatasetError(f"{path}: no 'shards' list; not a datagen manifest")
-    for i, record in enumerate(manifest["shards"]):
-        if problem := _shard_record_problem(record):
-            raise DatasetError(f"{path}: shards[{i}]: {problem}; not a datagen manifest")
-    samples = manifest.get("samples")
-    if samples is not None and (type(samples) is not int or samples < 0):
-        raise DatasetError(f"{path}: 'samples' is {repr(samples)[:60]}, expected a count")
-    return manifest
-
-
-def _shard_record_problem(record: Any) -> str | None:
-    """What is wrong with one record of a manifest's ``shards``, or None."""
-    if not isinstance(record, dict):
-        return f"expected a record with a 'name', got {repr(record)[:60]}"
-    name = record.get("name")
-    if not isinstance(name, str) or name in ("", ".", "..") or any(c in name for c in "/\\\0"):
-        return f"'name' is {repr(name)[:60]}, expected the file name of a shard in the dataset"
-    for count in ("bytes", "samples"):
-        value = record.get(count, 0)
-        if type(value) is not int or value < 0:
-            return f"'{count}' is {repr(value)[:60]}, expected a count"
-    return None
-
-
 _FRAME_PART = re.compile(r"^f(\d{4})\.(rgb|depth|seg|semantic)\.png$")
+# another camera of a sample: wrist.rgb.png, view1.depth.png, post.seg.png, ...
+_CAMERA_PART = re.compile(r"^([A-Za-z][\w-]*)\.(rgb|depth|seg|semantic)\.png$")
 
 
 def decode_parts(parts: dict[str, bytes]) -> dict[str, Any]:
     """Encoded parts -> arrays: rgb HxWx3 uint8 RGB, depth HxW uint16 mm, seg HxW instance ids,
     semantic HxW class ids, meta dict; unknown parts stay bytes under their own name.
 
+    The images of a sample's other cameras are under ``views`` by camera name
+    (``item["views"]["view1"]["rgb"]``, ``["wrist"]``, ...; the main camera's stay at the top).
     Navigation episodes also get ``frames`` (a list in time order of dicts with rgb, depth, seg,
     semantic and ``meta``, the frame's record), ``map`` (RGB picture) and ``occupancy`` (bool
     grid, True = occupied). The PNGs of one call are decoded on a small thread pool (OpenCV
     releases the GIL)."""
     item: dict[str, Any] = {}
     frames: dict[int, dict[str, Any]] = {}
+    cameras: dict[str, dict[str, Any]] = {}
     jobs: list[tuple[dict[str, Any], str, str, bytes]] = []  # (into, field, image kind, data)
     for name, data in parts.items():
         if name == "json":
@@ -100,6 +58,9 @@ def decode_parts(parts: dict[str, bytes]) -> dict[str, Any]:
         elif match := _FRAME_PART.match(name):
             kind = f"{match[2]}.png"
             jobs.append((frames.setdefault(int(match[1]), {}), _IMAGES[kind], kind, data))
+        elif match := _CAMERA_PART.match(name):
+            kind = f"{match[2]}.png"
+            jobs.append((cameras.setdefault(match[1], {}), _IMAGES[kind], kind, data))
         elif name == "map.png":
             jobs.append((item, "map", "rgb.png", data))
         elif name == "occupancy.png":
@@ -114,6 +75,8 @@ def decode_parts(parts: dict[str, bytes]) -> dict[str, Any]:
     )
     for (into, field, _, _), image in zip(jobs, images, strict=True):
         into[field] = image > 0 if field == "occupancy" else image
+    if cameras:
+        item["views"] = cameras
     if frames:
         records = item.get("meta", {}).get("frames", [])
         item["frames"] = [
@@ -153,9 +116,11 @@ def _decode_png(name: str, data: bytes) -> np.ndarray:
 class ShardDataset:
     """Map-style dataset over finalized shards; items in key order."""
 
-    def __init__(self, root: str | Path):
+    def __init__(self, root: str | Path, verify: bool = False):
         self.root = Path(root)
         self.manifest = read_manifest(self.root)
+        if verify:
+            _raise_problems(verify_dataset(self.root, manifest=self.manifest))
         self.shards = [str(s["name"]) for s in self.manifest["shards"]]
         # key -> [(shard number, data offset, size, part name)]
         members: dict[str, list[tuple[int, int, int, str]]] = {}
@@ -255,8 +220,8 @@ class FrameDataset:
     ``camera`` (the episode's camera record), ``episode`` (its key), ``frame`` (its number) and
     ``key`` (``<episode>/f<frame>``). Only the frame's own images are read and decoded."""
 
-    def __init__(self, root: str | Path):
-        self.episodes = ShardDataset(root)
+    def __init__(self, root: str | Path, verify: bool = False):
+        self.episodes = ShardDataset(root, verify)
         self.index: list[tuple[int, int]] = []
         for i in range(len(self.episodes)):
             frames = sorted(
@@ -295,61 +260,32 @@ class FrameDataset:
             yield self[j]
 
 
-def load(root: str | Path) -> ShardDataset:
-    """One item per sample: a frame, a grasp attempt, or a whole navigation episode."""
-    return ShardDataset(root)
+def load(root: str | Path, verify: bool = False) -> ShardDataset:
+    """One item per sample: a frame, a grasp attempt, or a whole navigation episode.
+    ``verify=True`` first re-reads every shard and checks each sample against the manifest's
+    digests (as ``datagen verify``), raising DatasetError that lists every problem."""
+    return ShardDataset(root, verify)
 
 
-def load_frames(root: str | Path) -> FrameDataset:
-    """The frames of a navigation dataset as one flat map-style dataset."""
-    return FrameDataset(root)
+def load_frames(root: str | Path, verify: bool = False) -> FrameDataset:
+    """The frames of a navigation dataset as one flat map-style dataset (``verify``: as in
+    ``load``)."""
+    return FrameDataset(root, verify)
 
 
 def verify(root: str | Path) -> dict[str, Any]:
-    """Recomputes every shard's sha256 and size and the keys digest; raises DatasetError on
-    any mismatch, else returns the manifest."""
-    root = Path(root)
-    manifest = read_manifest(root)
-    problems = []
-    for shard in manifest["shards"]:
-        path = root / shard["name"]
-        if not path.is_file():
-            problems.append(f"{shard['name']}: missing")
-            continue
-        if path.stat().st_size != shard.get("bytes"):
-            problems.append(
-                f"{shard['name']}: {path.stat().st_size} bytes, manifest says {shard.get('bytes')}"
-            )
-        if file_sha256(path) != shard.get("sha256"):
-            problems.append(f"{shard['name']}: sha256 differs from the manifest")
-    if not problems and "keys_sha256" in manifest:
-        keys = ShardDataset(root).keys
-        if keys_sha256(keys) != manifest["keys_sha256"]:
-            problems.append("keys_sha256 differs from the keys in the shards")
-    if problems:
-        raise DatasetError(f"{root}: " + "; ".join(problems))
-    return manifest
+    """Re-reads every shard: sizes, sha256, each sample's digest, the keys of samples 0..N-1
+    each once; raises DatasetError listing every problem, else returns the manifest."""
+    return _raise_problems(verify_dataset(root))
 
 
 def check_complete(root: str | Path, expected: int, build_id: str | None = None) -> dict[str, Any]:
-    """:func:`verify`, and the shards hold exactly the keys of samples 0..expected-1, each once
-    (the manifest of build ``build_id``, if given); raises DatasetError saying what is missing,
-    extra or duplicated."""
-    manifest = verify(root)
-    keys = ShardDataset(root).keys
-    wanted = {sample_key(i) for i in range(expected)}
-    seen: set[str] = set()
-    duplicated = sorted({k for k in keys if k in seen or seen.add(k)})
-    missing, extra = sorted(wanted - seen), sorted(seen - wanted)
-    problems = [
-        f"{label} {len(items)}: {', '.join(items[:10])}{' ...' if len(items) > 10 else ''}"
-        for label, items in (("missing", missing), ("extra", extra), ("duplicated", duplicated))
-        if items
-    ]
-    if manifest.get("samples") != expected:
-        problems.append(f"the manifest says {manifest.get('samples')} samples, expected {expected}")
-    if build_id is not None and manifest.get("build_id") != build_id:
-        problems.append(f"the manifest is of build {manifest.get('build_id')!r}, not {build_id!r}")
-    if problems:
-        raise DatasetError(f"{root}: " + "; ".join(problems))
-    return manifest
+    """:func:`verify` for ``expected`` samples of build ``build_id`` (if given): the coordinator's
+    check before it reports success."""
+    return _raise_problems(verify_dataset(root, expected=expected, build_id=build_id))
+
+
+def _raise_problems(report) -> dict[str, Any]:
+    if report.problems:
+        raise DatasetError(f"{report.root}: " + "; ".join(report.problems))
+    return report.manifest

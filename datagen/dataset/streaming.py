@@ -31,7 +31,8 @@ def _node() -> tuple[int, int]:
 
 class StreamingDataset(IterableDataset):
     """Items as from ``datagen.load`` (plus ``key``); ``parts`` limits what is read and decoded
-    (e.g. ``{"rgb.png", "json"}``), ``decode=False`` yields the stored bytes."""
+    (e.g. ``{"rgb.png", "json"}``), ``decode=False`` yields the stored bytes; ``verify=True``
+    checks every sample against the manifest first (as ``datagen.load``)."""
 
     def __init__(
         self,
@@ -44,8 +45,9 @@ class StreamingDataset(IterableDataset):
         decode: bool = True,
         rank: int | None = None,
         world_size: int | None = None,
+        verify: bool = False,
     ):
-        self.source = ShardDataset(root)
+        self.source = ShardDataset(root, verify)
         self.shuffle, self.buffer_size, self.seed = shuffle, max(1, buffer_size), seed
         self.parts, self.decode = parts, decode
         self.rank, self.world_size = rank, world_size

@@ -3,7 +3,9 @@
 shape into one list of :class:`LabelledView`.
 
 ``datagen.sample/1``: one view per camera in ``views`` (the workspace camera's images are the
-unprefixed parts, another camera's are prefixed by its name: ``wrist.rgb.png``).
+unprefixed parts, another camera's are prefixed by its name: ``view1.rgb.png``, ``wrist.rgb.png``;
+``render.views`` > 1 adds ``view1``, ``view2``, ...), in the order workspace, view1, view2, ...,
+then any other camera by name.
 ``datagen.nav_episode/1``: a time sequence, one view per record in ``frames`` (parts
 ``f0003.rgb.png``, ...), all seen by the one camera in ``camera``.
 """
@@ -31,8 +33,9 @@ class LabelledView:
 
 
 def camera_views(meta: dict[str, Any]) -> Iterator[LabelledView]:
-    """``datagen.sample/1``: one view per camera, in the order of ``meta["views"]``."""
-    for name, view in meta["views"].items():
+    """``datagen.sample/1``: one view per camera, in :func:`camera_order`."""
+    for name in sorted(meta["views"], key=camera_order):
+        view = meta["views"][name]
         instances = [
             {k: o[k] for k in ("instance_id", "class", "bbox_xyxy", "visible_fraction")}
             for o in view["objects"]
@@ -42,6 +45,15 @@ def camera_views(meta: dict[str, Any]) -> Iterator[LabelledView]:
         yield LabelledView(
             "" if name == "workspace" else name, prefix, instances, view["camera"], record=view
         )
+
+
+def camera_order(name: str) -> tuple[int, int, str]:
+    """Sort key of a sample's cameras: workspace, view1, view2, ..., view10, ..., then others."""
+    if name == "workspace":
+        return (0, 0, "")
+    if name.startswith("view") and name[4:].isdigit():
+        return (1, int(name[4:]), "")
+    return (2, 0, name)
 
 
 def sequence_views(meta: dict[str, Any]) -> Iterator[LabelledView]:

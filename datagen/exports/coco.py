@@ -1,7 +1,8 @@
 """COCO instance annotations: ``DIR/coco/annotations.json`` and ``DIR/coco/images/*.png``.
 
-One COCO image per labelled view (``datagen.dataset.views``: each camera of a sample, e.g. a
-grasp attempt's pre-grasp frame; each frame of a sequence, e.g. a navigation episode).
+One COCO image per labelled view (``datagen.dataset.views``: each camera of a sample, e.g. the
+workspace camera, the extra views ``view1``, ... of ``render.views`` and the wrist camera; each
+frame of a sequence, e.g. a navigation episode); ``datagen_view`` names it ("" = workspace).
 Annotations carry the visible mask as RLE, its box and area, plus datagen's ``instance_id`` and
 ``visible_fraction`` where known. Category ids are the dataset's class ids, so they equal the
 values in ``semantic.png``.

@@ -8,7 +8,8 @@ What a group holds follows the sample's stored data, never its scene family's na
 whose labelled views form a time sequence (``datagen.dataset.views``; navigation episodes)
 stacks them along the first axis (``rgb`` T x H x W x 3, ``depth``, ``seg``, ``semantic``, and
 the per-frame records' ``pose``, ``command``, ...); a sample of cameras (grasp samples and
-attempts) holds one image set per camera (``rgb``, ..., ``wrist/rgb``, ``post/rgb``, ...).
+attempts) holds one image set per camera (``rgb``, ..., ``view1/rgb`` for the extra views of
+``render.views``, ``wrist/rgb``, ``post/rgb``, ...).
 An ``episode`` in the metadata adds ``trajectory/`` at the control rate, ``map``, ``occupancy``
 and the outcome attributes; an ``attempt`` adds ``grasp/`` and its outcome.
 """

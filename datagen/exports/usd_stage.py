@@ -6,8 +6,9 @@ metallic), ``Floor``, ``Table``, ``Tray``, ``Objects/object_<k>`` (an Xform at t
 pose, one Mesh per convex part, class and physical values in customData), ``Robot`` (an Xform at
 the base pose; its description file and joint positions in customData), ``Lights/`` (a DomeLight
 for the ambient level, a DistantLight for the key light, SphereLights shaped as spots) and
-``Cameras/<name>`` (a Camera whose transform and apertures reproduce the stored K and extrinsics;
-the exact matrices are also in customData).
+``Cameras/<name>`` (one Camera per view: workspace, view1, ... of ``render.views``, wrist; its
+transform and apertures reproduce the stored K and extrinsics, the exact matrices are also in
+customData).
 """
 
 from __future__ import annotations

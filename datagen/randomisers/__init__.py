@@ -6,7 +6,7 @@ from __future__ import annotations
 from typing import Any
 
 from datagen.config import BuildConfig
-from datagen.randomisers.camera import sample_camera
+from datagen.randomisers.camera import extra_view_name, sample_camera, sample_extra_view
 from datagen.randomisers.lighting import sample_lighting
 from datagen.randomisers.materials import sample_materials
 from datagen.randomisers.objects import sample_objects
@@ -23,13 +23,15 @@ def sample_scene(
     tray_inner_half: tuple[float, float],
     attempt: int = 0,
 ) -> dict[str, Any]:
-    """All randomised values of one scene; stored verbatim in the sample's metadata."""
+    """All randomised values of one scene; stored verbatim in the sample's metadata. The
+    workspace camera is ``camera``; the extra views of ``render.views`` > 1 are under
+    ``extra_views`` by name (``view1``, ...), each from its own stream."""
 
     def rng(name: str):
         return sample_rng(seed, index, name, attempt)
 
     objects = sample_objects(rng("objects"), config.objects)
-    return {
+    params: dict[str, Any] = {
         "objects": objects,
         "drop_poses": sample_drop_poses(
             rng("drop_poses"), config.objects, len(objects), tray_centre, tray_inner_half
@@ -39,3 +41,9 @@ def sample_scene(
         "camera": sample_camera(rng("camera"), config.camera),
         "robot": sample_robot(rng("robot"), config.robot),
     }
+    if config.render.views > 1:  # absent for one view: a one-view sample stays as it was
+        names = [extra_view_name(k) for k in range(1, config.render.views)]
+        params["extra_views"] = {
+            name: sample_extra_view(rng(f"camera.{name}"), config.camera) for name in names
+        }
+    return params

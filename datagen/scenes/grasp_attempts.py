@@ -128,10 +128,10 @@ def produce(config: BuildConfig, seed: int, index: int, attempt: int = 0) -> Sam
     }
     pre.metadata["attempt"] = record
     if campaign.post_grasp_frame:
-        post = annotate_scene(scene, config, seed, index)
+        post = annotate_scene(scene, config, seed, index, cameras=("workspace",))
         pre.views["post"] = post.views["workspace"]  # encoded as post.rgb.png, post.depth.png, ...
         record["post_view_objects"] = post.metadata["views"]["workspace"]["objects"]
-    return to_sample(pre)
+    return to_sample(pre, config.output.png_level)
 
 
 def campaign_summary(out_dir: Path, made: int, seconds: float) -> dict[str, Any]:

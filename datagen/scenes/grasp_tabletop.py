@@ -20,7 +20,7 @@ from datagen.engines.sim.annotate import (
     object_view_records,
     object_world_record,
 )
-from datagen.engines.sim.encode import View, encode_view, metadata_bytes
+from datagen.engines.sim.encode import DEFAULT_PNG_LEVEL, View, encode_view, metadata_bytes
 from datagen.engines.sim.render import DEPTH_SCALE, capture, keep_renderer_alive
 from datagen.geometry import pose_record
 from datagen.sample import Sample, sample_key
@@ -47,6 +47,12 @@ def _labelled_objects(scene: GraspScene, class_id: dict[str, int]) -> list[Label
             parts=[np.asarray(p.vertices, float) for p in o.geometry.parts],
             obb_transform=o.geometry.obb_transform,
             obb_extents=o.geometry.obb_extents,
+            # a user's mesh is drawn as itself, not as its convex parts
+            visual_triangles=(
+                np.asarray(o.geometry.visual.triangles, float)
+                if "asset" in o.spec["shape"]
+                else None
+            ),
         )
         for o in scene.objects
     ]
@@ -60,9 +66,14 @@ def render_annotated(
 
 
 def annotate_scene(
-    scene: GraspScene, config: BuildConfig, seed: int, index: int
+    scene: GraspScene,
+    config: BuildConfig,
+    seed: int,
+    index: int,
+    cameras: tuple[str, ...] | None = None,
 ) -> AnnotatedSample:
-    """Renders every camera of a built (settled) scene and annotates what they see."""
+    """Renders every camera of a built (settled) scene (only those named in ``cameras`` if
+    given) and annotates what they see."""
     scene.scene.update_render()
     classes = grasp_classes(config)
     class_id = {name: i for i, name in enumerate(classes)}
@@ -71,6 +82,8 @@ def annotate_scene(
 
     views, view_meta = {}, {}
     for name, camera in scene.cameras.items():
+        if cameras is not None and name not in cameras:
+            continue
         frame = capture(camera)
         instance, semantic = label_maps(frame, objects, stuff_class_ids)
         views[name] = View(frame.rgb, frame.depth, instance, semantic)
@@ -125,12 +138,13 @@ def annotate_scene(
     return AnnotatedSample(index, views, metadata)
 
 
-def to_sample(annotated: AnnotatedSample) -> Sample:
+def to_sample(annotated: AnnotatedSample, png_level: int = DEFAULT_PNG_LEVEL) -> Sample:
     """Parts: ``rgb.png depth.png seg.png semantic.png`` for the workspace camera, the same
-    names prefixed ``<camera>.`` for any other camera, and ``json`` for the metadata."""
+    names prefixed ``<camera>.`` for any other camera (``view1.rgb.png``, ``wrist.rgb.png``),
+    and ``json`` for the metadata."""
     parts: dict[str, bytes] = {}
     for name, view in annotated.views.items():
-        parts |= encode_view(view, "" if name == "workspace" else f"{name}.")
+        parts |= encode_view(view, "" if name == "workspace" else f"{name}.", png_level)
     parts["json"] = metadata_bytes(annotated.metadata)
     return Sample(annotated.index, parts)
 
@@ -138,4 +152,4 @@ def to_sample(annotated: AnnotatedSample) -> Sample:
 def produce(config: BuildConfig, seed: int, index: int, attempt: int = 0) -> Sample:
     """Sample ``index``: one settled tray scene, every camera rendered and annotated.
     ``attempt`` > 0 re-draws every random value from fresh streams (a retry after a failure)."""
-    return to_sample(render_annotated(config, seed, index, attempt))
+    return to_sample(render_annotated(config, seed, index, attempt), config.output.png_level)

@@ -75,7 +75,8 @@ def render_episode(
         scene.scene.update_render()
         frame = capture(scene.camera)
         instance, semantic = scene.label_maps(frame.entity_ids)
-        parts |= encode_view(View(frame.rgb, frame.depth, instance, semantic), frame_prefix(k))
+        view = View(frame.rgb, frame.depth, instance, semantic)
+        parts |= encode_view(view, frame_prefix(k), config.output.png_level)
         if camera_in_robot is None:  # fixed mount: the same in every frame
             camera_in_robot = np.linalg.inv(planar_pose(x, y, yaw)) @ np.linalg.inv(
                 frame.extrinsics
@@ -155,8 +156,9 @@ def produce(config: BuildConfig, seed: int, index: int, attempt: int = 0) -> Sam
     parts, frames, camera = render_episode(config, episode, scene, steps)
     layout = episode.layout
     inflated = inflate(layout.grid, episode.inflation, layout.resolution)
-    parts["map.png"] = png_bytes(episode_map(episode, inflated, steps))
-    parts["occupancy.png"] = png_bytes(occupancy_image(layout.grid))
+    level = config.output.png_level
+    parts["map.png"] = png_bytes(episode_map(episode, inflated, steps), level)
+    parts["occupancy.png"] = png_bytes(occupancy_image(layout.grid), level)
     metadata = {
         "format": NAV_FORMAT,
         "key": sample_key(index),

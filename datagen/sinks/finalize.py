@@ -8,8 +8,9 @@ Each writer, once every listed writer has stopped writing (``sealed``):
 2. ``write_part``: ``writer-<id>.json`` lists its shards and counters.
 
 The leader (the smallest listed id) then runs ``combine``: every shard in the directory must
-belong to a listed writer's part file, no key may be in two shards, and the keys must number
-exactly ``expected``; it returns what ``manifest.json`` adds to the coordinator's manifest.
+belong to a listed writer's part file with a digest for each of its samples, no key may be in
+two shards, and the keys must number exactly ``expected``; it returns what ``manifest.json``
+adds to the coordinator's manifest (the shards' records carry the per-sample digests).
 Who waits for whom (the round over MQTT statuses): ``datagen.sinks.finalize_round``.
 """
 
@@ -117,6 +118,8 @@ def combine(
             raise FinalizeError(
                 f"{name}: {len(keys)} samples, its writer reported {listed[name]['samples']}"
             )
+        if set(keys) != set(listed[name].get("sample_sha256", ())):
+            raise FinalizeError(f"{name}: its writer's sample digests do not match its samples")
         for key in keys:
             if key in owner:
                 raise FinalizeError(f"sample {key} is in both {owner[key]} and {name}")

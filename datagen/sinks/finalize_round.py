@@ -26,7 +26,7 @@ from pathlib import Path
 from typing import Any
 
 from datagen.engines.transfer.topics import DEFAULT_FINALIZE_TIMEOUT_S
-from datagen.shards import ShardInfo, valid_writer_id, write_manifest
+from datagen.shards import DATASET_FORMAT, ShardInfo, valid_writer_id, write_manifest
 from datagen.sinks.finalize import (
     FinalizeError,
     combine,
@@ -107,6 +107,7 @@ def run_round(
             status.wait(writers, round_id, {"prepared", "finalized"}, deadline)
             doc = combine(out_dir, writers, round_id, args["expected"])
             manifest = {**args["manifest"], "build_id": build_id, "format": "webdataset"}
+            manifest["dataset_format"] = DATASET_FORMAT  # what this writer wrote
             write_manifest(out_dir, {**manifest, **doc})
             total = doc["samples"]
         else:

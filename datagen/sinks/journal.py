@@ -21,10 +21,10 @@ from pathlib import Path
 from datagen.shards import (
     SHARD_RE,
     ShardInfo,
-    file_sha256,
     fsync_dir,
     keys_of_members,
     read_keys,
+    read_shard,
     scan_members,
     shards_by_writer,
 )
@@ -153,12 +153,11 @@ def recover(out_dir: str | Path, writer_id: str) -> Recovered:
             log.warning("%s: nothing in it was made durable; removing it", path.name)
             path.unlink()
             continue
-        keys = read_keys(path)
-        info = ShardInfo(path.name, len(keys), file_sha256(path), path.stat().st_size)
+        info = read_shard(path).info(path.name)  # the digests a writer computes as it writes
         if entry is not None and not entry.get("closed"):
             repaired.append(journal_entry(info.name, info.bytes, info.samples, closed=True))
         result.shards.append(info)
-        result.keys.update(keys)
+        result.keys.update(info.sample_sha256)
     if repaired:
         append_journal(out, writer_id, repaired)
     fsync_dir(out)

@@ -2,7 +2,9 @@
 ``remove_keys`` rewrites a closed shard without some samples, atomically.
 
 Members carry mtime 0, uid/gid 0, empty user/group names and mode 0o644, so the same samples
-in the same order give byte-identical shards. Durability and crash recovery:
+in the same order give byte-identical shards. Each shard's ``ShardInfo`` records every sample's
+``sample_sha256``, computed from the parts as they are written; re-reading the shard
+(``read_shard``) gives the same digests. Durability and crash recovery:
 ``datagen.sinks.journal``.
 """
 
@@ -19,8 +21,9 @@ from datagen.sample import Sample
 from datagen.shards import (
     ShardInfo,
     fsync_dir,
-    keys_of_members,
     member_key,
+    read_shard,
+    sample_sha256,
     scan_members,
     shard_name,
     valid_writer_id,
@@ -49,6 +52,7 @@ class _OpenShard:
         self.file = _HashingFile(path)
         self.tar = tarfile.TarFile(fileobj=self.file, mode="w", format=tarfile.USTAR_FORMAT)  # type: ignore[arg-type]
         self.samples = 0
+        self.digests: dict[str, str] = {}  # key -> sample_sha256
 
     def add(self, sample: Sample) -> None:
         for part, data in sample.parts.items():
@@ -60,6 +64,7 @@ class _OpenShard:
             info.uname = info.gname = ""
             self.tar.addfile(info, io.BytesIO(data))
         self.samples += 1
+        self.digests[sample.key] = sample_sha256(sample.parts.items())
 
     def sync(self) -> int:
         """Flushes and fsyncs; returns the durable length in bytes."""
@@ -72,7 +77,8 @@ class _OpenShard:
         self.sync()
         size = self.file.f.tell()
         self.file.f.close()
-        return ShardInfo(self.path.name, self.samples, self.file.sha256.hexdigest(), size)
+        sha256 = self.file.sha256.hexdigest()
+        return ShardInfo(self.path.name, self.samples, sha256, size, self.digests)
 
 
 class ShardWriter:
@@ -148,8 +154,6 @@ def remove_keys(path: Path, keys: set[str]) -> ShardInfo | None:
         fsync_dir(out)
         return None
     tmp = out / f".{path.name}.rewrite"
-    sha = hashlib.sha256()
-    samples = len(set(keys_of_members(kept)))
     with open(path, "rb") as src, open(tmp, "wb") as dst:
         for m in kept:
             src.seek(m.offset)
@@ -158,16 +162,13 @@ def remove_keys(path: Path, keys: set[str]) -> ShardInfo | None:
                 chunk = src.read(min(left, 1 << 20))
                 if not chunk:
                     raise OSError(f"{path.name}: shorter than its headers say")
-                sha.update(chunk)
                 dst.write(chunk)
                 left -= len(chunk)
         end = dst.tell() + 2 * tarfile.BLOCKSIZE
-        tail = tarfile.NUL * (2 * tarfile.BLOCKSIZE + (-end) % tarfile.RECORDSIZE)
-        sha.update(tail)
-        dst.write(tail)
+        dst.write(tarfile.NUL * (2 * tarfile.BLOCKSIZE + (-end) % tarfile.RECORDSIZE))
         dst.flush()
         os.fsync(dst.fileno())
-        size = dst.tell()
+    info = read_shard(tmp).info(path.name)  # read back: the digests are of what is on disk
     os.replace(tmp, path)
     fsync_dir(out)
-    return ShardInfo(path.name, samples, sha.hexdigest(), size)
+    return info

@@ -5,6 +5,11 @@ A writer publishes its state on ``topics.status(writer_id)`` (QoS 1, retained): 
 After a reconnect it publishes its last status again: the broker may have published the will
 meanwhile, as Mosquitto does for every client when it shuts down. It also keeps the latest status
 of every writer of the build (``topics.status_all``), which the finalize round waits on.
+
+Heartbeat: every ``HEARTBEAT_S`` the writer's main loop publishes its current status again with
+a ``beat`` counter added (retained, so the broker's copy is always the newest). It comes from
+the main loop, not a thread of its own, so a writer whose loop hangs falls silent, and the
+coordinator notices (``build.writer_timeout_s``).
 """
 
 from __future__ import annotations
@@ -22,6 +27,7 @@ from datagen.engines.transfer.topics import Topics
 from datagen.sinks.finalize import FinalizeError
 
 log = logging.getLogger("datagen.writer")  # the writer process's log
+HEARTBEAT_S = 2.0
 
 
 class WriterStatus:
@@ -35,6 +41,8 @@ class WriterStatus:
         self._last: dict[str, Any] | None = None
         self._peers: dict[str, dict[str, Any]] = {}
         self._peers_cond = threading.Condition()
+        self._beats = 0
+        self._next_beat = 0.0
 
     def will(self) -> tuple[str, bytes, int, bool]:
         """The connection's will: ``lost``, retained."""
@@ -61,6 +69,18 @@ class WriterStatus:
         if msg is not None and self.conn is not None:
             topic = self.topics.status(self.writer_id)
             self.conn.publish(topic, self.sealer.seal(topic, msg), qos=1, retain=True)
+
+    def beat_if_due(self) -> None:
+        """The heartbeat: called from the writer's loops; publishes at most every HEARTBEAT_S,
+        without waiting for the broker (a broker outage must not stall the writer)."""
+        now = time.monotonic()
+        if self._last is None or self.conn is None or now < self._next_beat:
+            return
+        self._next_beat = now + HEARTBEAT_S
+        self._beats += 1
+        topic = self.topics.status(self.writer_id)
+        beat = self.sealer.seal(topic, self._last | {"beat": self._beats})
+        self.conn.publish(topic, beat, qos=1, retain=True)
 
     def receive(self, msg: mqtt.MQTTMessage) -> bool:
         """paho's thread: keeps ``msg`` if it is a writer's status; False if it is no status."""
@@ -102,4 +122,5 @@ class WriterStatus:
                         f"writers {missing} did not reach {'/'.join(sorted(states))} in time; "
                         "is every listed writer running?"
                     )
+                self.beat_if_due()
                 self._peers_cond.wait(min(left, 1.0))

@@ -35,15 +35,16 @@ from paho.mqtt.subscribeoptions import SubscribeOptions
 
 from datagen.engines.transfer.connection import MqttConnectError, MqttConnection
 from datagen.engines.transfer.envelope import Opener, Sealer
-from datagen.engines.transfer.topics import ack_indices, topics
+from datagen.engines.transfer.topics import topics
 from datagen.engines.transfer.wire import (
     DEFAULT_MAX_MESSAGE_BYTES,
     SECRET_ENV,
     WireError,
     decode_sample,
 )
-from datagen.sample import Sample, sample_key
+from datagen.sample import Sample
 from datagen.shards import ShardInfo, valid_writer_id
+from datagen.sinks.acks import announce, others_acked_keys
 from datagen.sinks.finalize_round import finalize_args, run_round
 from datagen.sinks.journal import others_durable_keys, recover
 from datagen.sinks.lock import WriterLock, WriterLocked
@@ -58,7 +59,6 @@ EXIT_FINALIZE_MISMATCH = 3  # finalize refused (count mismatch, a writer missing
 EXIT_LOCKED = 4  # another process runs this writer id on this directory
 
 DEFAULT_SESSION_EXPIRY_S = 60
-ANNOUNCE_BATCH = 10_000  # indices per batched ack: ~80 KB, far below any broker's packet limit
 DRAIN_TIMEOUT_S = 10.0
 DRAIN_QUIET_S = 0.5
 
@@ -203,6 +203,7 @@ class DatasetWriter:
 
     def _loop(self) -> int | None:
         while not self._stop.is_set():
+            self._status.beat_if_due()
             batch = self._next_batch(0.2)
             if batch:
                 code = self._process(batch)
@@ -228,6 +229,7 @@ class DatasetWriter:
             log.warning("could not unsubscribe from the samples (broker unreachable?)")
         deadline = time.monotonic() + DRAIN_TIMEOUT_S
         while time.monotonic() < deadline:
+            self._status.beat_if_due()
             batch = self._next_batch(DRAIN_QUIET_S)
             if not batch:
                 return
@@ -253,10 +255,7 @@ class DatasetWriter:
 
     def _learn_acks(self, msg: mqtt.MQTTMessage) -> None:
         """Another writer's acks: those samples are durable in the directory already."""
-        obj = self._opener.open(msg.topic, msg.payload)
-        indices = ack_indices(obj) if obj is not None else None
-        if indices is not None and obj.get("writer") != self.writer_id:
-            self._seen.update(sample_key(i) for i in indices)
+        self._seen.update(others_acked_keys(self._opener, msg, self.writer_id))
 
     def _accept(self, msg: mqtt.MQTTMessage) -> Sample | None:
         """Writes a new sample; returns the sample to ack, or None for a rejected message."""
@@ -295,13 +294,7 @@ class DatasetWriter:
 
     def _announce(self, keys: set[str]) -> None:
         """Acks every key in ``keys`` again, in batches (``{"indices": [...]}``)."""
-        indices = sorted(int(k) for k in keys)
-        for start in range(0, len(indices), ANNOUNCE_BATCH):
-            chunk = indices[start : start + ANNOUNCE_BATCH]
-            ack = {"indices": chunk, "writer": self.writer_id}
-            self._conn.publish(self.topics.acks, self._sealer.seal(self.topics.acks, ack))
-        if indices:
-            log.info("announced %d durable samples", len(indices))
+        announce(self._conn, self._sealer, self.topics.acks, self.writer_id, keys)
 
     def _control(self, msg: mqtt.MQTTMessage) -> int | None:
         code = None

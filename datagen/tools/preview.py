@@ -66,7 +66,7 @@ def draw_annotations(rgb: np.ndarray, instance: np.ndarray, view: dict[str, Any]
         corners = np.asarray(obj["obb_corners_px"])
         if np.isfinite(corners).all() and np.abs(corners).max() < 1e5:
             for i, j in _BOX_EDGES:
-                p, q = np.rint(corners[[i, j]]).astype(int)
+                p, q = np.rint(corners[[i, j]] - 0.5).astype(int)  # cv2: centres at integers
                 cv2.line(image, tuple(p), tuple(q), colour, 1, cv2.LINE_AA)
         if "pose_camera" in obj and "intrinsics" in view.get("camera", {}):
             draw_axes(image, np.asarray(obj["pose_camera"]["matrix"]), np.asarray(view["camera"]["intrinsics"]))  # fmt: skip
@@ -210,14 +210,30 @@ def sequence_tile(item: dict[str, Any]) -> np.ndarray:
 
 def camera_tile(item: dict[str, Any]) -> np.ndarray:
     """One loaded sample of cameras: the workspace camera's annotated colour image (and its
-    grasp, if any) above its depth map."""
+    grasp, if any) above its depth map, above a strip of its other cameras annotated (the
+    extra views of ``render.views``, the wrist camera), if it has any."""
     view = item["meta"]["views"]["workspace"]
     image = draw_annotations(item["rgb"], item["seg"], view)
     attempt = item["meta"].get("attempt")
     if attempt:
         draw_grasp(image, attempt, view["camera"])
     put_label(image, item["key"], (6, 18), 0.55)
-    return np.vstack([image, depth_colour(item["depth"])])
+    others = [v for v in labelled_views(item["meta"]) if v.name in item.get("views", {})]
+    strip = [other_views_strip(item, others, image.shape[1])] if others else []
+    return np.vstack([image, depth_colour(item["depth"]), *strip])
+
+
+def other_views_strip(item: dict[str, Any], views: list, width: int) -> np.ndarray:
+    """The given views of a loaded sample annotated side by side, ``width`` pixels in all."""
+    cell_w = width // len(views)
+    cell_h = max(1, item["rgb"].shape[0] * cell_w // item["rgb"].shape[1])
+    strip = np.zeros((cell_h, width, 3), np.uint8)
+    for k, view in enumerate(views):
+        images = item["views"][view.name]
+        drawn = draw_annotations(images["rgb"], images["seg"], view.record)
+        put_label(drawn, view.name, (6, 18), 0.55)
+        strip[:, k * cell_w : (k + 1) * cell_w] = _fit(drawn, cell_h, cell_w)
+    return strip
 
 
 def sample_tile(item: dict[str, Any]) -> np.ndarray:

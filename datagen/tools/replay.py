@@ -1,6 +1,8 @@
 """``datagen replay DIR KEY``: rebuild a grasp sample's scene from its stored USD description
 (``DIR/usd/KEY.usda``: the randomised values, the settled object poses and the robot's joints)
-with the build's config from the manifest, and render it again with SAPIEN."""
+with the build's config from the manifest, and render it again with SAPIEN: every camera of
+the sample (workspace, the extra views of ``render.views`` from their stored camera values,
+the wrist camera)."""
 
 from __future__ import annotations
 
@@ -71,3 +73,41 @@ def replay(root: str | Path, key: str) -> dict[str, np.ndarray]:
     scene.robot.set_qpos(np.asarray(qpos, np.float32))
     scene.scene.update_render()
     return {name: capture(camera).rgb for name, camera in scene.cameras.items()}
+
+
+def replay_differences(
+    root: str | Path, key: str
+) -> dict[str, tuple[np.ndarray, np.ndarray, np.ndarray]]:
+    """Replays sample ``key``: per camera (workspace, view1, ..., wrist), its stored RGB image,
+    the replayed one and their largest per-channel difference per pixel (H, W) int."""
+    from datagen.dataset.loader import load
+    from datagen.dataset.views import camera_order
+
+    dataset = load(root)
+    item = dataset[dataset.keys.index(key)]
+    replayed = replay(root, key)
+    differences = {}
+    for name in sorted(replayed, key=camera_order):
+        stored = item["rgb"] if name == "workspace" else item["views"][name]["rgb"]
+        diff = np.abs(stored.astype(int) - replayed[name].astype(int)).max(axis=2)
+        differences[name] = (stored, replayed[name], diff)
+    return differences
+
+
+def comparison_report(
+    key: str, differences: dict[str, tuple[np.ndarray, np.ndarray, np.ndarray]]
+) -> tuple[list[str], np.ndarray]:
+    """One line per camera and a BGR picture with a row per camera: stored | replayed |
+    difference (x8)."""
+    import cv2
+
+    lines, rows = [], []
+    for name, (stored, replayed, diff) in differences.items():
+        label = key if name == "workspace" else f"{key} {name}"
+        lines.append(
+            f"replayed {label}: {float((diff == 0).mean()):.2%} of pixels identical, "
+            f"mean difference {diff.mean():.3f}, largest {diff.max()} (0-255)"
+        )
+        heat = cv2.applyColorMap(np.clip(diff * 8, 0, 255).astype(np.uint8), cv2.COLORMAP_INFERNO)
+        rows.append(np.hstack([*(cv2.cvtColor(a, cv2.COLOR_RGB2BGR) for a in (stored, replayed)), heat]))  # fmt: skip
+    return lines, np.vstack(rows)

@@ -10,7 +10,6 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
-from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -20,7 +19,7 @@ from datagen.config import BuildConfig
 from datagen.navigation.episode import Episode
 from datagen.randomisers.lighting import apply_lighting
 from datagen.randomisers.materials import render_material
-from datagen.worlds.robots import FETCH, maniskill_asset
+from datagen.worlds.robots import FETCH, load_robot
 
 # Semantic classes; 0 is background (nothing rendered).
 NAV_CLASSES = ("background", "floor", "wall", "door", "obstacle", "goal_marker", "robot")
@@ -50,10 +49,6 @@ CAMERA_LINK = "head_camera_link"  # SAPIEN camera frame: x forward, y left, z up
 BASE_JOINTS = ("root_x_axis_joint", "root_y_axis_joint", "root_z_rotation_joint")
 # A z-axis cylinder from SAPIEN's x-axis one: 90 degrees about y.
 _X_TO_Z = sapien.Pose(q=[math.sqrt(0.5), 0.0, math.sqrt(0.5), 0.0])
-
-
-def fetch_urdf() -> Path:
-    return maniskill_asset(FETCH)
 
 
 @dataclass
@@ -149,9 +144,7 @@ def _goal_marker(scene, episode: Episode, values) -> Thing:
 
 
 def _fetch(scene: sapien.Scene, camera_values: dict[str, Any]) -> sapien.physx.PhysxArticulation:
-    loader = scene.create_urdf_loader()
-    loader.fix_root_link = True
-    robot = loader.load(str(fetch_urdf()))
+    robot = load_robot(scene, FETCH, fix_root_link=True)  # parsed once per process
     targets = TUCKED_ARM | {
         "torso_lift_joint": camera_values["torso_lift"],
         "head_tilt_joint": math.radians(camera_values["pitch_deg"]),  # positive tilts down

@@ -32,7 +32,8 @@ from datagen.tabletop_layout import (
     TRAY_INNER_HALF,
     tray_boxes,
 )
-from datagen.worlds.robots import PANDA, maniskill_asset
+from datagen.worlds.robots import PANDA, load_robot, maniskill_asset
+from datagen.worlds.settle import settle
 
 # Semantic classes: 0 is background (nothing rendered), object classes are shape families.
 STUFF_CLASSES = ("background", "floor", "table", "tray", "robot")
@@ -56,6 +57,11 @@ WRIST_CAMERA_POSE = sapien.Pose([0.0464982, -0.0200011, 0.0360011], [0, 0.707106
 
 def panda_urdf() -> Path:
     return maniskill_asset(PANDA)
+
+
+def load_panda(scene: sapien.Scene) -> sapien.physx.PhysxArticulation:
+    """The Panda, fixed base, from the process's parsed URDF (datagen.worlds.robots)."""
+    return load_robot(scene, PANDA, fix_root_link=True)
 
 
 @dataclass
@@ -122,8 +128,17 @@ def build_scene(config: BuildConfig, seed: int, index: int, attempt: int = 0) ->
     tray_floor_top = (TRAY_CENTRE[0], TRAY_CENTRE[1], TRAY_CENTRE[2] + TRAY_FLOOR)
     params = sample_scene(config, seed, index, tray_floor_top, TRAY_INNER_HALF, attempt)
     scene = construct_scene(config, params)
-    for _ in range(round(config.physics.settle_time / config.physics.timestep)):
-        scene.scene.step()
+    settle(
+        scene.scene,
+        [
+            o.entity.find_component_by_type(sapien.physx.PhysxRigidDynamicComponent)
+            for o in scene.objects
+        ],
+        [float(np.max(o.geometry.obb_extents)) / 2 for o in scene.objects],
+        scene.robot,
+        max_steps=round(config.physics.settle_time / config.physics.timestep),
+        settle_velocity=config.physics.settle_velocity,
+    )
     return scene
 
 
@@ -141,9 +156,7 @@ def construct_scene(config: BuildConfig, params: dict[str, Any]) -> GraspScene:
         stuff[entity.per_scene_id] = "table"
     stuff[_add_tray(scene, materials["tray"]).per_scene_id] = "tray"
 
-    loader = scene.create_urdf_loader()
-    loader.fix_root_link = True
-    robot = loader.load(str(panda_urdf()))
+    robot = load_panda(scene)
     robot.set_root_pose(sapien.Pose(ROBOT_BASE))
     apply_robot(robot, params["robot"])
     for link in robot.get_links():
@@ -160,6 +173,9 @@ def construct_scene(config: BuildConfig, params: dict[str, Any]) -> GraspScene:
     workspace = scene.add_camera("workspace", r.width, r.height, 1.0, r.near, r.far)
     apply_camera(workspace, params["camera"])
     cameras = {"workspace": workspace}
+    for name, values in params.get("extra_views", {}).items():  # render.views > 1
+        cameras[name] = scene.add_camera(name, r.width, r.height, 1.0, r.near, r.far)
+        apply_camera(cameras[name], values)
     if r.wrist_camera:
         hand = next(link for link in robot.get_links() if link.name == "panda_hand")
         cameras["wrist"] = scene.add_mounted_camera(

@@ -6,12 +6,15 @@ pure sampler, rng in, JSON values out) and a ``produce`` function, registered by
 ``preview`` and ``inspect`` read them without knowing this family exists.
 
 Tests only: ``EXAMPLE_BLOCKS_FAIL="3:1,5:99"`` makes sample 3 fail once and sample 5 always
-(index:attempts that raise), to exercise ``build.on_sample_error``.
+(index:attempts that raise), to exercise ``build.on_sample_error``; ``EXAMPLE_BLOCKS_HANG`` (same
+form) makes those attempts hang for good instead (heartbeats go on), to exercise
+``build.sample_timeout_s``.
 """
 
 from __future__ import annotations
 
 import os
+import threading
 
 import numpy as np
 import sapien
@@ -42,11 +45,19 @@ def sample_blocks(rng: np.random.Generator) -> list[dict]:
     ]
 
 
+def _injected(variable: str, index: int, attempt: int) -> bool:
+    for item in filter(None, os.environ.get(variable, "").split(",")):
+        faulty_index, faulty_attempts = map(int, item.split(":"))
+        if index == faulty_index and attempt < faulty_attempts:
+            return True
+    return False
+
+
 def _maybe_fail(index: int, attempt: int) -> None:
-    for item in filter(None, os.environ.get("EXAMPLE_BLOCKS_FAIL", "").split(",")):
-        failing_index, failing_attempts = map(int, item.split(":"))
-        if index == failing_index and attempt < failing_attempts:
-            raise RuntimeError(f"injected fault in sample {index}, attempt {attempt}")
+    if _injected("EXAMPLE_BLOCKS_FAIL", index, attempt):
+        raise RuntimeError(f"injected fault in sample {index}, attempt {attempt}")
+    if _injected("EXAMPLE_BLOCKS_HANG", index, attempt):
+        threading.Event().wait()  # forever, the GIL released: only the time limit ends it
 
 
 def produce(config: BuildConfig, seed: int, index: int, attempt: int = 0) -> Sample:

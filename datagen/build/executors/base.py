@@ -1,18 +1,22 @@
 """Where scene workers run: the interface every executor offers the coordinator (local spawned
 processes and Ray actors are in ``datagen.registries.EXECUTORS``).
 
-The coordinator talks to both through the same five calls and never sees processes or actors:
-``start(id)``, ``send(id, index)``, ``retire(id)`` (finish what it holds, then stop), ``poll``
-(events ``(id, kind, payload)`` with kind ``published`` (payload: index), ``done``, ``lost``
-(it died; payload: why) or ``error`` (payload: message)), and ``stop(graceful)``.
+The coordinator talks to both through the same six calls and never sees processes or actors:
+``start(id)``, ``send(id, task)``, ``retire(id)`` (finish what it holds, then stop), ``poll``
+(events ``(id, kind, payload)`` with kind ``heartbeat``, ``ready`` (start-up over), ``started``
+(payload: index, attempt, failures), ``published`` (payload: index), ``done``, ``lost`` (it
+died; payload: why) or ``error`` (payload: message); see datagen/build/worker.py), ``kill(id)``
+(a worker that stopped answering: at once, whatever its state) and ``stop(graceful)``.
 """
 
 from __future__ import annotations
 
 import contextlib
 import os
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Any, Protocol
+
+from datagen.build.production import Task
 
 Event = tuple[int, str, Any]  # (worker id, kind, payload); kinds: see datagen/build/worker.py
 # One worker per core: OpenMP/BLAS thread pools in each worker would oversubscribe the cores
@@ -37,9 +41,9 @@ class WorkerSpec:
     """What every worker needs: the build's config, broker and identity."""
 
     config: dict[str, Any]
-    broker_url: str
+    broker_url: str = field(repr=False)  # holds the workers' password: never printed
     build_id: str
-    secret: bytes
+    secret: bytes = field(repr=False)
 
 
 class Executor(Protocol):
@@ -49,13 +53,17 @@ class Executor(Protocol):
     def start(self, worker_id: int) -> dict[str, Any]:
         """Starts a worker; returns details for the observer (pid, actor id)."""
 
-    def send(self, worker_id: int, index: int) -> bool:
-        """Hands it a sample index; False if the worker is gone (poll reports it)."""
+    def send(self, worker_id: int, task: Task) -> bool:
+        """Hands it a sample to make; False if the worker is gone (poll reports it)."""
 
     def retire(self, worker_id: int) -> None:
         """It finishes what it holds, then reports ``done``."""
 
     def poll(self, timeout: float) -> list[Event]: ...
+
+    def kill(self, worker_id: int) -> None:
+        """Ends a worker that stopped answering (stopped, deadlocked, stuck in one sample) at
+        once; poll reports nothing more from it."""
 
     def stop(self, graceful: bool) -> None: ...
 

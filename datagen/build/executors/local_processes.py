@@ -9,6 +9,7 @@ from multiprocessing.connection import wait as wait_connections
 from typing import Any
 
 from datagen.build.executors.base import WORKER_ENV_DEFAULTS, Event, WorkerSpec, default_env
+from datagen.build.production import Task
 from datagen.build.worker import worker_main
 
 log = logging.getLogger(__name__)
@@ -38,11 +39,11 @@ class LocalExecutor:
         self.workers[worker_id] = (process, ours)
         return {"pid": process.pid}
 
-    def send(self, worker_id: int, index: int | None) -> bool:
+    def send(self, worker_id: int, task: Task | None) -> bool:
         try:
-            self.workers[worker_id][1].send(index)
+            self.workers[worker_id][1].send(task)
             return True
-        except (BrokenPipeError, OSError):
+        except (BrokenPipeError, OSError, KeyError):
             return False  # it died: poll reports it
 
     def retire(self, worker_id: int) -> None:
@@ -66,6 +67,11 @@ class LocalExecutor:
                 self._forget(worker_id)
             events.append((worker_id, kind, payload))
         return events
+
+    def kill(self, worker_id: int) -> None:
+        if worker_id in self.workers:
+            self.workers[worker_id][0].kill()  # SIGKILL: ends a stopped process too
+            self._forget(worker_id)
 
     def _forget(self, worker_id: int):
         process, conn = self.workers.pop(worker_id)

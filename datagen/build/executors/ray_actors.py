@@ -4,7 +4,9 @@ Each actor declares its resources (``executor.cpus_per_worker``, ``executor.gpus
 with a GPU, SAPIEN renders on it) and publishes its samples to the MQTT broker itself, exactly as
 a local worker does; Ray only places the actors and carries the sample indices. A method call
 per sample: the coordinator keeps a few in flight per actor, so a dead actor loses at most those
-(they are issued again, like a local worker's).
+(they are issued again, like a local worker's). Liveness: the coordinator's heartbeats are
+``ping`` calls, answered on a thread of their own (concurrency group ``liveness``) with what the
+actor is working on; an actor that stops answering is ended with ``ray.kill``.
 """
 
 from __future__ import annotations
@@ -18,6 +20,8 @@ import ray
 from ray.exceptions import GetTimeoutError, RayActorError, RayTaskError
 
 from datagen.build.executors.base import Event, WorkerSpec, worker_env
+from datagen.build.production import Task
+from datagen.build.worker import HEARTBEAT_S
 
 log = logging.getLogger(__name__)
 CLOSE_TIMEOUT_S = 30.0
@@ -28,6 +32,7 @@ class SceneWorker:
 
     def __init__(self, worker_id: int, spec: WorkerSpec):
         from datagen.config import config_from_dict
+        from datagen.engines.sim.render import keep_renderer_alive
         from datagen.engines.transfer.publisher import SamplePublisher
 
         logging.basicConfig(
@@ -35,6 +40,7 @@ class SceneWorker:
             format=f"[ray worker {worker_id}] %(levelname)s %(message)s",
         )
         self.config = config_from_dict(spec.config)
+        keep_renderer_alive()  # start-up, not the first sample's time (build.sample_timeout_s)
         self.publisher = SamplePublisher(
             spec.broker_url,
             spec.build_id,
@@ -44,19 +50,31 @@ class SceneWorker:
             secret=spec.secret,
         )
         self.publisher.__enter__()
+        self.working: dict[str, Any] | None = None  # the attempt in progress, for ping
 
-    def produce(self, index: int) -> dict[str, Any]:
+    def produce(self, task: Task) -> dict[str, Any]:
         """``{"index", "attempt", "failures", "published"}``; raises if the build must stop."""
         from datagen.build.production import SampleFailed, produce_with_policy
 
+        def started(attempt: int, failures: list[str]) -> None:
+            self.working = {"index": task.index, "attempt": attempt, "failures": failures}
+
+        index = task.index
         try:
-            produced = produce_with_policy(self.config, index)
+            produced = produce_with_policy(self.config, task, on_attempt=started)
         except SampleFailed as exc:
+            self.working = None
             if self.config.build.on_sample_error != "retry":
                 raise
             return {"index": index, "failures": exc.failures, "published": False}
         self.publisher.publish(produced.sample)
+        self.working = None
         return {"index": index, "attempt": produced.attempt, "failures": produced.failures, "published": True}  # fmt: skip
+
+    @ray.method(concurrency_group="liveness")
+    def ping(self) -> dict[str, Any] | None:
+        """Runs beside ``produce`` (its own thread): the attempt in progress, if any."""
+        return self.working
 
     def close(self) -> bool:
         """Waits until the broker has everything published, then disconnects."""
@@ -84,23 +102,27 @@ class RayExecutor:
             self._owns_ray = True
         else:
             self._owns_ray = False
-        self.actor_class = ray.remote(num_cpus=cpus_per_worker, num_gpus=gpus_per_worker)(
-            SceneWorker
-        )
+        self.actor_class = ray.remote(
+            num_cpus=cpus_per_worker,
+            num_gpus=gpus_per_worker,
+            concurrency_groups={"liveness": 1},
+        )(SceneWorker)
         self.actors: dict[int, Any] = {}
         self.pending: dict[Any, tuple[int, str, int | None]] = {}  # ref -> (worker, call, index)
         self.lost: set[int] = set()
+        self.pinged: dict[int, float] = {}  # worker -> when its last ping was sent
+        self.reported: dict[int, tuple[int, int]] = {}  # worker -> (index, attempt) reported
 
     def start(self, worker_id: int) -> dict[str, Any]:
         actor = self.actor_class.options(name=None, max_restarts=0).remote(worker_id, self.spec)
         self.actors[worker_id] = actor
         return {"ray_actor": actor._actor_id.hex()}
 
-    def send(self, worker_id: int, index: int) -> bool:
+    def send(self, worker_id: int, task: Task) -> bool:
         actor = self.actors.get(worker_id)
         if actor is None:
             return False
-        self.pending[actor.produce.remote(index)] = (worker_id, "produce", index)
+        self.pending[actor.produce.remote(task)] = (worker_id, "produce", task.index)
         return True
 
     def retire(self, worker_id: int) -> None:
@@ -109,15 +131,16 @@ class RayExecutor:
             self.pending[actor.close.remote()] = (worker_id, "close", None)
 
     def poll(self, timeout: float) -> list[Event]:
-        if not self.pending:
-            ready = []
+        self._ping()
+        refs = list(self.pending)
+        if not refs:
             time.sleep(timeout)
-        else:
-            refs = list(self.pending)
-            ray.wait(refs, num_returns=1, timeout=timeout)
-            ready, _ = ray.wait(refs, num_returns=len(refs), timeout=0)
+            return []
+        ray.wait(refs, num_returns=1, timeout=timeout)
+        ready, _ = ray.wait(refs, num_returns=len(refs), timeout=0)
         events: list[Event] = []
-        for ref in ready:
+        # results before pings: a ping must not report an attempt whose result is in
+        for ref in sorted(ready, key=lambda r: self.pending[r][1] == "ping"):
             entry = self.pending.pop(ref, None)
             if entry is None or entry[0] in self.lost:  # its worker was already reported lost
                 continue
@@ -134,10 +157,39 @@ class RayExecutor:
                 continue
             if call == "produce":
                 events.extend((worker_id, kind, payload) for kind, payload in _produced(result))
+            elif call == "ping":
+                events.extend(self._pinged(worker_id, result))
             else:
                 ray.kill(self.actors.pop(worker_id))
                 events.append((worker_id, "done", None))
         return events
+
+    def _ping(self) -> None:
+        """Pings every actor with no ping in flight, every HEARTBEAT_S."""
+        in_flight = {w for w, call, _ in self.pending.values() if call == "ping"}
+        now = time.monotonic()
+        for worker_id, actor in self.actors.items():
+            if worker_id not in in_flight and now - self.pinged.get(worker_id, 0.0) >= HEARTBEAT_S:
+                self.pending[actor.ping.remote()] = (worker_id, "ping", None)
+                self.pinged[worker_id] = now
+
+    def _pinged(self, worker_id: int, working: dict[str, Any] | None) -> list[Event]:
+        # the first answer comes once the constructor (the actor's start-up) is over
+        events: list[Event] = [(worker_id, "heartbeat" if worker_id in self.reported else "ready", None)]  # fmt: skip
+        self.reported.setdefault(worker_id, (-1, -1))
+        held = {i for w, call, i in self.pending.values() if w == worker_id and call == "produce"}
+        if working is not None and working["index"] in held:
+            attempt = (working["index"], working["attempt"])
+            if self.reported.get(worker_id) != attempt:
+                self.reported[worker_id] = attempt
+                events.append((worker_id, "started", working))
+        return events
+
+    def kill(self, worker_id: int) -> None:
+        actor = self.actors.get(worker_id)
+        self._lose(worker_id)
+        if actor is not None:
+            ray.kill(actor, no_restart=True)
 
     def _lose(self, worker_id: int) -> None:
         self.lost.add(worker_id)

@@ -1,8 +1,12 @@
 """Labels from the rendered buffers: instance and semantic maps, boxes, visibility, poses.
 
 Pixel convention: a 2D box is ``[x_min, y_min, x_max, y_max]`` in pixel indices, inclusive,
-taken from the instance mask. Visibility compares the visible mask with the object's amodal
-silhouette, rasterised from its convex parts projected through the same camera.
+taken from the instance mask. Projected points (``obb_corners_px``) are image-plane coordinates
+as the intrinsics define them: pixel (col, row) has its centre at (col + 0.5, row + 0.5).
+Visibility compares the visible mask with the object's amodal silhouette: its convex parts (or,
+for a user's mesh, the rendered mesh's triangles) projected through the same camera and
+rasterised by the renderer's rule (see ``silhouette``), so a fully visible object has
+``visible_fraction`` 1.
 """
 
 from __future__ import annotations
@@ -10,14 +14,17 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
-import cv2
 import numpy as np
 
-from datagen.geometry import pose_record, project
+from datagen.engines.sim.silhouette import convex_outlines, silhouette_pixels
+from datagen.geometry import image_points, pose_record
 
 if TYPE_CHECKING:  # only for annotations: drawing and tests need no simulator
     from datagen.engines.sim.render import Frame
 
+# beyond this many row spans (a detailed mesh filling much of the view) the convex parts'
+# silhouette stands in for the triangles': milliseconds instead of seconds
+MAX_TRIANGLE_SPANS = 2_000_000
 _BOX_CORNERS = np.array([[x, y, z] for x in (-0.5, 0.5) for y in (-0.5, 0.5) for z in (-0.5, 0.5)])
 
 
@@ -31,6 +38,9 @@ class LabelledObject:
     parts: list[np.ndarray]  # convex parts' vertices, object frame, (N_i, 3) each
     obb_transform: np.ndarray  # (4, 4) box frame -> object frame
     obb_extents: np.ndarray  # (3,) metres
+    # (F, 3, 3) object frame: the rendered mesh's triangles where the union of the convex parts
+    # is not what the renderer draws (a user's mesh); the silhouette then comes from them
+    visual_triangles: np.ndarray | None = None
 
 
 def label_maps(
@@ -51,34 +61,30 @@ def label_maps(
 def _amodal_pixels(obj: LabelledObject, frame: Frame, near: float) -> tuple[int, int]:
     """(pixels of the whole silhouette, of which inside the image), ignoring occluders."""
     height, width = frame.depth.shape
-    hulls = []
-    for part in obj.parts:
-        world = part @ obj.pose_world[:3, :3].T + obj.pose_world[:3, 3]
-        uv, z = project(world, frame.intrinsics, frame.extrinsics)
+    if obj.visual_triangles is not None:
+        uv, z = _image_points(obj, obj.visual_triangles.reshape(-1, 3), frame)
         if (z <= near).any():
             return 0, 0  # crosses the camera plane: no meaningful silhouette
-        hulls.append(cv2.convexHull(uv.astype(np.float32)).reshape(-1, 2))
-    points = np.concatenate(hulls)
-    lo = np.floor(points.min(axis=0)).astype(int) - 1
-    hi = np.ceil(points.max(axis=0)).astype(int) + 1
-    # cap the canvas: an object this large in view is truncated anyway
-    lo = np.maximum(lo, [-4 * width, -4 * height])
-    hi = np.minimum(hi, [5 * width, 5 * height])
-    if (hi < lo).any():
-        return 0, 0  # wholly beyond the capped canvas: far outside the image
-    canvas = np.zeros((hi[1] - lo[1] + 1, hi[0] - lo[0] + 1), np.uint8)
-    for hull in hulls:
-        cv2.fillConvexPoly(
-            canvas, np.rint((hull - lo) * 16).astype(np.int32), 1, cv2.LINE_8, shift=4
+        # no margin: neighbouring triangles share edges, which must not lose their pixels
+        counts = silhouette_pixels(
+            uv.reshape(-1, 3, 2), width, height, margin=0.0, max_spans=MAX_TRIANGLE_SPANS
         )
-    x0, y0 = max(0, lo[0]), max(0, lo[1])
-    x1, y1 = min(width, hi[0] + 1), min(height, hi[1] + 1)
-    inside = (
-        int(canvas[y0 - lo[1] : y1 - lo[1], x0 - lo[0] : x1 - lo[0]].sum())
-        if x1 > x0 and y1 > y0
-        else 0
-    )
-    return int(canvas.sum()), inside
+        if counts is not None:
+            return counts
+    projected = []
+    for part in obj.parts:
+        uv, z = _image_points(obj, part, frame)
+        if (z <= near).any():
+            return 0, 0
+        projected.append(uv)
+    return silhouette_pixels(convex_outlines(projected), width, height)
+
+
+def _image_points(
+    obj: LabelledObject, points: np.ndarray, frame: Frame
+) -> tuple[np.ndarray, np.ndarray]:
+    world = points @ obj.pose_world[:3, :3].T + obj.pose_world[:3, 3]
+    return image_points(world, frame.intrinsics, frame.extrinsics)
 
 
 def object_view_records(
@@ -98,7 +104,7 @@ def object_view_records(
         amodal, amodal_inside = _amodal_pixels(obj, frame, near)
         obb_world = obj.pose_world @ obj.obb_transform
         corners = (_BOX_CORNERS * obj.obb_extents) @ obb_world[:3, :3].T + obb_world[:3, 3]
-        corners_px, _ = project(corners, frame.intrinsics, frame.extrinsics)
+        corners_px, _ = image_points(corners, frame.intrinsics, frame.extrinsics)
         records.append(
             {
                 "instance_id": obj.instance_id,

@@ -1,8 +1,16 @@
-"""Encoding rendered views into a sample's named parts: PNG images, compact sorted JSON."""
+"""Encoding rendered views into a sample's named parts: PNG images, compact sorted JSON.
+
+PNG level (``output.png_level``, measured in docs/performance.md): 1, the default, is OpenCV's
+speed preset (SUB filter, zlib level 1, run-length strategy), the fastest setting measured and
+the bytes datagen has always written; 2-9 are zlib levels with libpng's adaptive filters
+(smaller, slower); 0 stores the pixels uncompressed. Every level decodes to the same pixels.
+"""
 
 from __future__ import annotations
 
 import json
+import os
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 from typing import Any
 
@@ -10,6 +18,10 @@ import cv2
 import numpy as np
 
 from datagen.engines.sim.stage_clock import timed
+
+DEFAULT_PNG_LEVEL = 1
+PNG_LEVELS = range(0, 10)
+_ENCODE_THREADS = min(4, os.cpu_count() or 1)  # one per image of a view; cv2 releases the GIL
 
 
 @dataclass
@@ -20,22 +32,59 @@ class View:
     semantic: np.ndarray  # (H, W) uint8
 
 
-def png_bytes(image: np.ndarray) -> bytes:
-    with timed("encode"):
-        ok, encoded = cv2.imencode(".png", image)
+def png_params(level: int) -> list[int]:
+    if level not in PNG_LEVELS:
+        raise ValueError(f"PNG level must be 0-9, got {level!r}")
+    return [] if level == DEFAULT_PNG_LEVEL else [cv2.IMWRITE_PNG_COMPRESSION, level]
+
+
+def _png(image: np.ndarray, level: int, bgr_from_rgb: bool = False) -> bytes:
+    if bgr_from_rgb:
+        image = cv2.cvtColor(image, cv2.COLOR_RGB2BGR)
+    ok, encoded = cv2.imencode(".png", image, png_params(level))
     if not ok:
         raise RuntimeError(f"PNG encoding failed for an image of shape {image.shape}")
     return encoded.tobytes()
 
 
-def encode_view(view: View, prefix: str = "") -> dict[str, bytes]:
-    """``<prefix>rgb.png depth.png seg.png semantic.png`` of one rendered view."""
-    return {
-        f"{prefix}rgb.png": png_bytes(cv2.cvtColor(view.rgb, cv2.COLOR_RGB2BGR)),
-        f"{prefix}depth.png": png_bytes(view.depth),
-        f"{prefix}seg.png": png_bytes(view.instance),
-        f"{prefix}semantic.png": png_bytes(view.semantic),
+def png_bytes(image: np.ndarray, level: int = DEFAULT_PNG_LEVEL) -> bytes:
+    with timed("encode"):
+        return _png(image, level)
+
+
+class _Pool:
+    """One small thread pool per process, made again after a fork (threads do not survive it)."""
+
+    def __init__(self) -> None:
+        self._pid = -1
+        self._executor: ThreadPoolExecutor | None = None
+
+    def get(self) -> ThreadPoolExecutor:
+        if self._executor is None or self._pid != os.getpid():
+            self._executor = ThreadPoolExecutor(_ENCODE_THREADS, thread_name_prefix="png")
+            self._pid = os.getpid()
+        return self._executor
+
+
+_pool = _Pool()
+
+
+def encode_view(
+    view: View, prefix: str = "", level: int = DEFAULT_PNG_LEVEL, parallel: bool = True
+) -> dict[str, bytes]:
+    """``<prefix>rgb.png depth.png seg.png semantic.png`` of one rendered view; the four
+    images are encoded on a small thread pool unless ``parallel`` is false (same bytes)."""
+    jobs = {
+        f"{prefix}rgb.png": (view.rgb, level, True),
+        f"{prefix}depth.png": (view.depth, level),
+        f"{prefix}seg.png": (view.instance, level),
+        f"{prefix}semantic.png": (view.semantic, level),
     }
+    with timed("encode"):
+        if not parallel or _ENCODE_THREADS < 2:
+            return {name: _png(*args) for name, args in jobs.items()}
+        futures = {name: _pool.get().submit(_png, *args) for name, args in jobs.items()}
+        return {name: future.result() for name, future in futures.items()}
 
 
 def metadata_bytes(metadata: dict[str, Any]) -> bytes:

@@ -3,20 +3,26 @@
 Conventions (also in README): intrinsics K is 3x3 in pixels with the origin at the top-left
 pixel corner; extrinsics E is the 4x4 world-to-camera transform in the OpenCV camera frame
 (x right, y down, z forward), so ``x_cam = E @ x_world`` and ``uv ~ K @ x_cam[:3]``.
+
+Stage clock names (``benchmarks/stages.py``): ``render`` = ``take_picture`` and the first
+``get_picture``, which waits for the frame (lavapipe renders asynchronously); ``read_back`` =
+the other pictures; ``convert`` = float pictures -> stored integer images.
 """
 
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass
 
 import numpy as np
 import sapien
 
+from datagen.engines.sim import picture_conversion as conversion
+from datagen.engines.sim.picture_conversion import DEPTH_MAX_UNITS, DEPTH_SCALE
+from datagen.engines.sim.stage_clock import timed
 from datagen.geometry import world_to_cv_camera
 
-DEPTH_SCALE = 0.001  # metres per depth unit: depth PNGs hold uint16 millimetres
-DEPTH_MAX_UNITS = np.iinfo(np.uint16).max
-
+__all__ = ["DEPTH_MAX_UNITS", "DEPTH_SCALE", "Frame", "capture", "keep_renderer_alive"]
 
 _keepalive: list = []
 
@@ -44,18 +50,59 @@ class Frame:
     extrinsics: np.ndarray  # (4, 4) world -> OpenCV camera
 
 
+@functools.cache
+def gpu_read_back(device_is_cuda: bool) -> bool:
+    """Convert on the GPU when SAPIEN renders on a CUDA device and torch can use it."""
+    if not device_is_cuda:
+        return False
+    try:
+        import torch
+    except ImportError:
+        return False
+    return bool(torch.cuda.is_available())
+
+
+def _render_device_is_cuda(camera: sapien.render.RenderCameraComponent) -> bool:
+    return bool(camera.entity.scene.render_system.device.is_cuda())
+
+
+def _pictures_cpu(camera) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    with timed("render"):
+        camera.take_picture()
+        rgba = camera.get_picture("Color")  # (H, W, 4) float32 in [0, 1]
+    with timed("read_back"):
+        position = camera.get_picture("Position")  # (H, W, 4): OpenGL camera xyz, w < 1 on surfaces
+        segmentation = camera.get_picture("Segmentation")  # (H, W, 4) uint32: [..., 1] = entity
+    with timed("convert"):
+        return (
+            conversion.rgb_from_colour(rgba),
+            conversion.depth_from_position(position),
+            conversion.ids_from_segmentation(segmentation),
+        )
+
+
+def _pictures_gpu(camera) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The same bytes as :func:`_pictures_cpu`, converted on the GPU; only the stored integer
+    images are copied back."""
+    with timed("render"):
+        camera.take_picture()
+        rgba = camera.get_picture_cuda("Color").torch()
+    with timed("read_back"):
+        position = camera.get_picture_cuda("Position").torch()
+        segmentation = camera.get_picture_cuda("Segmentation").torch()
+    with timed("convert"):
+        rgb = conversion.rgb_from_colour_torch(rgba).cpu().numpy()
+        depth = conversion.depth_from_position_torch(position).cpu().numpy().astype(np.uint16)
+        ids = conversion.ids_from_segmentation_torch(segmentation).cpu().numpy().view(np.uint32)
+        return rgb, depth, ids
+
+
 def capture(camera: sapien.render.RenderCameraComponent) -> Frame:
     """Renders ``camera``; the caller has already called ``scene.update_render()``."""
-    camera.take_picture()
-    rgba = camera.get_picture("Color")  # (H, W, 4) float in [0, 1]
-    position = camera.get_picture("Position")  # (H, W, 4): OpenGL camera xyz, w < 1 on surfaces
-    segmentation = camera.get_picture("Segmentation")  # (H, W, 4) uint32: [..., 1] = entity id
-
-    rgb = np.clip(rgba[..., :3] * 255.0 + 0.5, 0, 255).astype(np.uint8)
-    on_surface = position[..., 3] < 1.0
-    depth_m = np.where(on_surface, -position[..., 2], 0.0)
-    depth = np.clip(np.rint(depth_m / DEPTH_SCALE), 0, DEPTH_MAX_UNITS).astype(np.uint16)
-    entity_ids = np.ascontiguousarray(segmentation[..., 1])
+    if gpu_read_back(_render_device_is_cuda(camera)):
+        rgb, depth, entity_ids = _pictures_gpu(camera)
+    else:
+        rgb, depth, entity_ids = _pictures_cpu(camera)
     return Frame(
         rgb=rgb,
         depth=depth,

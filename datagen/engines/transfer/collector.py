@@ -7,8 +7,10 @@ from __future__ import annotations
 
 import logging
 import threading
+import time
 import uuid
 from collections.abc import Callable, Iterable, Sequence
+from dataclasses import dataclass
 from typing import Any
 
 import paho.mqtt.client as mqtt
@@ -18,6 +20,14 @@ from datagen.engines.transfer.envelope import Opener, Sealer
 from datagen.engines.transfer.topics import DEFAULT_FINALIZE_TIMEOUT_S, ack_indices, topics
 
 log = logging.getLogger(__name__)
+
+
+@dataclass(frozen=True)
+class FinalizeRound:
+    token: str
+    writers: list[str]  # sorted: the first is the leader
+    mark: int  # statuses before the command: the answers come after
+    cmd: dict[str, Any]
 
 
 class AckCollector:
@@ -50,6 +60,7 @@ class AckCollector:
         self._acked: set[int] = set()
         self._statuses: list[dict[str, Any]] = []
         self._latest: dict[str, dict[str, Any]] = {}
+        self._heard: dict[str, float] = {}  # writer -> monotonic time of its last message
         # Persistent session: acks sent while we are disconnected (broker restart, coordinator
         # restart with the same client id) wait for us instead of being lost.
         self._conn = MqttConnection(
@@ -94,6 +105,12 @@ class AckCollector:
         """Each writer's latest status message, by writer id."""
         with self._cond:
             return dict(self._latest)
+
+    def last_heard(self, writer: str) -> float | None:
+        """``time.monotonic()`` when writer ``writer``'s last genuine status or ack arrived
+        (writers repeat their status every 2 s as a heartbeat); None if never."""
+        with self._cond:
+            return self._heard.get(writer)
 
     def writers_ready(self) -> set[str]:
         """Writers whose latest status is ``ready``."""
@@ -158,10 +175,21 @@ class AckCollector:
         """Asks ``writers`` (default: those ready) to finalize; returns the leader's (smallest
         id) ``finalized`` status, or the first ``error`` status of a listed writer. The writers
         give up after ~0.9 ``timeout_s`` (300 s when None) if one of them does not take part."""
+        round_ = self.send_finalize(expected, manifest, writers, timeout_s)
+        return self.wait_finalized(round_, timeout_s)
+
+    def send_finalize(
+        self,
+        expected: int,
+        manifest: dict[str, Any],
+        writers: Sequence[str] | None = None,
+        timeout_s: float | None = 60.0,
+    ) -> FinalizeRound:
+        """The first half of :meth:`finalize`: sends the command, returns the round to wait on
+        (:meth:`wait_finalized`) or to send again after a broker restart (:meth:`resend`)."""
         writers = sorted(writers if writers is not None else self.writers_ready())
         if not writers:
             raise ValueError("no writer to finalize: none is ready and none was named")
-        leader = writers[0]
         with self._cond:
             mark = len(self._statuses)
         token = uuid.uuid4().hex
@@ -174,17 +202,29 @@ class AckCollector:
             "writers": writers,
             "timeout_s": writer_timeout,
         }
-        self._send(cmd, timeout_s)
+        round_ = FinalizeRound(token, writers, mark, cmd)
+        # a broker that hangs now must not block us: the command stays queued in paho
+        self.resend(round_, 10.0 if timeout_s is None else min(timeout_s, 10.0))
+        return round_
+
+    def resend(self, round_: FinalizeRound, timeout_s: float | None = 10.0) -> None:
+        """Sends the round's command (again, after a broker restart may have lost it)."""
+        self._send(round_.cmd, timeout_s)
+
+    def wait_finalized(self, round_: FinalizeRound, timeout_s: float | None) -> dict[str, Any]:
+        """The leader's ``finalized`` status of the round, or a listed writer's ``error``;
+        TimeoutError if neither comes within ``timeout_s``."""
+        leader = round_.writers[0]
 
         def final(msg: dict[str, Any]) -> bool:
-            if msg.get("round") != token:
+            if msg.get("round") != round_.token:
                 return False
             state, writer = msg.get("state"), msg.get("writer")
             return (writer == leader and state == "finalized") or (
-                state == "error" and writer in writers
+                state == "error" and writer in round_.writers
             )
 
-        return self._wait_for(final, mark, timeout_s, "no final status from the writers")
+        return self._wait_for(final, round_.mark, timeout_s, "no final status from the writers")
 
     def close(self, end_session: bool = True) -> None:
         """``end_session=False`` keeps the broker queueing acks for a later collector."""
@@ -193,6 +233,8 @@ class AckCollector:
     def _send(self, cmd: dict[str, Any], timeout_s: float | None) -> None:
         payload = self._sealer.seal(self.topics.control, cmd)
         info = self._conn.publish(self.topics.control, payload, qos=1)
+        if info.rc == mqtt.MQTT_ERR_NO_CONN:
+            return  # queued: paho sends it once reconnected (docs/mqtt-pitfalls.md, pitfall 7)
         info.wait_for_publish(timeout_s)
 
     def _wait_for(
@@ -223,9 +265,14 @@ class AckCollector:
             self._handle_ack(obj)
         elif message.topic.startswith(self.topics.status_prefix) and isinstance(obj, dict):
             obj.setdefault("writer", message.topic[len(self.topics.status_prefix) :])
+            writer = str(obj["writer"])
             with self._cond:
+                self._heard[writer] = time.monotonic()
+                if _is_repeat(obj, self._latest.get(writer)):
+                    self._latest[writer] = obj
+                    return  # a heartbeat: nothing new to wait on
                 self._statuses.append(obj)
-                self._latest[str(obj["writer"])] = obj
+                self._latest[writer] = obj
                 self._cond.notify_all()
             log.info("writer status: %s", obj)
             if self._on_status is not None:
@@ -237,6 +284,7 @@ class AckCollector:
             log.warning("ignoring malformed ack %.200r", obj)
             return
         with self._cond:
+            self._heard[str(obj.get("writer"))] = time.monotonic()
             new = [i for i in indices if i not in self._acked]
             if not new:
                 return
@@ -245,3 +293,12 @@ class AckCollector:
         if self._on_ack is not None:
             for index in new:
                 self._on_ack(index)
+
+
+def _is_repeat(status: dict[str, Any], previous: dict[str, Any] | None) -> bool:
+    """A heartbeat repeats the writer's current status with a ``beat`` counter added."""
+    if "beat" not in status or previous is None:
+        return False
+    return {k: v for k, v in status.items() if k != "beat"} == {
+        k: v for k, v in previous.items() if k != "beat"
+    }

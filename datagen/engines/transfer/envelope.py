@@ -40,7 +40,8 @@ def hkdf_sha256(ikm: bytes, salt: bytes, info: bytes) -> bytes:
 
 
 def derive_key(secret: bytes, purpose: str) -> bytes:
-    """The key for ``purpose`` (``ack``, ``status``, ``control``) from the raw secret bytes."""
+    """The key for ``purpose`` (``sample``, ``ack``, ``status``, ``control``) from the raw
+    secret bytes; samples use theirs in ``wire``."""
     return hkdf_sha256(secret, HKDF_SALT, purpose.encode("ascii"))
 
 

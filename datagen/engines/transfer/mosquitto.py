@@ -60,6 +60,8 @@ class ManagedBroker:
     serves ``host:tls_port`` (``tls_url``); the plain listener then binds to loopback only when
     ``host`` is not a loopback address, so passwords never cross the network in clear.
     ``acl_file``: a Mosquitto ACL file (copied), e.g. to confine users to their builds' topics.
+    ``password_file``: more users (a ``mosquitto_passwd`` file, copied beside ours), e.g. one
+    per role of a build (docs/deployment.md, 'Least privilege').
     """
 
     def __init__(
@@ -82,6 +84,7 @@ class ManagedBroker:
         tls_port: int | None = None,
         advertise_host: str | None = None,
         acl_file: str | os.PathLike | None = None,
+        password_file: str | os.PathLike | None = None,
         preexec_fn: Callable[[], None] | None = None,
     ):
         if (tls_cert is None) != (tls_key is None):
@@ -99,6 +102,7 @@ class ManagedBroker:
         self.tls_key = Path(tls_key) if tls_key is not None else None
         self.tls_port = tls_port
         self.acl_file = Path(acl_file) if acl_file is not None else None
+        self.password_file = Path(password_file) if password_file is not None else None
         self.preexec_fn = preexec_fn
         self._data_dir = Path(data_dir) if data_dir is not None else None
         self.dir: Path | None = None

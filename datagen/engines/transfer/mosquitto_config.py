@@ -54,10 +54,13 @@ def write_config(broker: ManagedBroker) -> pwd.struct_passwd | None:
     assert broker.dir is not None
     d = broker.dir
     (d / "data").mkdir(exist_ok=True)
-    (d / "passwd").write_text(
-        f"{broker.username}:{mosquitto_password_hash(broker.password)}\n", encoding="utf-8"
-    )
-    os.chmod(d / "passwd", 0o600)
+    users = f"{broker.username}:{mosquitto_password_hash(broker.password)}\n"
+    if broker.password_file is not None:  # the operator's users (hashed by mosquitto_passwd)
+        users += broker.password_file.read_text(encoding="utf-8").rstrip("\n") + "\n"
+    fd = os.open(d / "passwd", os.O_WRONLY | os.O_CREAT | os.O_TRUNC, 0o600)
+    with os.fdopen(fd, "w", encoding="utf-8") as f:
+        f.write(users)
+    os.chmod(d / "passwd", 0o600)  # an older file keeps its mode through O_CREAT
     lines = [
         # password_file and allow_anonymous are global (per_listener_settings false):
         # every listener requires the credentials

@@ -75,7 +75,7 @@ class SamplePublisher:
         if window < 1:
             raise ValueError("window must be >= 1")
         self.build_id = build_id
-        self.secret = secret  # signs every sample (HMAC-SHA256) when given
+        self.secret = secret  # the build secret: signs every sample under its "sample" key
         self.topic = topics(build_id).samples
         self.window = window
         self.max_message_bytes = max_message_bytes

@@ -7,8 +7,11 @@ Layout, little-endian::
     | [32-byte HMAC-SHA256 of everything before it, when flag SIGNED is set]
     | u32 CRC32 of everything before it
 
-A build signs its samples with a per-build secret, so a writer holding the secret rejects
-well-formed samples that no worker of the build made (forged, or from a stale build).
+A build signs its samples under the key derived from its secret for the purpose ``sample``
+(HKDF-SHA256, ``envelope.derive_key``), so a writer holding the secret rejects well-formed
+samples that no worker of the build made (forged, of another build, or signed under another
+purpose's key or the raw secret). The MAC covers the header, which names the build, the index
+and the key: a genuine sample cannot be moved into another build or renumbered.
 
 Nothing here unpickles or evaluates anything: a message from the network is bytes,
 checked field by field, and either becomes a ``Sample`` or raises ``WireError``.
@@ -22,6 +25,7 @@ import json
 import struct
 import zlib
 
+from datagen.engines.transfer.envelope import derive_key
 from datagen.sample import Sample, sample_key, valid_part_name
 
 MAGIC = b"DGS1"
@@ -38,6 +42,7 @@ DEFAULT_MAX_MESSAGE_BYTES = 64 * 2**20
 
 
 SECRET_ENV = "DATAGEN_BUILD_SECRET"  # hex; shared by a build's coordinator and its writers
+SAMPLE_PURPOSE = "sample"  # HKDF info of the key that signs samples
 
 
 def parse_secret(text: str) -> bytes:
@@ -55,8 +60,14 @@ class WireError(ValueError):
     """A payload is not a valid version-1 sample message; the text says why."""
 
 
+def sample_mac(secret: bytes, signed: bytes | memoryview) -> bytes:
+    """HMAC-SHA256, under the build secret's ``sample`` key, of the bytes before the MAC."""
+    return hmac.new(derive_key(secret, SAMPLE_PURPOSE), signed, hashlib.sha256).digest()
+
+
 def encode_sample(build_id: str, sample: Sample, secret: bytes | None = None) -> bytes:
-    """``secret``: the build's signing key; the message then carries an HMAC-SHA256."""
+    """``secret``: the build secret (raw bytes); the message then carries the HMAC-SHA256 of
+    ``sample_mac``."""
     if not isinstance(build_id, str) or not build_id:
         raise WireError("build_id must be a non-empty string")
     if not sample.parts:
@@ -84,7 +95,7 @@ def encode_sample(build_id: str, sample: Sample, secret: bytes | None = None) ->
         ]
     )
     if secret:
-        body += hmac.new(secret, body, hashlib.sha256).digest()
+        body += sample_mac(secret, body)
     return body + _CRC.pack(zlib.crc32(body))
 
 
@@ -93,7 +104,8 @@ def decode_sample(
 ) -> tuple[str, Sample]:
     """Checks and decodes one message; returns (build_id, sample) or raises ``WireError``.
 
-    With ``secret``, only messages signed with it are accepted.
+    With ``secret`` (the build secret, raw bytes), only messages signed under its ``sample`` key
+    are accepted.
     """
     payload = bytes(payload)
     n = len(payload)
@@ -124,7 +136,7 @@ def decode_sample(
                 "unsigned sample: this build accepts only samples signed with its secret"
             )
         signed_end = n - _CRC.size - mac_len
-        expected = hmac.new(secret, memoryview(payload)[:signed_end], hashlib.sha256).digest()
+        expected = sample_mac(secret, memoryview(payload)[:signed_end])
         if not hmac.compare_digest(expected, payload[signed_end : signed_end + mac_len]):
             raise WireError("signature does not verify: not made by a worker of this build")
 

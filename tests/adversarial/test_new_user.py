@@ -21,7 +21,8 @@ from datagen.cli.build_commands import resume_command
 from datagen.cli.progress import PlainProgress
 from datagen.shards import write_manifest
 
-REPO = Path(__file__).resolve().parents[1]
+pytestmark = [pytest.mark.adversarial]
+REPO = Path(__file__).resolve().parents[2]
 VENV_BIN = Path(sys.executable).parent  # where the `datagen` script is installed
 
 

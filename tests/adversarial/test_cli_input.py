@@ -21,7 +21,8 @@ from datagen.cli import main
 from datagen.config import BuildConfig
 from datagen.errors import OutDirError
 
-REPO = Path(__file__).resolve().parents[1]
+pytestmark = [pytest.mark.adversarial]
+REPO = Path(__file__).resolve().parents[2]
 CONFIG = str(REPO / "configs" / "grasp_tabletop.yaml")
 
 

@@ -1,0 +1,90 @@
+"""``manifest.json`` as a reader meets it: ``read_manifest`` checks that a directory holds a
+datagen dataset of a format this datagen reads (docs/dataset-format.md), and ``DatasetError``
+says what is wrong, naming the path."""
+
+from __future__ import annotations
+
+import json
+import re
+from pathlib import Path
+from typing import Any
+
+from datagen.shards import DATASET_FORMAT, DATASET_FORMAT_NAME, DATASET_FORMAT_VERSION, MANIFEST
+
+_FORMAT = re.compile(rf"^{re.escape(DATASET_FORMAT_NAME)}/(\d{{1,9}})$")
+
+
+class DatasetError(ValueError):
+    """The directory is not a (valid) datagen dataset; the text says why."""
+
+
+def read_manifest(root: str | Path) -> dict[str, Any]:
+    """``root/manifest.json``, checked to be a datagen manifest of a format this datagen reads:
+    a ``shards`` list of records naming files in ``root``, a ``samples`` count. Raises
+    DatasetError naming the path."""
+    path = Path(root) / MANIFEST
+    try:
+        found = None if Path(root).is_dir() else Path(root).exists()
+        text = path.read_text(encoding="utf-8") if found is None and path.is_file() else None
+    except OSError as exc:
+        raise DatasetError(f"{exc.filename or path}: cannot read it: {exc.strerror}") from None
+    except UnicodeDecodeError as exc:
+        raise DatasetError(f"{path}: not valid JSON: {exc}") from None
+    if found is not None:
+        found = "not a directory" if found else "no such directory"
+        raise DatasetError(f"{root}: {found}; expected a dataset directory (with {MANIFEST})")
+    if text is None:
+        raise DatasetError(f"{root} is not a datagen dataset: no {MANIFEST} (not finalized?)")
+    try:
+        manifest = json.loads(text)
+    except (ValueError, RecursionError) as exc:
+        raise DatasetError(f"{path}: not valid JSON: {exc}") from None
+    if not isinstance(manifest, dict):
+        raise DatasetError(f"{path}: not a JSON object; not a datagen manifest")
+    if problem := format_problem(manifest.get("dataset_format")):
+        raise DatasetError(f"{path}: {problem}")
+    if not isinstance(manifest.get("shards"), list):
+        raise DatasetError(f"{path}: no 'shards' list; not a datagen manifest")
+    for i, record in enumerate(manifest["shards"]):
+        if problem := _shard_record_problem(record):
+            raise DatasetError(f"{path}: shards[{i}]: {problem}; not a datagen manifest")
+    samples = manifest.get("samples")
+    if samples is not None and (type(samples) is not int or samples < 0):
+        raise DatasetError(f"{path}: 'samples' is {repr(samples)[:60]}, expected a count")
+    return manifest
+
+
+def format_problem(dataset_format: Any) -> str | None:
+    """Why this datagen cannot read a manifest of ``dataset_format``, or None. A manifest
+    without one is read as version 1, the only version before the field was required."""
+    if dataset_format is None:
+        return None
+    match = _FORMAT.match(dataset_format) if isinstance(dataset_format, str) else None
+    if match is None or int(match[1]) < 1:
+        return (
+            f"dataset_format {repr(dataset_format)[:60]} is not a datagen dataset format "
+            f"(expected {DATASET_FORMAT!r})"
+        )
+    if int(match[1]) > DATASET_FORMAT_VERSION:
+        return (
+            f"dataset_format {dataset_format!r} is newer than this datagen, which reads "
+            f"{DATASET_FORMAT} and older; upgrade datagen to read it"
+        )
+    return None
+
+
+def _shard_record_problem(record: Any) -> str | None:
+    """What is wrong with one record of a manifest's ``shards``, or None."""
+    if not isinstance(record, dict):
+        return f"expected a record with a 'name', got {repr(record)[:60]}"
+    name = record.get("name")
+    if not isinstance(name, str) or name in ("", ".", "..") or any(c in name for c in "/\\\0"):
+        return f"'name' is {repr(name)[:60]}, expected the file name of a shard in the dataset"
+    for count in ("bytes", "samples"):
+        value = record.get(count, 0)
+        if type(value) is not int or value < 0:
+            return f"'{count}' is {repr(value)[:60]}, expected a count"
+    digests = record.get("sample_sha256", {})
+    if not isinstance(digests, dict):
+        return f"'sample_sha256' is {repr(digests)[:60]}, expected an object (key -> sha256)"
+    return None
