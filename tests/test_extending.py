@@ -9,6 +9,7 @@ from __future__ import annotations
 import csv
 import json
 import os
+import re
 import subprocess
 import sys
 from pathlib import Path
@@ -120,7 +121,10 @@ def test_samples_failing_every_attempt_fail_the_build_listing_them_and_resume_fi
     assert "2 of 5 samples failed on every attempt" in failed.stderr
     assert "[1, 3]" in failed.stderr and "injected fault in sample 3, attempt 2" in failed.stderr
     assert not (out / "manifest.json").exists()
-    resumed = datagen("build", str(config), "--out", str(out), "--workers", "2", "--no-preview", "--resume")  # fmt: skip
+    # the failure prints the whole command that finishes the build; run it as printed
+    printed = re.search(r"finish it with: (.+)", failed.stderr)[1].split()
+    assert printed[:2] == ["datagen", "build"] and printed[-1] == "--resume"
+    resumed = datagen(*printed[1:])
     assert resumed.returncode == 0, resumed.stderr
     assert "3 were already durable" in resumed.stdout
     assert len(load(out)) == 5

@@ -12,6 +12,7 @@ import argparse
 import logging
 import signal
 import sys
+from pathlib import Path
 
 from datagen.cli import build_commands, dataset_commands, service_commands
 from datagen.cli.common import EXIT_INTERRUPTED, EXIT_USER_ERROR, one_line
@@ -67,7 +68,7 @@ def main(argv: list[str] | None = None) -> int:
         print(f"datagen {args.command}: error: {one_line(str(exc))}", file=sys.stderr)
         return EXIT_USER_ERROR
     except (BuildError, BrokerError, MqttConnectError, DatasetError) as exc:
-        print(f"datagen: {args.command} failed: {exc}", file=sys.stderr)
+        print(f"datagen: {args.command} failed: {exc}{_resume_hint(args)}", file=sys.stderr)
         return 1
     except KeyboardInterrupt:
         hint = ""
@@ -78,3 +79,18 @@ def main(argv: list[str] | None = None) -> int:
             file=sys.stderr,
         )
         return EXIT_INTERRUPTED
+
+
+def _resume_hint(args: argparse.Namespace) -> str:
+    """For a build or campaign that failed after it started (its ``DIR/build.json`` exists, so
+    what is durable stays): the whole command that finishes it."""
+    from datagen.build.out_dir import BUILD_STATE
+
+    out = getattr(args, "out", None)
+    if (
+        args.command not in ("build", "campaign")
+        or not out
+        or not (Path(out) / BUILD_STATE).is_file()
+    ):
+        return ""
+    return f"\nOnce the cause is fixed, finish it with: {build_commands.resume_command(args)}"
