@@ -54,6 +54,7 @@ def assert_batches_match(batches: list[dict], items: dict[str, dict], size: int)
     assert sorted(seen) == sorted(items) and len(seen) == len(items)
 
 
+@pytest.mark.adversarial  # issue 14: a DataLoader with batch_size > 1 failed
 @pytest.mark.parametrize("workers", [0, 2])
 def test_collate_batches_load_and_stream(dataset, workers):
     items = {item["key"]: item for item in datagen.load(dataset)}
@@ -86,6 +87,7 @@ def test_the_readme_dataloader_recipes_run_as_printed(dataset):
     assert all(b["semantic"].dtype == torch.uint8 and b["rgb"].ndim == 4 for b in batches)
 
 
+@pytest.mark.adversarial  # issue 14: the recipe lost 16-bit depth
 def test_the_readme_webdataset_recipe_keeps_16_bit_depth(dataset):
     namespace = run_recipe("webdataset", dataset, {"datagen": datagen})
     loaded = datagen.load(dataset)
