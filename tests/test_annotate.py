@@ -13,7 +13,7 @@ from datagen.engines.sim.annotate import LabelledObject, label_maps, object_view
 from datagen.engines.sim.render import Frame, capture, keep_renderer_alive
 from datagen.geometry import image_points, look_at, project, random_quaternion, world_to_cv_camera
 from datagen.randomisers.materials import render_material
-from datagen.randomisers.objects import add_objects, sample_shape
+from datagen.randomisers.objects import add_objects, render_shape, sample_shape
 
 
 def frame_looking_down(width=64, height=48, f=50.0):
@@ -231,15 +231,7 @@ def test_a_users_concave_mesh_is_measured_by_its_own_triangles(renderer):
     )
     scene = sapien.Scene()
     body = sapien.render.RenderBodyComponent()
-    body.attach(
-        sapien.render.RenderShapeTriangleMesh(
-            np.asarray(mesh.vertices, np.float32),
-            np.asarray(mesh.faces, np.uint32),
-            np.asarray(mesh.vertex_normals, np.float32),
-            np.zeros((len(mesh.vertices), 2), np.float32),
-            render_material(MATERIAL),
-        )
-    )
+    body.attach(render_shape(mesh, MATERIAL))
     entity = sapien.Entity()
     entity.add_component(body)
     entity.set_pose(sapien.Pose([0.0, 0.0, 0.0], random_quaternion(np.random.default_rng(6))))

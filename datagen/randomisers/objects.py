@@ -6,6 +6,7 @@ from typing import Any
 
 import numpy as np
 import sapien
+import trimesh
 
 from datagen.config.sections import ObjectsConfig
 from datagen.geometry import random_quaternion
@@ -100,6 +101,17 @@ def sample_objects(rng: np.random.Generator, cfg: ObjectsConfig) -> list[dict[st
     return objects
 
 
+def render_shape(mesh: trimesh.Trimesh, material: dict[str, Any]) -> sapien.render.RenderShape:
+    """A trimesh as a SAPIEN render shape with its own material (no texture coordinates)."""
+    return sapien.render.RenderShapeTriangleMesh(
+        np.asarray(mesh.vertices, np.float32),
+        np.asarray(mesh.faces, np.uint32),
+        np.asarray(mesh.vertex_normals, np.float32),
+        np.zeros((len(mesh.vertices), 2), np.float32),
+        render_material(material),
+    )
+
+
 def add_objects(
     scene: sapien.Scene,
     objects: list[dict[str, Any]],
@@ -120,17 +132,8 @@ def add_objects(
             )
             shape.set_density(obj["density"])
             body.attach(shape)
-        visual = geometry.visual
         render_body = sapien.render.RenderBodyComponent()
-        render_body.attach(
-            sapien.render.RenderShapeTriangleMesh(
-                np.asarray(visual.vertices, np.float32),
-                np.asarray(visual.faces, np.uint32),
-                np.asarray(visual.vertex_normals, np.float32),
-                np.zeros((len(visual.vertices), 2), np.float32),
-                render_material(material),
-            )
-        )
+        render_body.attach(render_shape(geometry.visual, material))
         entity = sapien.Entity()
         entity.name = f"object_{i + 1}"
         entity.add_component(body)
