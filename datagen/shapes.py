@@ -1,17 +1,23 @@
 """Procedural object meshes from sampled shape parameters (pure: parameters in, meshes out).
 
 Every shape is a list of convex parts in the object's frame (metres). Collision uses the parts
-as convex meshes; the visual mesh is their concatenation. A shape is fully described by its
-JSON parameters, so a sample's metadata is enough to rebuild its objects.
+as convex meshes; the visual mesh is their concatenation, except for the household kinds of
+:mod:`datagen.household` (revolved and swept parts: drawn smooth, colliding as their convex
+parts). A shape is fully described by its JSON parameters, so a sample's metadata is enough to
+rebuild its objects.
 """
 
 from __future__ import annotations
 
+import functools
+import json
 from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 import trimesh
+
+from datagen import household
 
 
 @dataclass(frozen=True)
@@ -20,6 +26,8 @@ class ObjectGeometry:
     visual: trimesh.Trimesh
     obb_transform: np.ndarray  # (4, 4) object frame -> oriented-box frame origin at its centre
     obb_extents: np.ndarray  # (3,) full edge lengths, metres
+    # False where the drawn mesh is not the parts' union (smooth household shapes, user meshes)
+    visual_is_parts: bool = True
 
 
 def _part(kind: str, p: dict[str, Any]) -> trimesh.Trimesh:
@@ -33,20 +41,49 @@ def _part(kind: str, p: dict[str, Any]) -> trimesh.Trimesh:
         mesh = trimesh.creation.capsule(height=p["height"], radius=p["radius"], count=[16, 16])
     elif kind == "convex":
         mesh = trimesh.convex.convex_hull(np.asarray(p["points"], dtype=np.float64))
+    elif kind == "prism":
+        mesh = household.prism(p)
     else:
         raise ValueError(f"unknown part kind {kind!r}")
+    _place(mesh, p)
+    return mesh
+
+
+def _place(mesh: trimesh.Trimesh, p: dict[str, Any]) -> None:
+    """Moves a part to its pose in the object frame (``offset``, ``quat_wxyz``), if it has one."""
     if "offset" in p:
         transform = np.eye(4)
         transform[:3, :3] = trimesh.transformations.quaternion_matrix(p["quat_wxyz"])[:3, :3]
         transform[:3, 3] = p["offset"]
         mesh.apply_transform(transform)
-    return mesh
+
+
+def _visual_and_parts(p: dict[str, Any]) -> tuple[trimesh.Trimesh, list[trimesh.Trimesh]]:
+    if p["kind"] not in household.COMPOSITE_KINDS:
+        mesh = _part(p["kind"], p)
+        return mesh, [mesh]
+    visual, parts = household.composite_part(p)
+    for mesh in (visual, *parts):
+        _place(mesh, p)
+    return visual, parts
 
 
 def build_geometry(shape: dict[str, Any]) -> ObjectGeometry:
-    """``shape`` is ``{"family": ..., "parts": [{"kind": ..., **params}, ...]}``."""
-    parts = [_part(p["kind"], p) for p in shape["parts"]]
-    visual = trimesh.util.concatenate(parts) if len(parts) > 1 else parts[0].copy()
+    """``shape`` is ``{"family": ..., "parts": [{"kind": ..., **params}, ...]}``. The result is
+    shared by every call with equal parameters (a scene samples and builds each shape, several
+    exports rebuild it): read it, copy it before changing it."""
+    return _cached_geometry(json.dumps(shape, sort_keys=True))
+
+
+@functools.lru_cache(maxsize=128)
+def _cached_geometry(shape_json: str) -> ObjectGeometry:
+    shape = json.loads(shape_json)
+    built = [_visual_and_parts(p) for p in shape["parts"]]
+    parts = [part for _, part_list in built for part in part_list]
+    visuals = [visual for visual, _ in built]
+    visual = trimesh.util.concatenate(visuals) if len(visuals) > 1 else visuals[0].copy()
+    # revolved and swept parts are drawn smooth, their convex parts only approximate them
+    visual_is_parts = not any(p["kind"] in household.COMPOSITE_KINDS for p in shape["parts"])
     if "asset" in shape:  # a user's mesh: drawn as itself, collides as its convex parts
         from datagen.mesh_library import load_library
 
@@ -54,8 +91,10 @@ def build_geometry(shape: dict[str, Any]) -> ObjectGeometry:
         found = load_library(asset["root"]).find(asset["path"])
         if found is not None:
             visual = found.visual.copy().apply_scale(asset["scale"])
-    if shape["family"] in ("box", "cylinder", "sphere", "capsule"):
-        # primitives: the box aligned with the object frame is the tight oriented box
+            visual_is_parts = False
+    if shape["family"] in ("box", "cylinder", "sphere", "capsule", *household.ALIGNED_FAMILIES):
+        # primitives and household shapes: the box aligned with the object frame is the tight
+        # oriented box
         lo, hi = visual.bounds
         obb_transform = np.eye(4)
         obb_transform[:3, 3] = (lo + hi) / 2
@@ -67,5 +106,9 @@ def build_geometry(shape: dict[str, Any]) -> ObjectGeometry:
             np.asarray(obb.primitive.extents),
         )
     return ObjectGeometry(
-        parts, visual, np.asarray(obb_transform, float), np.asarray(extents, float)
+        parts,
+        visual,
+        np.asarray(obb_transform, float),
+        np.asarray(extents, float),
+        visual_is_parts,
     )

@@ -1,7 +1,9 @@
 #!/usr/bin/env bash
 # Installs everything datagen needs on Debian 12 (bookworm), idempotently:
-#   system: Mosquitto (+ clients), the Vulkan loader, and Mesa lavapipe from
-#           bookworm-backports when no Vulkan device can render;
+#   system: Mosquitto (+ clients; on bookworm 2.0.21 from bookworm-backports, built with
+#           WebSockets for the live monitor), Chromium (the monitor's browser test), the
+#           Vulkan loader, and Mesa lavapipe from bookworm-backports when no Vulkan device
+#           can render;
 #   python: a virtual environment in .venv with datagen and its dependencies.
 # A second run checks each step and skips what is already done.
 set -euo pipefail
@@ -58,9 +60,28 @@ apt_install() {  # installs only the packages that are missing
     fi
 }
 
+ensure_backports() {
+    if ! grep -rqs "bookworm-backports" /etc/apt/sources.list /etc/apt/sources.list.d/; then
+        echo "deb http://deb.debian.org/debian bookworm-backports main" | $SUDO tee /etc/apt/sources.list.d/bookworm-backports.list >/dev/null
+        APT_UPDATED=0
+    fi
+}
+
 # --- system packages ----------------------------------------------------------------------------
-say "system packages: mosquitto, mosquitto-clients, Vulkan loader, libusb (Open3D loads it), libgomp"
-apt_install mosquitto mosquitto-clients libvulkan1 ca-certificates procps libusb-1.0-0 libgomp1
+if [ "$CODENAME" = "bookworm" ]; then
+    # Debian 12's own mosquitto 2.0.11 is built without WebSockets, which the live monitor's
+    # page needs (docs/monitor.md); bookworm-backports carries 2.0.21 built with libwebsockets
+    if ! dpkg-query -W -f='${Status} ${Version}' mosquitto 2>/dev/null | grep -q "install ok installed .*bpo"; then
+        ensure_backports
+        apt_update_once
+        say "apt-get install -t bookworm-backports mosquitto mosquitto-clients (with WebSockets)"
+        DEBIAN_FRONTEND=noninteractive $SUDO apt-get install -y -qq --no-install-recommends -t bookworm-backports mosquitto mosquitto-clients >/dev/null
+    fi
+else
+    say "warning: not bookworm: install a Mosquitto built with WebSockets for 'datagen monitor'"
+fi
+say "system packages: mosquitto, mosquitto-clients, Vulkan loader, libusb (Open3D loads it), libgomp, chromium"
+apt_install mosquitto mosquitto-clients libvulkan1 ca-certificates procps libusb-1.0-0 libgomp1 chromium
 if ! "$PYTHON" -m venv --help >/dev/null 2>&1; then apt_install python3-venv; fi
 
 pip_install() {  # quiet on success; on failure shows pip's output and stops
@@ -104,10 +125,7 @@ if probe_render; then
 else
     [ "$CODENAME" = "bookworm" ] || die "no Vulkan device can render and this is not Debian bookworm: install Mesa >= 24.3 (mesa-vulkan-drivers) or a GPU driver with Vulkan."
     say "no Vulkan device renders: installing Mesa lavapipe from bookworm-backports (Debian 12's Mesa 22.3 lacks VK_KHR_external_semaphore_fd)"
-    if ! grep -rqs "bookworm-backports" /etc/apt/sources.list /etc/apt/sources.list.d/; then
-        echo "deb http://deb.debian.org/debian bookworm-backports main" | $SUDO tee /etc/apt/sources.list.d/bookworm-backports.list >/dev/null
-        APT_UPDATED=0
-    fi
+    ensure_backports
     apt_update_once
     DEBIAN_FRONTEND=noninteractive $SUDO apt-get install -y -qq --no-install-recommends -t bookworm-backports mesa-vulkan-drivers >/dev/null
     probe_render || die "SAPIEN still cannot render after installing Mesa from bookworm-backports; run '$VENV/bin/python -m datagen.engines.sim.render_probe' to see why."

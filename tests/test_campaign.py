@@ -91,8 +91,10 @@ def test_inspect_writes_pictures_and_a_summary(campaign, tmp_path):
     assert f"samples{' ' * 4}" in result.stdout and "success_rate" in result.stdout  # the table
     summary = json.loads((campaign / "inspect" / "summary.json").read_text())
     assert summary["samples"] == ATTEMPTS and summary["campaign"]["attempts"] == ATTEMPTS
-    for name in ("overview.png", "distributions.png"):
+    for name in ("overview.png", "distributions.png", "randomisation.png"):
         assert (campaign / "inspect" / name).stat().st_size > 10_000
+    # the default appearance randomisation shows in the summary: textured surfaces and flat ones
+    assert set(summary["surface_textures"]) - {"flat", "picture"}, summary["surface_textures"]
 
 
 def test_campaign_command_line(tmp_path):

@@ -3,7 +3,12 @@ Images, depth and label maps are byte-for-byte those of commit c1ba73d, before t
 became plug-ins; the JSON metadata was re-recorded once, deliberately, when issue 14 corrected
 ``visible_fraction`` and ``obb_corners_px``. Every part of the grasp samples was re-recorded for
 issue 15: settling stops once the objects rest and holds the robot asleep meanwhile
-(datagen/worlds/settle.py), which moves objects and the arm; navigation kept its bytes. The
+(datagen/worlds/settle.py), which moves objects and the arm; navigation kept its bytes. Issue 16
+turned the appearance randomisers on by default (textures, rooms, distractors, household shapes,
+camera effects, sensor depth), so every part of the default grasp, campaign and navigation
+samples was re-recorded; ``configs/grasp_flat.yaml`` (all of them off) was added with images,
+depth and label maps byte-for-byte those of the defaults before issue 16 (only its JSON differs:
+the class list gained the new families, ``distractor`` and ``wall`` at its end). The
 digests were recorded with Mesa's lavapipe (llvmpipe) on x86-64, as on CI; another renderer draws
 other pixels, so the test runs only there.
 

@@ -26,6 +26,7 @@ from pathlib import Path
 from typing import Any
 
 from datagen.build.executors.base import WorkerSpec
+from datagen.build.live_status import LiveStatus
 from datagen.build.liveness import Attempt, WorkerWatch, timed_out
 from datagen.build.local_writer import LOCAL_WRITER_ID, LocalWriter
 from datagen.build.manifest import build_manifest
@@ -74,7 +75,8 @@ class Coordinator:
         self.num_workers = workers
         self.external_writers = writers
         self.writer_ids = list(writers) if writers else [LOCAL_WRITER_ID]
-        self.observer = observer or (lambda event, details: None)
+        self.live = LiveStatus(self.build_id, config.num_samples)  # for monitors: live_status.py
+        self.observer = self.live.watching(observer or (lambda event, details: None))
         self.on_progress = on_progress
         self.executor_name, self.executor_options = executor, executor_options or {}
         self.executor = None  # made in run(), once the broker URL is known
@@ -111,6 +113,7 @@ class Coordinator:
             ) as collector,
         ):
             self.collector = self.supervisor.collector = collector
+            self.live.start(url, self)
             try:
                 if self.writer is not None:
                     self.supervisor.start_writer()
@@ -142,10 +145,15 @@ class Coordinator:
                     }
                 self.supervisor.finalize(total, manifest, FINALIZE_TIMEOUT_S)
                 self._check_on_disk()
+                self.live.finish()
                 self._stop_workers(graceful=True)
                 if self.writer is not None:
                     self.writer.wait(timeout_s=30)
+            except BaseException as exc:
+                self.live.fail(exc)
+                raise
             finally:
+                self.live.close()
                 self._stop_workers(graceful=False)
                 self._stop_writer()
         self.result.samples = total
@@ -178,6 +186,7 @@ class Coordinator:
                 self._feed(worker_id)
 
     def _report(self, done: int) -> None:
+        self.live.tick()
         if self.on_progress:
             self.on_progress(done, self.config.num_samples)
 
@@ -203,6 +212,7 @@ class Coordinator:
         recycle_after = self.config.executor.recycle_after
         for worker_id, kind, payload in self.executor.poll(POLL_S):
             now = time.monotonic()
+            self.live.on_event(worker_id, kind, payload)
             self.watch.heard_from(worker_id, now)
             if kind == "ready":
                 self.watch.ready(worker_id)

@@ -10,6 +10,7 @@ from typing import Any
 
 from datagen.build.out_dir import DATASET_FORMAT, now_utc
 from datagen.config import BuildConfig
+from datagen.config.pictures import picture_report
 from datagen.engines.transfer.wire import VERSION as WIRE_VERSION
 from datagen.registries import FAMILIES
 
@@ -33,19 +34,23 @@ def _versions() -> dict[str, str]:
 
 
 def build_manifest(config: BuildConfig, build_id: str, workers: int) -> dict[str, Any]:
-    return {
-        "dataset_format": DATASET_FORMAT,
-        "build_id": build_id,
-        "created_utc": now_utc(),
-        "scene": config.scene,
-        "seed": config.seed,
-        "num_samples": config.num_samples,
-        "workers": workers,
-        "classes": list(FAMILIES[config.scene].class_names(config)),
-        "wire_format_version": WIRE_VERSION,
-        "config": config.to_dict(),
-        "versions": _versions(),
-    } | _asset_report(config)
+    return (
+        {
+            "dataset_format": DATASET_FORMAT,
+            "build_id": build_id,
+            "created_utc": now_utc(),
+            "scene": config.scene,
+            "seed": config.seed,
+            "num_samples": config.num_samples,
+            "workers": workers,
+            "classes": list(FAMILIES[config.scene].class_names(config)),
+            "wire_format_version": WIRE_VERSION,
+            "config": config.to_dict(),
+            "versions": _versions(),
+        }
+        | _asset_report(config)
+        | picture_report(config)
+    )
 
 
 def _asset_report(config: BuildConfig) -> dict[str, Any]:

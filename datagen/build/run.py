@@ -9,7 +9,7 @@ import contextlib
 import json
 import os
 import time
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from pathlib import Path
 
 from datagen.build.coordinator import Coordinator
@@ -40,6 +40,7 @@ def run_build(
     executor: str = "local",
     ray_address: str | None = None,
     on_export_progress: ExportProgress | None = None,
+    monitor: Callable[[ManagedBroker], None] | None = None,
 ) -> BuildResult:
     """Builds ``config.num_samples`` samples into ``out_dir``.
 
@@ -48,7 +49,8 @@ def run_build(
     ``broker_url``). ``writers``: ids of
     writers started elsewhere (``datagen writer``) instead of one local writer. ``executor``:
     ``local`` (processes of this machine) or ``ray`` (actors; ``ray_address`` None starts a local
-    Ray instance, ``auto`` or ``ray://host:port`` joins a cluster).
+    Ray instance, ``auto`` or ``ray://host:port`` joins a cluster). ``monitor``: called with
+    the build's own broker, started with a WebSockets listener for the monitor page.
     """
     out_dir = Path(out_dir)
     start = time.monotonic()
@@ -74,7 +76,7 @@ def run_build(
     coordinator = Coordinator(
         config, out_dir, identity, workers, writers, observer, on_progress, executor, options
     )
-    with _broker(config, broker_url, observer) as (url, broker):
+    with _broker(config, broker_url, observer, monitor) as (url, broker):
         coordinator.run(url, broker, worker_url=worker_broker_url)
     result = coordinator.result
     result.seconds = time.monotonic() - start
@@ -91,13 +93,20 @@ def run_build(
 
 @contextlib.contextmanager
 def _broker(
-    config: BuildConfig, broker_url: str | None, observer: Observer | None
+    config: BuildConfig,
+    broker_url: str | None,
+    observer: Observer | None,
+    monitor: Callable[[ManagedBroker], None] | None = None,
 ) -> Iterator[tuple[str, ManagedBroker | None]]:
     if broker_url:
         yield broker_url, None
         return
     max_bytes = int(config.transfer.max_sample_mb * 2**20) + 2**16  # + wire header room
-    with ManagedBroker(max_message_bytes=max_bytes, preexec_fn=die_with_parent) as broker:
+    with ManagedBroker(
+        max_message_bytes=max_bytes, preexec_fn=die_with_parent, websockets=monitor is not None
+    ) as broker:
+        if monitor:
+            monitor(broker)
         if observer:
             observer("broker", {"url": broker.url, "pid": broker.pid})
         yield broker.url, broker

@@ -11,7 +11,9 @@ runs past ``build.sample_timeout_s`` gets the worker killed), ``("published", in
 broker has the sample, ``("retried", {"index", "attempt", "failures"})`` before that when the
 sample needed retries, ``("failed", {"index", "failures"})`` when every attempt allowed by
 ``build.on_sample_error: retry`` failed (the worker goes on with its next index), ``("done",
-None)``, ``("error", text)`` (the build cannot go on).
+None)``, ``("error", text)`` (the build cannot go on); before ``published``, ``("outcome",
+{...})`` when the sample is a grasp attempt or a navigation episode (``live_preview``); at most
+once a second an annotated preview goes to the monitors over MQTT.
 """
 
 from __future__ import annotations
@@ -27,6 +29,7 @@ import traceback
 from multiprocessing.connection import Connection
 from typing import Any
 
+from datagen.build.live_preview import PreviewFeed, sample_outcome
 from datagen.build.production import SampleFailed, Task, produce_with_policy
 from datagen.config import config_from_dict
 from datagen.engines.sim.render import keep_renderer_alive
@@ -119,6 +122,7 @@ def worker_main(
             secret=secret,
         ) as publisher:
             stage_log = os.environ.get(STAGE_LOG_ENV)
+            previews = PreviewFeed(broker_url, build_id, str(worker_id))
             channel.send("ready", None)
             while (task := channel.recv()) is not None:
                 index = task.index
@@ -143,9 +147,13 @@ def worker_main(
                 timings["publish_s"] = time.perf_counter() - start
                 if stage_log:
                     _log_stages(stage_log, worker_id, index, timings, produced.sample)
+                if (outcome := sample_outcome(produced.sample)) is not None:
+                    channel.send("outcome", outcome)
                 if produced.failures:
                     channel.send("retried", {"index": index, "attempt": produced.attempt, "failures": produced.failures})  # fmt: skip
                 channel.send("published", index)
+                previews.offer(produced.sample)  # after: the coordinator need not wait for it
+            previews.close()
         channel.stop_heartbeat()
         channel.send("done", None)
     except (EOFError, BrokenPipeError):

@@ -14,11 +14,11 @@ import signal
 import sys
 from pathlib import Path
 
-from datagen.cli import build_commands, dataset_commands, service_commands
+from datagen.cli import build_commands, dataset_commands, monitor_commands, service_commands
 from datagen.cli.common import EXIT_INTERRUPTED, EXIT_USER_ERROR, one_line
 from datagen.errors import ConfigError, UserInputError
 
-COMMAND_MODULES = (build_commands, service_commands, dataset_commands)
+COMMAND_MODULES = (build_commands, service_commands, dataset_commands, monitor_commands)
 
 
 def version() -> str:

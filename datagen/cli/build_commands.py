@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import contextlib
 import dataclasses
 import json
 import os
@@ -18,6 +19,7 @@ from datagen.cli.common import (
     whole_number,
     writer_ids,
 )
+from datagen.cli.monitor_commands import build_monitor
 from datagen.cli.progress import progress
 from datagen.config import BuildConfig, load_config
 from datagen.engines.transfer.broker_url import BROKER_URL_ENV, WORKER_BROKER_URL_ENV
@@ -35,6 +37,11 @@ CHECK_HELP = (
     "only validate: the config, the options and --out (exists or can be created, is writable, "
     "and what the build would do with it); print the result and exit 0 (2 on an error) without "
     "starting anything or leaving anything on disk"
+)
+
+MONITOR_HELP = (
+    "watch it live in the browser: serves the monitor page for the build's own broker and "
+    "prints its URL (an external broker: 'datagen monitor --broker ws://...', docs/monitor.md)"
 )
 
 
@@ -101,6 +108,7 @@ def add_parsers(commands) -> None:
     )
     build.add_argument("--no-preview", action="store_true", help="skip writing preview.png")
     build.add_argument("--check", action="store_true", help=CHECK_HELP)
+    build.add_argument("--monitor", action="store_true", help=MONITOR_HELP)
 
     build.add_argument(
         "--executor",
@@ -147,6 +155,7 @@ def add_parsers(commands) -> None:
     )
     grasp.add_argument("--overwrite", action="store_true", help=OVERWRITE_HELP)
     grasp.add_argument("--check", action="store_true", help=CHECK_HELP)
+    grasp.add_argument("--monitor", action="store_true", help=MONITOR_HELP)
     # a campaign is a build: the build options it does not expose take their defaults
     grasp.set_defaults(
         broker=None,
@@ -242,6 +251,7 @@ def run_build_command(args: argparse.Namespace, config=None) -> int:
         f"(seed {config.seed}) with {args.workers} workers into {out}"
     )
     bar = progress(config.num_samples, "durable")
+    pages = contextlib.ExitStack()
     try:
         result = run_build(
             config,
@@ -257,9 +267,11 @@ def run_build_command(args: argparse.Namespace, config=None) -> int:
             executor=args.executor,
             ray_address=args.ray_address,
             on_export_progress=_export_bars(),
+            monitor=build_monitor(pages) if args.monitor else None,
         )
     finally:
         bar.close()
+        pages.close()
     if result.already_complete:
         print(f"datagen: {out} already holds this build ({result.samples} samples); nothing to do.")
     else:
@@ -335,6 +347,11 @@ def check_build(args: argparse.Namespace, config: BuildConfig, out: Path) -> str
         raise UserInputError(
             f"--worker-broker (or ${WORKER_BROKER_URL_ENV}) names the workers' user on an "
             f"external broker: give that broker with --broker (or ${BROKER_URL_ENV}) too"
+        )
+    if getattr(args, "monitor", False) and urls["broker"]:
+        raise UserInputError(
+            "--monitor serves the page for the build's own broker; with an external broker run "
+            "'datagen monitor --broker ws://HOST:PORT' (its WebSockets listener: docs/monitor.md)"
         )
     if args.executor == "ray" and args.ray_address and not urls["broker"]:
         raise UserInputError(

@@ -17,6 +17,13 @@ from typing import Any
 
 import dacite
 
+from datagen.config.appearance import (
+    BackgroundConfig,
+    CameraEffectsConfig,
+    DepthSensorConfig,
+    DistractorsConfig,
+)
+from datagen.config.pictures import check_pictures, resolve_picture_folders
 from datagen.config.sections import (
     SAMPLE_ERROR_POLICIES,
     SHAPE_FAMILIES,
@@ -53,7 +60,11 @@ class BuildConfig:
     objects: ObjectsConfig = field(default_factory=ObjectsConfig)
     materials: MaterialsConfig = field(default_factory=MaterialsConfig)
     lighting: LightingConfig = field(default_factory=LightingConfig)
+    background: BackgroundConfig = field(default_factory=BackgroundConfig)
+    distractors: DistractorsConfig = field(default_factory=DistractorsConfig)
     camera: CameraConfig = field(default_factory=CameraConfig)
+    camera_effects: CameraEffectsConfig = field(default_factory=CameraEffectsConfig)
+    depth_sensor: DepthSensorConfig = field(default_factory=DepthSensorConfig)
     robot: RobotConfig = field(default_factory=RobotConfig)
     physics: PhysicsConfig = field(default_factory=PhysicsConfig)
     output: OutputConfig = field(default_factory=OutputConfig)
@@ -114,8 +125,10 @@ def config_from_dict(data: Any, source: str = "<config>") -> BuildConfig:
             config.objects, assets_dir=_resolved(config.objects.assets_dir, source)
         )
         config = dataclasses.replace(config, objects=objects)
+    config = resolve_picture_folders(config, source)
     _check_ranges(config, source, prefix="")
     _check_semantics(config, source)
+    check_pictures(config, source)
     return config
 
 

@@ -6,7 +6,11 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from typing import Any
 
-SHAPE_FAMILIES = ("box", "cylinder", "sphere", "capsule", "convex", "compound")
+from datagen.textures import TEXTURE_FAMILIES
+
+PRIMITIVE_FAMILIES = ("box", "cylinder", "sphere", "capsule", "convex", "compound")
+HOUSEHOLD_FAMILIES = ("bottle", "can", "mug", "bowl", "lidded_box", "tool")
+SHAPE_FAMILIES = (*PRIMITIVE_FAMILIES, *HOUSEHOLD_FAMILIES)
 SAMPLE_ERROR_POLICIES = ("fail", "retry")
 
 
@@ -63,6 +67,19 @@ class MaterialsConfig:
     value: tuple[float, float] = field(
         default=(0.35, 1.0), metadata=_range(0.0, 1.0, "HSV value of object colours")
     )
+    texture_probability: float = field(
+        default=0.8, metadata=_range(0.0, 1.0, "chance that a surface is textured")
+    )
+    texture_families: tuple[str, ...] = TEXTURE_FAMILIES
+    texture_scale_m: tuple[float, float] = field(
+        default=(0.03, 0.4), metadata=_range(0.001, 100.0, "metres per repeat of a texture")
+    )
+    textures_dir: str = ""  # users' PNG/JPEG textures; relative to the config file
+    textures_dir_share: float = field(
+        default=0.5,
+        metadata=_range(0.0, 1.0, "share of textured surfaces showing a picture of textures_dir"),
+    )
+    normal_maps: bool = False
 
 
 @dataclass(frozen=True)

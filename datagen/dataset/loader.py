@@ -27,18 +27,29 @@ from datagen.dataset.integrity import verify_dataset
 from datagen.dataset.manifest import DatasetError, read_manifest
 from datagen.shards import member_key, scan_members
 
-# part name -> item field, for the parts decoded as images
-_IMAGES = {"rgb.png": "rgb", "depth.png": "depth", "seg.png": "seg", "semantic.png": "semantic"}
+# part name -> item field, for the parts decoded as images (depth_sensor.png: the sensor
+# model's depth, rgb_clean.png: colour before the camera effects; only where the build made them)
+_IMAGES = {
+    "rgb.png": "rgb",
+    "depth.png": "depth",
+    "seg.png": "seg",
+    "semantic.png": "semantic",
+    "depth_sensor.png": "depth_sensor",
+    "rgb_clean.png": "rgb_clean",
+}
+_COLOUR_PARTS = ("rgb.png", "rgb_clean.png")  # stored BGR by OpenCV, returned RGB
+_KINDS = "rgb|rgb_clean|depth|depth_sensor|seg|semantic"
 
-
-_FRAME_PART = re.compile(r"^f(\d{4})\.(rgb|depth|seg|semantic)\.png$")
+_FRAME_PART = re.compile(rf"^f(\d{{4}})\.({_KINDS})\.png$")
 # another camera of a sample: wrist.rgb.png, view1.depth.png, post.seg.png, ...
-_CAMERA_PART = re.compile(r"^([A-Za-z][\w-]*)\.(rgb|depth|seg|semantic)\.png$")
+_CAMERA_PART = re.compile(rf"^([A-Za-z][\w-]*)\.({_KINDS})\.png$")
 
 
 def decode_parts(parts: dict[str, bytes]) -> dict[str, Any]:
     """Encoded parts -> arrays: rgb HxWx3 uint8 RGB, depth HxW uint16 mm, seg HxW instance ids,
-    semantic HxW class ids, meta dict; unknown parts stay bytes under their own name.
+    semantic HxW class ids, meta dict; where the build made them, depth_sensor HxW uint16 mm
+    (0 = no reading) and rgb_clean HxWx3 uint8 RGB; unknown parts stay bytes under their own
+    name.
 
     The images of a sample's other cameras are under ``views`` by camera name
     (``item["views"]["view1"]["rgb"]``, ``["wrist"]``, ...; the main camera's stay at the top).
@@ -107,7 +118,7 @@ def _decode_png(name: str, data: bytes) -> np.ndarray:
     image = cv2.imdecode(np.frombuffer(data, np.uint8), cv2.IMREAD_UNCHANGED)
     if image is None:
         raise DatasetError(f"part {name!r} is not a decodable image")
-    if name == "rgb.png" and image.ndim == 3:
+    if name in _COLOUR_PARTS and image.ndim == 3:
         code = cv2.COLOR_BGRA2RGB if image.shape[2] == 4 else cv2.COLOR_BGR2RGB
         image = cv2.cvtColor(image, code)
     return image

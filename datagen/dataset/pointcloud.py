@@ -16,17 +16,38 @@ _IMAGE_PARTS = ("rgb.png", "depth.png", "seg.png", "semantic.png")
 
 
 def view_points(
-    depth_mm: np.ndarray, intrinsics, extrinsics, depth_scale: float = 0.001, stride: int = 1
+    depth_mm: np.ndarray,
+    intrinsics,
+    extrinsics,
+    depth_scale: float = 0.001,
+    stride: int = 1,
+    distortion=None,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """World points (N, 3) of the pixels with depth, and their rows and columns (every
-    ``stride``-th pixel). Pixel (col, row) has its centre at (col + 0.5, row + 0.5)."""
+    ``stride``-th pixel). Pixel (col, row) has its centre at (col + 0.5, row + 0.5). With
+    ``distortion`` (OpenCV k1, k2, p1, p2, k3: a view's ``camera.distortion``) the pixel
+    centres are undistorted first, so the cloud stays metric."""
     rows, cols = np.nonzero(depth_mm[::stride, ::stride] > 0)
     rows, cols = rows * stride, cols * stride
     z = depth_mm[rows, cols].astype(np.float64) * depth_scale
-    rays = np.linalg.inv(np.asarray(intrinsics, float)) @ np.stack([cols + 0.5, rows + 0.5, np.ones_like(z)])  # fmt: skip
+    rays = _rays(cols + 0.5, rows + 0.5, np.asarray(intrinsics, float), distortion)
     camera = np.vstack([rays * z, np.ones_like(z)])
     world = (np.linalg.inv(np.asarray(extrinsics, float)) @ camera)[:3].T
     return world, rows, cols
+
+
+def _rays(u: np.ndarray, v: np.ndarray, intrinsics: np.ndarray, distortion) -> np.ndarray:
+    """(3, N) camera-frame directions with z = 1 through image-plane points (u, v)."""
+    if distortion is None or not any(distortion):
+        return np.linalg.inv(intrinsics) @ np.stack([u, v, np.ones_like(u)])
+    import cv2
+
+    points = np.stack([u, v], -1).reshape(-1, 1, 2).astype(np.float64)
+    criteria = (cv2.TERM_CRITERIA_COUNT | cv2.TERM_CRITERIA_EPS, 40, 1e-10)
+    normalised = cv2.undistortPointsIter(
+        points, intrinsics, np.asarray(distortion, float), None, None, criteria
+    ).reshape(-1, 2)
+    return np.vstack([normalised.T, np.ones(len(normalised))])
 
 
 def sample_point_cloud(
@@ -42,7 +63,7 @@ def sample_point_cloud(
         camera = view.camera
         world, rows, cols = view_points(
             images["depth"], camera["intrinsics"], camera["extrinsics_world_to_camera"],
-            camera.get("depth_scale", 0.001), stride,
+            camera.get("depth_scale", 0.001), stride, camera.get("distortion"),
         )  # fmt: skip
         clouds.append({
             "positions": world.astype(np.float32),

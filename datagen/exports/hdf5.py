@@ -6,7 +6,8 @@ exist); ``/samples/<key>`` per sample with its metadata JSON in the ``meta`` att
 
 What a group holds follows the sample's stored data, never its scene family's name. A sample
 whose labelled views form a time sequence (``datagen.dataset.views``; navigation episodes)
-stacks them along the first axis (``rgb`` T x H x W x 3, ``depth``, ``seg``, ``semantic``, and
+stacks them along the first axis (``rgb`` T x H x W x 3, ``depth``, ``seg``, ``semantic``,
+``depth_sensor`` and ``rgb_clean`` where the build made them, and
 the per-frame records' ``pose``, ``command``, ...); a sample of cameras (grasp samples and
 attempts) holds one image set per camera (``rgb``, ..., ``view1/rgb`` for the extra views of
 ``render.views``, ``wrist/rgb``, ``post/rgb``, ...).
@@ -28,7 +29,14 @@ from datagen.dataset.loader import decode_parts
 from datagen.dataset.views import LabelledView, is_sequence, labelled_views
 
 FORMAT = "datagen.hdf5/1"
-_IMAGES = ("rgb", "depth", "seg", "semantic")
+_IMAGES = (
+    "rgb",
+    "depth",
+    "seg",
+    "semantic",
+    "depth_sensor",
+    "rgb_clean",
+)  # the last two: where made
 _IMAGE_PARTS = tuple(f"{n}.png" for n in _IMAGES)
 _FRAME_FIELDS = {  # per-frame record field -> dtype, stacked when every frame has it
     "pose": np.float64, "command": np.float64, "goal_in_robot": np.float64,

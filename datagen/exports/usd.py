@@ -15,17 +15,20 @@ def export(
     out: Path,
     on_progress: Callable[[int, int], None] | None = None,
 ) -> list[Path]:
+    from pxr import Usd
+
     from datagen.exports.usd_stage import scene_stage, validation_errors
 
     out.mkdir(parents=True)
     files = []
     for i in range(len(dataset)):
-        stage = scene_stage(dataset.metadata(i))
-        errors = validation_errors(stage)
+        path = out / f"{dataset.keys[i]}.usda"
+        # textured looks' tiles go to out/textures/; validated from the file, where they resolve
+        stage = scene_stage(dataset.metadata(i), out)  # held: the layer lives as long as it
+        stage.GetRootLayer().Export(str(path))
+        errors = validation_errors(Usd.Stage.Open(str(path)))
         if errors:
             raise ValueError(f"USD of sample {dataset.keys[i]} fails validation: {errors[:5]}")
-        path = out / f"{dataset.keys[i]}.usda"
-        stage.GetRootLayer().Export(str(path))
         files.append(path)
         if on_progress:
             on_progress(i + 1, len(dataset))

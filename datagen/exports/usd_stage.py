@@ -2,8 +2,12 @@
 
 ``/World`` (z up, metres; ``customData.datagen``: key, seed, scene, and every randomised value as
 JSON) holds ``Looks/`` (UsdPreviewSurface materials with the sampled colour, roughness and
-metallic), ``Floor``, ``Table``, ``Tray``, ``Objects/object_<k>`` (an Xform at the object's world
-pose, one Mesh per convex part, class and physical values in customData), ``Robot`` (an Xform at
+metallic; a textured look reads its tile from ``textures/<key>/<look>.png`` beside the stage:
+:mod:`datagen.exports.usd_looks`), ``Floor``, ``Table``, ``Tray``, ``Objects/object_<k>`` (an
+Xform at the object's world pose, one Mesh per convex part, class and physical values in
+customData), ``Background/`` (backdrop walls, ceiling and room lights, when the sample has a
+room), ``Distractors/distractor_<k>`` (when it has distractors: its visual Mesh at its static
+pose), ``Robot`` (an Xform at
 the base pose; its description file and joint positions in customData), ``Lights/`` (a DomeLight
 for the ambient level, a DistantLight for the key light, SphereLights shaped as spots) and
 ``Cameras/<name>`` (one Camera per view: workspace, view1, ... of ``render.views``, wrist; its
@@ -19,8 +23,10 @@ from typing import Any
 
 import numpy as np
 import trimesh
-from pxr import Gf, Sdf, Usd, UsdGeom, UsdLux, UsdShade, UsdValidation, Vt
+from pxr import Gf, Usd, UsdGeom, UsdLux, UsdValidation, Vt
 
+from datagen.exports import usd_looks
+from datagen.room_layout import wall_boxes
 from datagen.shapes import build_geometry
 from datagen.tabletop_layout import TABLE_HALF, TABLE_TOP, TRAY_CENTRE, tray_boxes
 
@@ -40,29 +46,6 @@ def _xform(stage, path: str, pose: np.ndarray | None = None) -> UsdGeom.Xform:
     if pose is not None:
         xform.AddTransformOp().Set(_matrix(pose))
     return xform
-
-
-def _mesh(stage, path: str, mesh: trimesh.Trimesh, material: UsdShade.Material) -> None:
-    usd_mesh = UsdGeom.Mesh.Define(stage, path)
-    usd_mesh.CreatePointsAttr(Vt.Vec3fArray([Gf.Vec3f(*map(float, v)) for v in mesh.vertices]))
-    usd_mesh.CreateFaceVertexCountsAttr(Vt.IntArray([3] * len(mesh.faces)))
-    usd_mesh.CreateFaceVertexIndicesAttr(Vt.IntArray([int(i) for i in mesh.faces.ravel()]))
-    usd_mesh.CreateSubdivisionSchemeAttr(UsdGeom.Tokens.none)
-    lo, hi = mesh.bounds
-    usd_mesh.CreateExtentAttr(Vt.Vec3fArray([Gf.Vec3f(*map(float, lo)), Gf.Vec3f(*map(float, hi))]))
-    UsdShade.MaterialBindingAPI.Apply(usd_mesh.GetPrim()).Bind(material)
-
-
-def _material(stage, name: str, values: dict[str, Any]) -> UsdShade.Material:
-    material = UsdShade.Material.Define(stage, f"/World/Looks/{name}")
-    shader = UsdShade.Shader.Define(stage, f"/World/Looks/{name}/PreviewSurface")
-    shader.CreateIdAttr("UsdPreviewSurface")
-    r, g, b = values["base_color"][:3]
-    shader.CreateInput("diffuseColor", Sdf.ValueTypeNames.Color3f).Set(Gf.Vec3f(r, g, b))
-    shader.CreateInput("roughness", Sdf.ValueTypeNames.Float).Set(float(values["roughness"]))
-    shader.CreateInput("metallic", Sdf.ValueTypeNames.Float).Set(float(values["metallic"]))
-    material.CreateSurfaceOutput().ConnectToSource(shader.ConnectableAPI(), "surface")
-    return material
 
 
 def _lights(stage, lighting: dict[str, Any]) -> None:
@@ -106,44 +89,74 @@ def _camera(stage, name: str, camera: dict[str, Any]) -> None:
     prim.SetCustomDataByKey("datagen:intrinsics", json.dumps(camera["intrinsics"]))
     prim.SetCustomDataByKey("datagen:extrinsics_world_to_camera", json.dumps(camera["extrinsics_world_to_camera"]))  # fmt: skip
     prim.SetCustomDataByKey("datagen:resolution", Gf.Vec2i(w, h))
+    for key in ("distortion", "distortion_model", "render_intrinsics"):
+        if key in camera:
+            prim.SetCustomDataByKey(f"datagen:{key}", json.dumps(camera[key]))
 
 
 def _box_mesh(half, centre) -> trimesh.Trimesh:
     return trimesh.creation.box(extents=2 * np.asarray(half), transform=trimesh.transformations.translation_matrix(centre))  # fmt: skip
 
 
-def scene_stage(meta: dict[str, Any]) -> Usd.Stage:
-    """An in-memory stage of the sample's scene (grasp samples and attempts)."""
+def _centred(centre) -> np.ndarray:
+    """The frame SAPIEN maps a box's texture in: its centre (boxes are drawn about it)."""
+    return trimesh.transformations.translation_matrix(-np.asarray(centre, float))
+
+
+def _background(stage, key: str, values: dict[str, Any], out_dir: Path | None) -> None:
+    """Backdrop walls (and ceiling) as meshes, room lights as SphereLights."""
+    _xform(stage, "/World/Background")
+    for name, (half, centre) in wall_boxes(values).items():
+        look = usd_looks.material(stage, key, f"wall_{name}", values["walls"][name], out_dir)
+        box = _box_mesh(half, centre)
+        usd_looks.mesh(stage, f"/World/Background/wall_{name}", box, look, values["walls"][name], _centred(centre))  # fmt: skip
+    for i, light in enumerate(values["lights"]):
+        usd_light = UsdLux.SphereLight.Define(stage, f"/World/Background/light_{i}")
+        usd_light.CreateRadiusAttr(0.05)
+        usd_light.CreateIntensityAttr(float(light["intensity"]))
+        usd_light.CreateColorAttr(Gf.Vec3f(*map(float, light["colour"])))
+        usd_light.AddTranslateOp().Set(Gf.Vec3d(*map(float, light["position"])))
+
+
+def scene_stage(meta: dict[str, Any], out_dir: str | Path | None = None) -> Usd.Stage:
+    """An in-memory stage of the sample's scene (grasp samples and attempts). The tiles of its
+    textured looks are written under ``out_dir`` (where the stage will be exported), if given."""
     if "objects" not in meta:
         raise ValueError(f"sample {meta.get('key')}: USD export covers grasp scenes only")
+    out_dir = Path(out_dir) if out_dir is not None else None
+    key = meta["key"]
     stage = Usd.Stage.CreateInMemory()
     UsdGeom.SetStageUpAxis(stage, UsdGeom.Tokens.z)
     UsdGeom.SetStageMetersPerUnit(stage, 1.0)
     world = _xform(stage, "/World")
     stage.SetDefaultPrim(world.GetPrim())
-    world.GetPrim().SetCustomDataByKey("datagen:key", meta["key"])
+    world.GetPrim().SetCustomDataByKey("datagen:key", key)
     world.GetPrim().SetCustomDataByKey("datagen:seed", int(meta["seed"]))
     world.GetPrim().SetCustomDataByKey("datagen:scene", meta["scene"])
     world.GetPrim().SetCustomDataByKey("datagen:randomisation", json.dumps(meta["randomisation"], sort_keys=True))  # fmt: skip
     materials = meta["randomisation"]["materials"]
-    looks = {n: _material(stage, n, materials[n]) for n in ("floor", "table", "tray")}
-    _mesh(stage, "/World/Floor", _box_mesh([FLOOR_HALF, FLOOR_HALF, 0.005], [0, 0, -0.005]), looks["floor"])  # fmt: skip
+    looks = {n: usd_looks.material(stage, key, n, materials[n], out_dir) for n in ("floor", "table", "tray")}  # fmt: skip
+    floor_centre, top_centre = [0, 0, -0.005], [0, 0, TABLE_TOP - 0.015]
+    usd_looks.mesh(stage, "/World/Floor", _box_mesh([FLOOR_HALF, FLOOR_HALF, 0.005], floor_centre), looks["floor"], materials["floor"], _centred(floor_centre))  # fmt: skip
     _xform(stage, "/World/Table")
-    _mesh(stage, "/World/Table/top", _box_mesh([*TABLE_HALF, 0.015], [0, 0, TABLE_TOP - 0.015]), looks["table"])  # fmt: skip
+    usd_looks.mesh(stage, "/World/Table/top", _box_mesh([*TABLE_HALF, 0.015], top_centre), looks["table"], materials["table"], _centred(top_centre))  # fmt: skip
     _xform(stage, "/World/Tray", np.asarray(trimesh.transformations.translation_matrix(TRAY_CENTRE)))  # fmt: skip
     for j, (half, offset) in enumerate(tray_boxes()):
-        _mesh(stage, f"/World/Tray/part_{j}", _box_mesh(half, offset), looks["tray"])
+        usd_looks.mesh(stage, f"/World/Tray/part_{j}", _box_mesh(half, offset), looks["tray"], materials["tray"], _centred(offset))  # fmt: skip
     _xform(stage, "/World/Objects")
     for obj, material in zip(meta["objects"], materials["objects"], strict=True):
         path = f"/World/Objects/object_{obj['instance_id']}"
         xform = _xform(stage, path, np.asarray(obj["pose_world"]["matrix"]))
-        look = _material(stage, f"object_{obj['instance_id']}", material)
+        look = usd_looks.material(stage, key, f"object_{obj['instance_id']}", material, out_dir)
         for j, part in enumerate(build_geometry(obj["shape"]).parts):
-            _mesh(stage, f"{path}/part_{j}", part, look)
+            usd_looks.mesh(stage, f"{path}/part_{j}", part, look, material)
         prim = xform.GetPrim()
-        for key in ("class", "instance_id", "mass", "friction", "restitution", "density"):
-            prim.SetCustomDataByKey(f"datagen:{key}", obj[key])
+        for field in ("class", "instance_id", "mass", "friction", "restitution", "density"):
+            prim.SetCustomDataByKey(f"datagen:{field}", obj[field])
         prim.SetCustomDataByKey("datagen:shape", json.dumps(obj["shape"], sort_keys=True))
+    if "background" in meta["randomisation"]:
+        _background(stage, key, meta["randomisation"]["background"], out_dir)
+    _distractors(stage, key, meta["randomisation"].get("distractors", []), out_dir)
     robot = _xform(stage, "/World/Robot", np.asarray(meta["robot"]["base_pose"]["matrix"]))
     robot.GetPrim().SetCustomDataByKey("datagen:description", meta["robot"]["description"])
     robot.GetPrim().SetCustomDataByKey("datagen:qpos", Vt.DoubleArray(meta["robot"]["qpos"]))
@@ -152,6 +165,10 @@ def scene_stage(meta: dict[str, Any]) -> Usd.Stage:
     _xform(stage, "/World/Cameras")
     for name, view in meta["views"].items():
         _camera(stage, name, view["camera"])
+        for part in ("camera_effects", "depth_sensor"):  # values that make those images again
+            if part in view:
+                prim = stage.GetPrimAtPath(f"/World/Cameras/{name}")
+                prim.SetCustomDataByKey(f"datagen:{part}", json.dumps(view[part]))
     return stage
 
 
@@ -163,7 +180,7 @@ def validation_errors(stage: Usd.Stage) -> list[str]:
 
 
 def write_usd(meta: dict[str, Any], path: str | Path) -> Path:
-    stage = scene_stage(meta)
+    stage = scene_stage(meta, Path(path).parent)
     stage.GetRootLayer().Export(str(path))
     return Path(path)
 
@@ -178,3 +195,20 @@ def camera_matrices(stage: Usd.Stage, name: str) -> tuple[np.ndarray, np.ndarray
     cx = camera.GetHorizontalApertureOffsetAttr().Get() / APERTURE_PER_PIXEL + w / 2
     cy = h / 2 - camera.GetVerticalApertureOffsetAttr().Get() / APERTURE_PER_PIXEL
     return np.array([[f, 0, cx], [0, f, cy], [0, 0, 1.0]]), E
+
+
+def _distractors(stage, key: str, distractors: list[dict[str, Any]], out_dir: Path | None) -> None:
+    """``Distractors/distractor_<k>`` (when the sample has any): an Xform at its static pose with
+    its visual Mesh, placement and shape in customData."""
+    if distractors:
+        _xform(stage, "/World/Distractors")
+    for k, spec in enumerate(distractors, start=1):
+        path = f"/World/Distractors/distractor_{k}"
+        pose = trimesh.transformations.quaternion_matrix(spec["pose"]["quat_wxyz"])
+        pose[:3, 3] = spec["pose"]["position"]
+        prim = _xform(stage, path, pose).GetPrim()
+        look = usd_looks.material(stage, key, f"distractor_{k}", spec["material"], out_dir)
+        visual = build_geometry(spec["shape"]).visual
+        usd_looks.mesh(stage, f"{path}/visual", visual, look, spec["material"])
+        prim.SetCustomDataByKey("datagen:placement", spec["placement"])
+        prim.SetCustomDataByKey("datagen:shape", json.dumps(spec["shape"], sort_keys=True))

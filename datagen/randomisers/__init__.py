@@ -6,12 +6,15 @@ from __future__ import annotations
 from typing import Any
 
 from datagen.config import BuildConfig
+from datagen.randomisers.background import sample_background
 from datagen.randomisers.camera import extra_view_name, sample_camera, sample_extra_view
+from datagen.randomisers.distractors import sample_distractors
 from datagen.randomisers.lighting import sample_lighting
 from datagen.randomisers.materials import sample_materials
 from datagen.randomisers.objects import sample_objects
 from datagen.randomisers.poses import sample_drop_poses
 from datagen.randomisers.robot import sample_robot
+from datagen.randomisers.textures import add_textures
 from datagen.seeding import sample_rng
 
 
@@ -36,11 +39,25 @@ def sample_scene(
         "drop_poses": sample_drop_poses(
             rng("drop_poses"), config.objects, len(objects), tray_centre, tray_inner_half
         ),
-        "materials": sample_materials(rng("materials"), config.materials, len(objects)),
+        # textures come from a stream of their own: probability 0 leaves the materials as they were
+        "materials": add_textures(
+            rng("textures"),
+            config.materials,
+            sample_materials(rng("materials"), config.materials, len(objects)),
+        ),
         "lighting": sample_lighting(rng("lighting"), config.lighting, tray_centre),
         "camera": sample_camera(rng("camera"), config.camera),
         "robot": sample_robot(rng("robot"), config.robot),
     }
+    if config.background.enabled:  # absent when off: the scene stays as it was
+        params["background"] = sample_background(
+            rng("background"), config.background, config.materials, tray_centre
+        )
+    if config.distractors.enabled:  # absent when off: the scene stays as it was
+        room = params["background"]["room"] if "background" in params else None
+        params["distractors"] = sample_distractors(
+            rng("distractors"), config.distractors, config.materials, params["camera"], room
+        )
     if config.render.views > 1:  # absent for one view: a one-view sample stays as it was
         names = [extra_view_name(k) for k in range(1, config.render.views)]
         params["extra_views"] = {

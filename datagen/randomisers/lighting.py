@@ -64,7 +64,7 @@ def apply_lighting(scene: sapien.Scene, values: dict[str, Any], shadow_map_size:
                 shadow=light["shadow"],
                 position=values.get("shadow_centre", [0, 0, 1]),
                 shadow_scale=scale,
-                shadow_near=-2.0 * scale,
+                shadow_near=values.get("shadow_near", -2.0 * scale),  # a room's ceiling
                 shadow_far=2.0 * scale,
                 shadow_map_size=shadow_map_size,
             )

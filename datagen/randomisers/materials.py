@@ -1,4 +1,5 @@
-"""Material randomiser: base colour, roughness and metallic of objects, table, tray and floor."""
+"""Material randomiser: base colour, roughness and metallic of objects, table, tray and floor
+(their textures: :mod:`datagen.randomisers.textures`, a stream of their own)."""
 
 from __future__ import annotations
 
@@ -9,6 +10,7 @@ import numpy as np
 import sapien
 
 from datagen.config.sections import MaterialsConfig
+from datagen.randomisers.textures import surface_material
 
 # Surfaces of the room keep plausible colour ranges (HSV value), objects span the config's.
 _SURFACE_VALUE = {"table": (0.35, 0.85), "tray": (0.2, 0.9), "floor": (0.25, 0.75)}
@@ -42,7 +44,6 @@ def sample_materials(
 
 
 def render_material(values: dict[str, Any]) -> sapien.render.RenderMaterial:
-    """Apply step: sampled values -> a SAPIEN material."""
-    return sapien.render.RenderMaterial(
-        base_color=values["base_color"], roughness=values["roughness"], metallic=values["metallic"]
-    )
+    """Apply step: sampled values -> a SAPIEN material (a texture, if it has one, maps only
+    onto meshes with texture coordinates: :mod:`datagen.randomisers.textures`)."""
+    return surface_material(values)

@@ -14,11 +14,13 @@ from datagen.config import BuildConfig
 from datagen.navigation.grid import Layout
 from datagen.randomisers.lighting import light_direction
 from datagen.randomisers.materials import random_colour, random_material
+from datagen.randomisers.textures import texture_surfaces
 from datagen.seeding import sample_rng
 
 # HSV value ranges that keep rooms plausible; obstacles use the config's full colour range.
 _SURFACE_VALUE = {"floor": (0.2, 0.75), "walls": (0.5, 0.95), "doors": (0.3, 0.8)}
 OBSTACLE_SHAPES = ("box", "cylinder")
+TEXTURED_SURFACES = ("floor", "walls", "doors")  # boxes: texture coordinates by box mapping
 CEILING_LIGHT_BELOW_TOP = 0.2  # metres below the top of the walls
 LAMP_CLEARANCE = 0.8  # metres
 
@@ -97,8 +99,14 @@ def sample_nav_scene(
         "wall_height": wall_height,
         "door_top": round(min(wall_height - 0.1, _u(geometry_rng, (1.95, 2.15))), 6),
         "obstacles": obstacles,
-        "materials": sample_nav_materials(
-            sample_rng(seed, index, "nav_materials", attempt), config, len(obstacles)
+        # textures from a stream of their own: probability 0 leaves the materials as they were
+        "materials": texture_surfaces(
+            sample_rng(seed, index, "nav_textures", attempt),
+            config.materials,
+            sample_nav_materials(
+                sample_rng(seed, index, "nav_materials", attempt), config, len(obstacles)
+            ),
+            TEXTURED_SURFACES,
         ),
         "lighting": sample_nav_lighting(
             sample_rng(seed, index, "nav_lighting", attempt), config, layout, wall_height

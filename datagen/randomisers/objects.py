@@ -8,9 +8,11 @@ import numpy as np
 import sapien
 import trimesh
 
-from datagen.config.sections import ObjectsConfig
+from datagen.config.sections import HOUSEHOLD_FAMILIES, ObjectsConfig
 from datagen.geometry import random_quaternion
+from datagen.randomisers.household import sample_household_parts
 from datagen.randomisers.materials import render_material
+from datagen.randomisers.textures import textured_mesh_shape
 from datagen.shapes import ObjectGeometry, build_geometry
 
 
@@ -59,6 +61,8 @@ def sample_shape(rng: np.random.Generator, family: str, size: float) -> dict[str
             sub["offset"] = (rng.uniform(-0.5, 0.5, 3) * half * 0.6).round(6).tolist()
             sub["quat_wxyz"] = random_quaternion(rng)
             parts.append(sub)
+    elif family in HOUSEHOLD_FAMILIES:
+        parts = sample_household_parts(rng, family, size)
     else:
         raise ValueError(f"unknown shape family {family!r}")
     return {"family": family, "parts": parts}
@@ -102,7 +106,10 @@ def sample_objects(rng: np.random.Generator, cfg: ObjectsConfig) -> list[dict[st
 
 
 def render_shape(mesh: trimesh.Trimesh, material: dict[str, Any]) -> sapien.render.RenderShape:
-    """A trimesh as a SAPIEN render shape with its own material (no texture coordinates)."""
+    """A trimesh as a SAPIEN render shape with its own material: box-mapped texture
+    coordinates when the material has a texture, none otherwise (drawn as before textures)."""
+    if "texture" in material:
+        return textured_mesh_shape(mesh, material)
     return sapien.render.RenderShapeTriangleMesh(
         np.asarray(mesh.vertices, np.float32),
         np.asarray(mesh.faces, np.uint32),

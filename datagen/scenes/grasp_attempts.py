@@ -70,7 +70,7 @@ def produce(config: BuildConfig, seed: int, index: int, attempt: int = 0) -> Sam
     keep_renderer_alive()
     campaign = config.campaign
     scene = build_scene(config, seed, index, attempt)
-    pre = annotate_scene(scene, config, seed, index)
+    pre = annotate_scene(scene, config, seed, index, attempt=attempt)
     workspace = pre.metadata["views"]["workspace"]
     target = choose_target(sample_rng(seed, index, "grasp_target", attempt), scene, workspace)
 
@@ -128,7 +128,7 @@ def produce(config: BuildConfig, seed: int, index: int, attempt: int = 0) -> Sam
     }
     pre.metadata["attempt"] = record
     if campaign.post_grasp_frame:
-        post = annotate_scene(scene, config, seed, index, cameras=("workspace",))
+        post = annotate_scene(scene, config, seed, index, ("workspace",), attempt)
         pre.views["post"] = post.views["workspace"]  # encoded as post.rgb.png, post.depth.png, ...
         record["post_view_objects"] = post.metadata["views"]["workspace"]["objects"]
     return to_sample(pre, config.output.png_level)

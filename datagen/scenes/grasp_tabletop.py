@@ -20,10 +20,14 @@ from datagen.engines.sim.annotate import (
     object_view_records,
     object_world_record,
 )
+from datagen.engines.sim.camera_effects import sample_camera_effects
+from datagen.engines.sim.depth_sensor import sample_depth_sensor, specular
 from datagen.engines.sim.encode import DEFAULT_PNG_LEVEL, View, encode_view, metadata_bytes
 from datagen.engines.sim.render import DEPTH_SCALE, capture, keep_renderer_alive
+from datagen.engines.sim.view_effects import apply_view_effects
 from datagen.geometry import pose_record
 from datagen.sample import Sample, sample_key
+from datagen.seeding import sample_rng
 from datagen.worlds.tabletop import GraspScene, build_scene, grasp_classes
 
 METADATA_FORMAT = "datagen.sample/1"
@@ -47,14 +51,40 @@ def _labelled_objects(scene: GraspScene, class_id: dict[str, int]) -> list[Label
             parts=[np.asarray(p.vertices, float) for p in o.geometry.parts],
             obb_transform=o.geometry.obb_transform,
             obb_extents=o.geometry.obb_extents,
-            # a user's mesh is drawn as itself, not as its convex parts
+            # a user's mesh or a smooth household shape is drawn as itself, not as its parts
             visual_triangles=(
                 np.asarray(o.geometry.visual.triangles, float)
-                if "asset" in o.spec["shape"]
+                if "asset" in o.spec["shape"] or not o.geometry.visual_is_parts
                 else None
             ),
+            role=o.role,
         )
-        for o in scene.objects
+        for o in [*scene.objects, *scene.distractors]
+    ]
+
+
+def _effects(config: BuildConfig, seed: int, index: int, attempt: int, camera: str):
+    if not config.camera_effects.enabled:
+        return None
+    rng = sample_rng(seed, index, f"camera_effects.{camera}", attempt)
+    return sample_camera_effects(rng, config.camera_effects)
+
+
+def _sensor(config, seed: int, index: int, attempt: int, camera: str, shiny: list[int]):
+    if not config.depth_sensor.enabled:
+        return None
+    rng = sample_rng(seed, index, f"depth_sensor.{camera}", attempt)
+    return sample_depth_sensor(rng, config.depth_sensor, shiny)
+
+
+def _specular_instances(scene: GraspScene, config: BuildConfig) -> list[int]:
+    """Instance ids of the objects and distractors whose material a depth sensor cannot read."""
+    materials = scene.params["materials"]["objects"]
+    found = [o.instance_id for o, m in zip(scene.objects, materials, strict=True) if specular(m, config.depth_sensor)]  # fmt: skip
+    return found + [
+        o.instance_id
+        for o in scene.distractors
+        if specular(o.spec.get("material", {}), config.depth_sensor)
     ]
 
 
@@ -62,7 +92,8 @@ def render_annotated(
     config: BuildConfig, seed: int, index: int, attempt: int = 0
 ) -> AnnotatedSample:
     keep_renderer_alive()
-    return annotate_scene(build_scene(config, seed, index, attempt), config, seed, index)
+    scene = build_scene(config, seed, index, attempt)
+    return annotate_scene(scene, config, seed, index, attempt=attempt)
 
 
 def annotate_scene(
@@ -71,23 +102,25 @@ def annotate_scene(
     seed: int,
     index: int,
     cameras: tuple[str, ...] | None = None,
+    attempt: int = 0,
 ) -> AnnotatedSample:
     """Renders every camera of a built (settled) scene (only those named in ``cameras`` if
-    given) and annotates what they see."""
+    given) and annotates what they see; then each view's camera effects and sensor depth, drawn
+    from the streams ``camera_effects.<camera>`` and ``depth_sensor.<camera>``."""
     scene.scene.update_render()
     classes = grasp_classes(config)
     class_id = {name: i for i, name in enumerate(classes)}
     objects = _labelled_objects(scene, class_id)
     stuff_class_ids = {entity_id: class_id[name] for entity_id, name in scene.stuff.items()}
 
+    shiny = _specular_instances(scene, config)
     views, view_meta = {}, {}
     for name, camera in scene.cameras.items():
         if cameras is not None and name not in cameras:
             continue
         frame = capture(camera)
         instance, semantic = label_maps(frame, objects, stuff_class_ids)
-        views[name] = View(frame.rgb, frame.depth, instance, semantic)
-        view_meta[name] = {
+        meta = {
             "camera": {
                 "width": int(camera.width),
                 "height": int(camera.height),
@@ -101,9 +134,20 @@ def annotate_scene(
             },
             "objects": object_view_records(frame, instance, objects, float(camera.near)),
         }
+        views[name], view_meta[name] = apply_view_effects(
+            View(frame.rgb, frame.depth, instance, semantic),
+            frame.intrinsics,
+            frame.extrinsics,
+            meta,
+            objects,
+            _effects(config, seed, index, attempt, name),
+            _sensor(config, seed, index, attempt, name, shiny),
+            config.camera_effects.keep_clean,
+        )
 
     objects_meta = []
-    for obj, record in zip(scene.objects, map(object_world_record, objects), strict=True):
+    targets = objects[: len(scene.objects)]  # the distractors follow, in randomisation only
+    for obj, record in zip(scene.objects, map(object_world_record, targets), strict=True):
         spec = obj.spec
         body = obj.entity.find_component_by_type(sapien.physx.PhysxRigidDynamicComponent)
         objects_meta.append(

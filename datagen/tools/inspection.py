@@ -2,7 +2,9 @@
 
 Writes next to the dataset: ``inspect/overview.png`` (annotated grid; grasp attempts drawn on
 their pre-grasp frame, green for success and red for failure) and ``inspect/distributions.png``
-(histograms of randomised parameters and of visibility), and returns the summary. The summary
+(histograms of randomised parameters and of visibility), for frames ``inspect/randomisation.png``
+(the appearance randomisation: textures, rooms, distractors, camera effects, depth sensor), and
+returns the summary. The summary
 and plots are chosen by the samples' metadata format (``SUMMARIES``), never by the scene
 family's name; campaign statistics are added wherever the metadata holds grasp attempts.
 """
@@ -21,6 +23,7 @@ import numpy as np
 from datagen.dataset.loader import DatasetError, load
 from datagen.grasping.stats import campaign_stats
 from datagen.tools.preview import sample_tile, tile_grid
+from datagen.tools.randomisation_plots import plot_randomisation, randomisation_panels
 
 GRID_SAMPLES = 12
 
@@ -93,11 +96,14 @@ def _histogram(values: list[float], bins: int = 5) -> dict[str, int]:
 def _sample_summary(metas: list[dict[str, Any]]) -> dict[str, Any]:
     classes = Counter(o["class"] for m in metas for o in m["objects"])
     visible = [o["visible_fraction"] for m in metas for o in m["views"]["workspace"]["objects"]]
+    panels = randomisation_panels(metas)
     return {
         "samples": len(metas),
         "objects": sum(classes.values()),
         "objects_per_class": dict(sorted(classes.items())),
         "visible_fraction_histogram": _histogram(visible),
+        "surface_textures": dict(sorted(panels["surface textures"].items())),
+        "distractors": int(sum(panels["distractors per scene"])),
     }
 
 
@@ -158,4 +164,8 @@ def inspect_dataset(root: str | Path) -> tuple[dict[str, Any], list[Path]]:
     cv2.imwrite(str(overview), tile_grid([sample_tile(dataset[int(i)]) for i in chosen]))
     distributions = out / "distributions.png"
     _plot_distributions(values, f"{len(metas)} {kind.noun}", distributions)
-    return summary, [overview, distributions]
+    pictures = [overview, distributions]
+    if fmt == "datagen.sample/1":
+        pictures.append(out / "randomisation.png")
+        plot_randomisation(metas, f"{len(metas)} {kind.noun}", pictures[-1])
+    return summary, pictures

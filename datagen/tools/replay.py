@@ -82,10 +82,15 @@ def replay_differences(
     the replayed one and their largest per-channel difference per pixel (H, W) int."""
     from datagen.dataset.loader import load
     from datagen.dataset.views import camera_order
+    from datagen.engines.sim.view_effects import stored_colour
 
     dataset = load(root)
     item = dataset[dataset.keys.index(key)]
-    replayed = replay(root, key)
+    # the pinhole renders, through each view's stored lens and camera effects
+    replayed = {
+        name: stored_colour(rgb, item["meta"]["views"][name])
+        for name, rgb in replay(root, key).items()
+    }
     differences = {}
     for name in sorted(replayed, key=camera_order):
         stored = item["rgb"] if name == "workspace" else item["views"][name]["rgb"]

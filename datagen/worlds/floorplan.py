@@ -19,6 +19,7 @@ from datagen.config import BuildConfig
 from datagen.navigation.episode import Episode
 from datagen.randomisers.lighting import apply_lighting
 from datagen.randomisers.materials import render_material
+from datagen.randomisers.textures import surface_entity
 from datagen.worlds.robots import FETCH, load_robot
 
 # Semantic classes; 0 is background (nothing rendered).
@@ -94,6 +95,15 @@ def _static(scene, name, material, boxes=(), cylinders=(), spheres=()) -> sapien
     return builder.build_static(name=name)
 
 
+def _surface(scene, name, values, boxes) -> sapien.Entity:
+    """Like :func:`_static` with boxes, from material values: textured boxes get their own
+    texture coordinates (:func:`datagen.randomisers.textures.surface_entity`)."""
+    if "texture" not in values:
+        return _static(scene, name, render_material(values), boxes=boxes)
+    halves = [(half, centre) for centre, half in boxes]
+    return surface_entity(scene, name, halves, values, collide=False)
+
+
 def _rect_centre_half(rect, z0: float, z1: float) -> tuple[list[float], list[float]]:
     x0, y0, x1, y1 = rect
     return [(x0 + x1) / 2, (y0 + y1) / 2, (z0 + z1) / 2], [(x1 - x0) / 2, (y1 - y0) / 2, (z1 - z0) / 2]  # fmt: skip
@@ -101,17 +111,16 @@ def _rect_centre_half(rect, z0: float, z1: float) -> tuple[list[float], list[flo
 
 def _walls_and_doors(scene, episode: Episode, values) -> tuple[list[sapien.Entity], list[Thing]]:
     layout, h, top = episode.layout, values["wall_height"], values["door_top"]
-    wall_material = render_material(values["materials"]["walls"])
-    door_material = render_material(values["materials"]["doors"])
+    wall_material, door_material = values["materials"]["walls"], values["materials"]["doors"]
     walls = [
-        _static(scene, f"wall_{i}", wall_material, boxes=[_rect_centre_half(rect, 0.0, h)])
+        _surface(scene, f"wall_{i}", wall_material, boxes=[_rect_centre_half(rect, 0.0, h)])
         for i, rect in enumerate(layout.walls)
     ]
     doors = []
     for i, rect in enumerate(layout.doors):
         lintel = _rect_centre_half(rect, top, h)
         threshold = _rect_centre_half(rect, 0.0, THRESHOLD_HEIGHT)
-        entity = _static(scene, f"door_{i}", door_material, boxes=[lintel, threshold])
+        entity = _surface(scene, f"door_{i}", door_material, boxes=[lintel, threshold])
         doors.append(Thing(0, "door", f"door_{i}", [entity]))
     return walls, doors
 
@@ -167,10 +176,10 @@ def build_nav_scene(config: BuildConfig, episode: Episode, values: dict[str, Any
     layout = episode.layout
     width, depth = layout.size_m
     half = [width / 2 + FLOOR_MARGIN, depth / 2 + FLOOR_MARGIN, FLOOR_THICKNESS / 2]
-    floor = _static(
+    floor = _surface(
         scene,
         "floor",
-        render_material(values["materials"]["floor"]),
+        values["materials"]["floor"],
         boxes=[([width / 2, depth / 2, -FLOOR_THICKNESS / 2], half)],
     )
     walls, doors = _walls_and_doors(scene, episode, values)

@@ -17,11 +17,14 @@ import sapien
 from datagen.config import BuildConfig
 from datagen.config.sections import SHAPE_FAMILIES
 from datagen.randomisers import sample_scene
+from datagen.randomisers.background import add_background, lit_by_room
 from datagen.randomisers.camera import apply_camera
+from datagen.randomisers.distractors import add_distractors
 from datagen.randomisers.lighting import apply_lighting
 from datagen.randomisers.materials import render_material
 from datagen.randomisers.objects import add_objects
 from datagen.randomisers.robot import apply_robot
+from datagen.randomisers.textures import surface_entity
 from datagen.shapes import ObjectGeometry
 from datagen.tabletop_layout import (
     ROBOT_BASE,
@@ -35,10 +38,17 @@ from datagen.tabletop_layout import (
 from datagen.worlds.robots import PANDA, load_robot, maniskill_asset
 from datagen.worlds.settle import settle
 
-# Semantic classes: 0 is background (nothing rendered), object classes are shape families.
+# Semantic classes: 0 is background (nothing rendered), object classes are shape families,
+# then the distractors (objects that are not grasp targets), whatever their shape, then the
+# backdrop walls and ceiling (background.enabled). The new classes come last so the ids of the
+# earlier ones stay what they were; both are classes whether or not a build has any, so ids are
+# the same across configs (docs/dataset-format.md).
 STUFF_CLASSES = ("background", "floor", "table", "tray", "robot")
-CLASSES = (*STUFF_CLASSES, *SHAPE_FAMILIES)
+DISTRACTOR_CLASS = "distractor"
+WALL_CLASS = "wall"
+CLASSES = (*STUFF_CLASSES, *SHAPE_FAMILIES, DISTRACTOR_CLASS, WALL_CLASS)
 CLASS_ID = {name: i for i, name in enumerate(CLASSES)}
+FLOOR_HALF = 10.0  # metres: half the side of the drawn floor (as SAPIEN's ground)
 
 
 def grasp_classes(config: BuildConfig) -> tuple[str, ...]:
@@ -47,7 +57,8 @@ def grasp_classes(config: BuildConfig) -> tuple[str, ...]:
     if config.objects.source == "folder":
         from datagen.mesh_library import load_library
 
-        return (*STUFF_CLASSES, *load_library(config.objects.assets_dir).classes)
+        meshes = load_library(config.objects.assets_dir).classes
+        return (*STUFF_CLASSES, *meshes, DISTRACTOR_CLASS, WALL_CLASS)
     return CLASSES
 
 
@@ -71,6 +82,7 @@ class SceneObject:
     entity: sapien.Entity
     geometry: ObjectGeometry
     spec: dict[str, Any]
+    role: str = "target"  # or "distractor": never a grasp target, class DISTRACTOR_CLASS
 
 
 @dataclass
@@ -82,9 +94,14 @@ class GraspScene:
     params: dict[str, Any]
     # per_scene_id of every rendered entity that is not an object -> class name
     stuff: dict[int, str] = field(default_factory=dict)
+    distractors: list[SceneObject] = field(default_factory=list)  # instance ids after objects
 
 
 def _static_box(scene, name, half_size, position, material_values) -> sapien.Entity:
+    if "texture" in material_values:
+        entity = surface_entity(scene, name, [(half_size, [0, 0, 0])], material_values)
+        entity.set_pose(sapien.Pose(position))
+        return entity
     builder = scene.create_actor_builder()
     builder.add_box_collision(half_size=half_size)
     builder.add_box_visual(half_size=half_size, material=render_material(material_values))
@@ -113,6 +130,10 @@ def _add_table(scene, material) -> list[sapien.Entity]:
 
 
 def _add_tray(scene, material) -> sapien.Entity:
+    if "texture" in material:
+        tray = surface_entity(scene, "tray", list(tray_boxes()), material)
+        tray.set_pose(sapien.Pose(TRAY_CENTRE))
+        return tray
     builder = scene.create_actor_builder()
     mat = render_material(material)
     for half_size, offset in tray_boxes():
@@ -121,6 +142,16 @@ def _add_tray(scene, material) -> sapien.Entity:
     tray = builder.build_static(name="tray")
     tray.set_pose(sapien.Pose(TRAY_CENTRE))
     return tray
+
+
+def _add_floor(scene, material) -> list[sapien.Entity]:
+    """The ground plane; a textured floor is drawn as a big thin box (texture coordinates)."""
+    if "texture" not in material:
+        return [scene.add_ground(0.0, render_material=render_material(material))]
+    ground = scene.add_ground(0.0, render=False)
+    half = [FLOOR_HALF, FLOOR_HALF, 0.005]
+    floor = surface_entity(scene, "floor", [(half, [0, 0, -0.005])], material, collide=False)
+    return [ground, floor]
 
 
 def build_scene(config: BuildConfig, seed: int, index: int, attempt: int = 0) -> GraspScene:
@@ -150,11 +181,13 @@ def construct_scene(config: BuildConfig, params: dict[str, Any]) -> GraspScene:
     scene.set_timestep(config.physics.timestep)
     stuff: dict[int, str] = {}
 
-    ground = scene.add_ground(0.0, render_material=render_material(materials["floor"]))
-    stuff[ground.per_scene_id] = "floor"
+    for entity in _add_floor(scene, materials["floor"]):
+        stuff[entity.per_scene_id] = "floor"
     for entity in _add_table(scene, materials["table"]):
         stuff[entity.per_scene_id] = "table"
     stuff[_add_tray(scene, materials["tray"]).per_scene_id] = "tray"
+    for entity in add_background(scene, params.get("background")):  # none when it is off
+        stuff[entity.per_scene_id] = WALL_CLASS
 
     robot = load_panda(scene)
     robot.set_root_pose(sapien.Pose(ROBOT_BASE))
@@ -167,9 +200,18 @@ def construct_scene(config: BuildConfig, params: dict[str, Any]) -> GraspScene:
         SceneObject(i + 1, spec["shape"]["family"], entity, geometry, spec)
         for i, ((entity, geometry), spec) in enumerate(zip(added, params["objects"], strict=True))
     ]
-    apply_lighting(scene, params["lighting"], config.render.shadow_map_size)
-
+    specs = params.get("distractors", [])  # absent when distractors are off
+    distractors = [
+        SceneObject(len(objects) + i + 1, DISTRACTOR_CLASS, entity, geometry, spec, "distractor")
+        for i, ((entity, geometry), spec) in enumerate(
+            zip(add_distractors(scene, specs), specs, strict=True)
+        )
+    ]
     r = config.render
+    apply_lighting(
+        scene, lit_by_room(params["lighting"], params.get("background")), r.shadow_map_size
+    )
+
     workspace = scene.add_camera("workspace", r.width, r.height, 1.0, r.near, r.far)
     apply_camera(workspace, params["camera"])
     cameras = {"workspace": workspace}
@@ -181,4 +223,4 @@ def construct_scene(config: BuildConfig, params: dict[str, Any]) -> GraspScene:
         cameras["wrist"] = scene.add_mounted_camera(
             "wrist", hand.entity, WRIST_CAMERA_POSE, r.width, r.height, np.deg2rad(70), 0.01, r.far
         )
-    return GraspScene(scene, cameras, objects, robot, params, stuff)
+    return GraspScene(scene, cameras, objects, robot, params, stuff, distractors)

@@ -69,6 +69,6 @@ class Executor(Protocol):
 
 
 def worker_env() -> dict[str, str]:
-    """Environment a worker on another machine needs from ours (log level only: everything
-    else travels in its arguments)."""
-    return {k: v for k, v in os.environ.items() if k in ("DATAGEN_LOG_LEVEL",)}
+    """Environment a worker on another machine needs from ours (the log level, and
+    ``$DATAGEN_LIVE``, previews on or off: everything else travels in its arguments)."""
+    return {k: v for k, v in os.environ.items() if k in ("DATAGEN_LOG_LEVEL", "DATAGEN_LIVE")}

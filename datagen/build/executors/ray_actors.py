@@ -20,6 +20,7 @@ import ray
 from ray.exceptions import GetTimeoutError, RayActorError, RayTaskError
 
 from datagen.build.executors.base import Event, WorkerSpec, worker_env
+from datagen.build.live_preview import PreviewFeed, sample_outcome
 from datagen.build.production import Task
 from datagen.build.worker import HEARTBEAT_S
 
@@ -50,6 +51,7 @@ class SceneWorker:
             secret=spec.secret,
         )
         self.publisher.__enter__()
+        self.previews = PreviewFeed(spec.broker_url, spec.build_id, str(worker_id))
         self.working: dict[str, Any] | None = None  # the attempt in progress, for ping
 
     def produce(self, task: Task) -> dict[str, Any]:
@@ -69,7 +71,9 @@ class SceneWorker:
             return {"index": index, "failures": exc.failures, "published": False}
         self.publisher.publish(produced.sample)
         self.working = None
-        return {"index": index, "attempt": produced.attempt, "failures": produced.failures, "published": True}  # fmt: skip
+        self.previews.offer(produced.sample)
+        outcome = sample_outcome(produced.sample)
+        return {"index": index, "attempt": produced.attempt, "failures": produced.failures, "published": True, "outcome": outcome}  # fmt: skip
 
     @ray.method(concurrency_group="liveness")
     def ping(self) -> dict[str, Any] | None:
@@ -79,6 +83,7 @@ class SceneWorker:
     def close(self) -> bool:
         """Waits until the broker has everything published, then disconnects."""
         self.publisher.__exit__(None, None, None)
+        self.previews.close()
         return True
 
 
@@ -218,4 +223,5 @@ def _produced(result: dict[str, Any]) -> list[tuple[str, Any]]:
     if not result["published"]:
         return [("failed", {"index": index, "failures": failures})]
     retried = [("retried", {"index": index, "attempt": result["attempt"], "failures": failures})]
-    return [*(retried if failures else []), ("published", index)]
+    outcome = [("outcome", result["outcome"])] if result.get("outcome") else []
+    return [*outcome, *(retried if failures else []), ("published", index)]

@@ -42,6 +42,7 @@ class LabelledObject:
     # (F, 3, 3) object frame: the rendered mesh's triangles where the union of the convex parts
     # is not what the renderer draws (a user's mesh); the silhouette then comes from them
     visual_triangles: np.ndarray | None = None
+    role: str = "target"  # or "distractor" (not a grasp target)
 
 
 def label_maps(
@@ -112,6 +113,7 @@ def object_view_records(
                 "instance_id": obj.instance_id,
                 "class": obj.class_name,
                 "class_id": obj.class_id,
+                "role": obj.role,
                 "visible": visible > 0,
                 "visible_pixels": visible,
                 "bbox_xyxy": bbox,

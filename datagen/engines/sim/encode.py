@@ -30,6 +30,8 @@ class View:
     depth: np.ndarray  # (H, W) uint16 millimetres
     instance: np.ndarray  # (H, W) uint16
     semantic: np.ndarray  # (H, W) uint8
+    depth_sensor: np.ndarray | None = None  # (H, W) uint16 millimetres, 0 = no reading
+    rgb_clean: np.ndarray | None = None  # (H, W, 3) uint8 RGB before the camera effects
 
 
 def png_params(level: int) -> list[int]:
@@ -72,14 +74,19 @@ _pool = _Pool()
 def encode_view(
     view: View, prefix: str = "", level: int = DEFAULT_PNG_LEVEL, parallel: bool = True
 ) -> dict[str, bytes]:
-    """``<prefix>rgb.png depth.png seg.png semantic.png`` of one rendered view; the four
-    images are encoded on a small thread pool unless ``parallel`` is false (same bytes)."""
+    """``<prefix>rgb.png depth.png seg.png semantic.png`` of one rendered view, plus
+    ``depth_sensor.png`` and ``rgb_clean.png`` when it has them; the images are encoded on a
+    small thread pool unless ``parallel`` is false (same bytes)."""
     jobs = {
         f"{prefix}rgb.png": (view.rgb, level, True),
         f"{prefix}depth.png": (view.depth, level),
         f"{prefix}seg.png": (view.instance, level),
         f"{prefix}semantic.png": (view.semantic, level),
     }
+    if view.depth_sensor is not None:
+        jobs[f"{prefix}depth_sensor.png"] = (view.depth_sensor, level)
+    if view.rgb_clean is not None:
+        jobs[f"{prefix}rgb_clean.png"] = (view.rgb_clean, level, True)
     with timed("encode"):
         if not parallel or _ENCODE_THREADS < 2:
             return {name: _png(*args) for name, args in jobs.items()}

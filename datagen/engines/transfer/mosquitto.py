@@ -4,7 +4,9 @@
 unless given), persistence on, and the queue/size limits raised (the configuration is written by
 ``mosquitto_config``; see docs/mqtt-pitfalls.md, pitfalls 1, 4 and 9): by default a private
 broker for one build on a free loopback port in a temp dir; with ``data_dir`` a long-lived one
-whose state survives restarts; with ``tls_cert``/``tls_key`` an extra TLS listener.
+whose state survives restarts; with ``tls_cert``/``tls_key`` an extra TLS listener; with
+``websockets=True`` a loopback MQTT-over-WebSockets listener and a read-only ``monitor`` user
+for browsers (``datagen monitor``; needs Mosquitto built with libwebsockets, docs/monitor.md).
 ``run_broker_forever`` runs one in the foreground until SIGINT/SIGTERM (``datagen broker``).
 Broker URLs are parsed and built in ``broker_url``. Deployment: docs/deployment.md.
 """
@@ -86,6 +88,9 @@ class ManagedBroker:
         acl_file: str | os.PathLike | None = None,
         password_file: str | os.PathLike | None = None,
         preexec_fn: Callable[[], None] | None = None,
+        websockets: bool = False,
+        websockets_port: int | None = None,
+        websockets_host: str = "127.0.0.1",
     ):
         if (tls_cert is None) != (tls_key is None):
             raise ValueError("tls_cert and tls_key go together")
@@ -104,6 +109,11 @@ class ManagedBroker:
         self.acl_file = Path(acl_file) if acl_file is not None else None
         self.password_file = Path(password_file) if password_file is not None else None
         self.preexec_fn = preexec_fn
+        self.websockets, self.websockets_port = websockets, websockets_port
+        self.websockets_host = websockets_host
+        # the browser's account: may read datagen/+/live/# only (mosquitto_config.MONITOR_ACL)
+        self.monitor_username = "monitor"
+        self.monitor_password = secrets.token_urlsafe(18) if websockets else None
         self._data_dir = Path(data_dir) if data_dir is not None else None
         self.dir: Path | None = None
         self.username, self.password = self._credentials(username, password)
@@ -149,6 +159,15 @@ class ManagedBroker:
         return broker_url("mqtt", self.username, self.password, self.advertise_host, self.port)
 
     @property
+    def websockets_url(self) -> str:
+        """``ws://host:port`` of the WebSockets listener (no credentials: the monitor's are
+        ``monitor_username``/``monitor_password``)."""
+        if not self.websockets or self.websockets_port is None:
+            raise BrokerError("no WebSockets listener (pass websockets=True) or not started")
+        host = "127.0.0.1" if self.websockets_host in _WILDCARD_HOSTS else self.websockets_host
+        return f"ws://{host}:{self.websockets_port}"
+
+    @property
     def pid(self) -> int | None:
         return self._proc.pid if self._proc is not None else None
 
@@ -192,6 +211,8 @@ class ManagedBroker:
             self.port = _free_port(self.plain_host)
         if self.tls and self.tls_port is None:
             self.tls_port = _free_port(self.host if self.host not in _WILDCARD_HOSTS else "0.0.0.0")
+        if self.websockets and self.websockets_port is None:
+            self.websockets_port = _free_port(self.websockets_host)
         self._run_as = write_config(self)
         # As root, start mosquitto as user "mosquitto" ourselves rather than letting it switch:
         # a process that changes its user loses its parent-death signal (prctl(2)), so a
@@ -272,8 +293,15 @@ class ManagedBroker:
             if self._proc.poll() is not None:
                 code = self._proc.returncode
                 self._proc = None
+                hint = ""
+                if self.websockets:
+                    hint = (
+                        " (a WebSockets listener needs Mosquitto built with libwebsockets: "
+                        "Debian 12's 2.0.11 is not; scripts/install.sh installs 2.0.21 from "
+                        "bookworm-backports)"
+                    )
                 raise BrokerError(
-                    f"mosquitto exited with code {code} during startup; log tail:\n{self.log_tail()}"
+                    f"mosquitto exited with code {code} during startup{hint}; log tail:\n{self.log_tail()}"
                 )
             # A CONNACK, not just an open port: something else may hold the port. Mosquitto
             # opens every listener before it accepts anything, so the TLS one is up too.

@@ -26,6 +26,15 @@ log = logging.getLogger(__name__)
 
 # Room for the topic, properties and fixed header around the largest payload.
 PACKET_OVERHEAD_BYTES = 64 * 1024
+# With a WebSockets listener: the build's user may do anything, the monitor only read the live
+# status and previews of every build (docs/monitor.md)
+MONITOR_ACL = """
+user {user}
+topic readwrite #
+
+user {monitor}
+topic read datagen/+/live/#
+"""
 
 
 def mosquitto_password_hash(password: str, iterations: int = 101) -> str:
@@ -55,6 +64,9 @@ def write_config(broker: ManagedBroker) -> pwd.struct_passwd | None:
     d = broker.dir
     (d / "data").mkdir(exist_ok=True)
     users = f"{broker.username}:{mosquitto_password_hash(broker.password)}\n"
+    if broker.websockets:
+        assert broker.monitor_password is not None
+        users += f"{broker.monitor_username}:{mosquitto_password_hash(broker.monitor_password)}\n"
     if broker.password_file is not None:  # the operator's users (hashed by mosquitto_passwd)
         users += broker.password_file.read_text(encoding="utf-8").rstrip("\n") + "\n"
     fd = os.open(d / "passwd", os.O_WRONLY | os.O_CREAT | os.O_TRUNC, 0o600)
@@ -81,8 +93,14 @@ def write_config(broker: ManagedBroker) -> pwd.struct_passwd | None:
             f"certfile {tls_dir / 'server.crt'}",
             f"keyfile {tls_dir / 'server.key'}",
         ]
-    if broker.acl_file is not None:
-        shutil.copyfile(broker.acl_file, d / "acl")
+    if broker.websockets:
+        # loopback by default (docs/monitor.md); on an external broker with TLS: docs/deployment.md
+        lines += [f"listener {broker.websockets_port} {broker.websockets_host}", "protocol websockets"]  # fmt: skip
+    if broker.acl_file is not None or broker.websockets:
+        acl = broker.acl_file.read_text(encoding="utf-8") if broker.acl_file is not None else ""
+        if broker.websockets:
+            acl += MONITOR_ACL.format(user=broker.username, monitor=broker.monitor_username)
+        (d / "acl").write_text(acl, encoding="utf-8")
         owned.append(d / "acl")
         lines.append(f"acl_file {d / 'acl'}")
     lines += [
@@ -131,7 +149,10 @@ def _root_user_line(
         return "user root", None
     for path in paths:
         os.chown(path, entry.pw_uid, entry.pw_gid)
-    if min(p for p in (broker.port, broker.tls_port) if p is not None) >= 1024:
+    if (
+        min(p for p in (broker.port, broker.tls_port, broker.websockets_port) if p is not None)
+        >= 1024
+    ):
         # no privileged port to bind first: start it as that user
         return "user mosquitto", entry
     return "user mosquitto", None

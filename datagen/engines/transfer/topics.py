@@ -7,6 +7,13 @@
 - ``datagen/<build_id>/control``  ``finalize`` / ``announce`` commands -> every writer
 - ``datagen/<build_id>/status/<writer_id>``  each writer's state, retained: ready / sealed /
   prepared / finalized / error / stopped / lost
+
+For people watching (``datagen monitor``), plain, unsigned, under ``datagen/<build_id>/live/``
+(the broker's ACL alone says who may publish there; docs/monitor.md):
+
+- ``datagen/<build_id>/live/status``  the coordinator's build status JSON, retained, ~1 Hz
+- ``datagen/<build_id>/live/preview/<worker>``  a worker's latest annotated JPEG, QoS 0,
+  at most one a second per worker
 """
 
 from __future__ import annotations
@@ -35,6 +42,9 @@ class Topics:
     control: str
     status_prefix: str  # + writer id
     shared_samples: str  # what writers subscribe to
+    live: str  # everything a monitor may read: live_status and the previews
+    live_status: str
+    live_preview_prefix: str  # + worker id
 
     def status(self, writer_id: str) -> str:
         return self.status_prefix + writer_id
@@ -42,6 +52,17 @@ class Topics:
     @property
     def status_all(self) -> str:
         return self.status_prefix + "+"
+
+    def live_preview(self, worker_id: str) -> str:
+        return self.live_preview_prefix + worker_id
+
+    @property
+    def live_preview_all(self) -> str:
+        return self.live_preview_prefix + "+"
+
+
+# Every build's live status on one broker (retained): how a monitor finds the builds.
+LIVE_STATUS_ALL_BUILDS = "datagen/+/live/status"
 
 
 def topics(build_id: str) -> Topics:
@@ -55,6 +76,9 @@ def topics(build_id: str) -> Topics:
         control=f"{base}/control",
         status_prefix=f"{base}/status/",
         shared_samples=f"$share/datagen-{build_id}/{base}/samples",
+        live=f"{base}/live/#",
+        live_status=f"{base}/live/status",
+        live_preview_prefix=f"{base}/live/preview/",
     )
 
 

@@ -1,0 +1,230 @@
+"""Distractor randomiser: objects that are not grasp targets, class ``distractor``.
+
+Three placements (``distractors`` config section), each a count range:
+
+- ``table``: standing upright (random yaw) on the table top where the workspace camera sees
+  it, outside the tray and away from the robot's base;
+- ``air``: floating between the workspace camera and its target, off the image centre (a
+  random direction at 40-85 % of the half field of view), at 45-75 % of the way from the
+  camera, randomly oriented;
+- ``background``: standing on the floor beyond the table, inside the background's room (if
+  any), where the workspace camera sees its top over the table, larger (``background_size``).
+  A view that sees no such spot gets none.
+
+Distractors are static and visual only: they never fall, never push a target, never block the
+robot, so the targets' physics is the same with or without them. Their materials are drawn like
+the objects' (colour, then a texture with ``materials.texture_probability``). Every value is
+stored (shape, pose, material), so the scene is rebuilt from the metadata alone.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+import sapien
+
+from datagen.config.appearance import DistractorsConfig
+from datagen.config.sections import SHAPE_FAMILIES, MaterialsConfig
+from datagen.geometry import random_quaternion
+from datagen.randomisers.materials import random_material
+from datagen.randomisers.objects import render_shape, sample_shape
+from datagen.randomisers.textures import sample_surface_texture
+from datagen.shapes import ObjectGeometry, build_geometry
+from datagen.tabletop_layout import (
+    ROBOT_BASE,
+    TABLE_HALF,
+    TABLE_TOP,
+    TRAY_CENTRE,
+    TRAY_INNER_HALF,
+    TRAY_WALL,
+)
+
+PLACEMENTS = ("table", "air", "background")
+ROBOT_CLEARANCE = 0.3  # metres around the robot base kept free of table distractors
+TRAY_CLEARANCE = 0.02  # metres between a table distractor and the tray's outer wall
+AIR_FRACTION = (0.45, 0.75)  # of the way from the camera to its target
+AIR_OFF_CENTRE = (0.4, 0.85)  # of the half field of view
+BACKGROUND_REACH = 4.0  # metres from the table's centre, per axis, where there is no room
+BACKGROUND_TRIES = 60  # random floor spots tried per background distractor
+_TRIES = 40  # rejection sampling of a free spot; a distractor with none is left out
+
+
+@dataclass(frozen=True)
+class _View:
+    """The workspace camera's frame, from its stored values (world metres, unit axes)."""
+
+    eye: np.ndarray
+    forward: np.ndarray
+    right: np.ndarray
+    up: np.ndarray
+    tan_half: float  # tangent of half the vertical field of view
+    distance: float  # eye to target, metres
+
+    @classmethod
+    def of(cls, camera: dict[str, Any]) -> _View:
+        eye, target = np.asarray(camera["eye"], float), np.asarray(camera["target"], float)
+        distance = float(np.linalg.norm(target - eye))
+        forward = (target - eye) / distance
+        right = np.cross(forward, [0.0, 0.0, 1.0])
+        right /= np.linalg.norm(right)
+        tan_half = float(np.tan(np.deg2rad(camera["fovy_deg"]) / 2))
+        return cls(eye, forward, right, np.cross(right, forward), tan_half, distance)
+
+    def random_ray(self, rng: np.random.Generator) -> np.ndarray:
+        """Direction through a random image point (within the half height across, whatever
+        the aspect)."""
+        across, above = rng.uniform(-1.0, 1.0, 2)
+        return self.forward + self.tan_half * (across * self.right + above * self.up)
+
+    def meets(self, ray: np.ndarray, z: float) -> np.ndarray:
+        """(x, y) where the ray from the eye crosses the plane at height ``z``."""
+        return self.eye[:2] + ray[:2] * ((z - self.eye[2]) / ray[2])
+
+    def sees(self, point: np.ndarray) -> bool:
+        """Whether ``point`` is in the view and not behind the table top."""
+        ray = point - self.eye
+        depth, limit = float(ray @ self.forward), self.tan_half * float(ray @ self.forward)
+        if depth <= 0 or abs(ray @ self.right) > limit or abs(ray @ self.up) > limit:
+            return False
+        if point[2] >= TABLE_TOP or self.eye[2] <= TABLE_TOP:
+            return True
+        return bool((np.abs(self.meets(ray, TABLE_TOP)) > TABLE_HALF).any())
+
+
+def _yaw_quaternion(rng: np.random.Generator) -> list[float]:
+    yaw = rng.uniform(0, 2 * np.pi)
+    return [round(float(np.cos(yaw / 2)), 6), 0.0, 0.0, round(float(np.sin(yaw / 2)), 6)]
+
+
+def _standing(xy: np.ndarray, surface_z: float, lowest: float) -> list[float]:
+    """Position of an upright (yaw-only) shape whose lowest point is ``lowest`` (object frame)
+    resting on the plane z = ``surface_z``."""
+    return np.round([xy[0], xy[1], surface_z - lowest], 6).tolist()
+
+
+def _free_on_table(xy: np.ndarray, radius: float) -> bool:
+    (ix, iy), wall = TRAY_INNER_HALF, TRAY_WALL[0] + TRAY_CLEARANCE + radius
+    in_tray = abs(xy[0] - TRAY_CENTRE[0]) < ix + wall and abs(xy[1] - TRAY_CENTRE[1]) < iy + wall
+    near_robot = np.hypot(xy[0] - ROBOT_BASE[0], xy[1] - ROBOT_BASE[1]) < ROBOT_CLEARANCE + radius
+    return not in_tray and not near_robot
+
+
+def _table_position(rng, view: _View, bounds: np.ndarray, radius: float) -> list[float] | None:
+    """Where the ray through a random point of the view meets the table top, if that is on the
+    table and free (a view may see none of the table outside the tray)."""
+    limit = np.asarray(TABLE_HALF) - radius
+    for _ in range(_TRIES):
+        ray = view.random_ray(rng)
+        if ray[2] >= 0:
+            continue
+        xy = view.meets(ray, TABLE_TOP)
+        if (np.abs(xy) <= limit).all() and _free_on_table(xy, radius):
+            return _standing(xy, TABLE_TOP, bounds[0][2])
+    return None
+
+
+def _air_position(rng, view: _View, radius: float) -> list[float]:
+    distance = rng.uniform(*AIR_FRACTION) * view.distance
+    angle, off = rng.uniform(0, 2 * np.pi), rng.uniform(*AIR_OFF_CENTRE) * view.tan_half
+    sideways = off * distance * (np.cos(angle) * view.right + np.sin(angle) * view.up)
+    point = view.eye + distance * view.forward + sideways
+    point[2] = max(point[2], TABLE_TOP + radius + 0.02)  # above the table, never in it
+    return np.round(point, 6).tolist()
+
+
+def _background_position(rng, view: _View, bounds, radius, room) -> list[float] | None:
+    """A floor point in view, beyond the table and inside the room (else within
+    BACKGROUND_REACH of the table's centre), from which the shape's top is seen over the table
+    (a view may see no such spot)."""
+    height = float(bounds[1][2] - bounds[0][2])
+    if room is not None:
+        lo = np.array([room["x"][0], room["y"][0]]) + radius
+        hi = np.array([room["x"][1], room["y"][1]]) - radius
+    else:
+        lo, hi = np.full(2, -BACKGROUND_REACH), np.full(2, BACKGROUND_REACH)
+    for _ in range(BACKGROUND_TRIES):
+        ray = view.random_ray(rng)
+        if ray[2] >= 0:
+            continue
+        xy = view.meets(ray, 0.0)
+        inside = (xy >= lo).all() and (xy <= hi).all()
+        beyond_table = (np.abs(xy) > np.asarray(TABLE_HALF) + radius).any()
+        if inside and beyond_table and view.sees(np.array([*xy, 0.9 * height])):
+            return _standing(xy, 0.0, bounds[0][2])
+    return None
+
+
+def _material(rng: np.random.Generator, cfg: MaterialsConfig) -> dict[str, Any]:
+    """A colour like an object's, textured with ``materials.texture_probability``."""
+    material = random_material(rng, cfg, cfg.saturation, cfg.value)
+    if rng.random() < cfg.texture_probability:
+        material["texture"] = sample_surface_texture(
+            rng,
+            material["base_color"],
+            cfg,
+            cfg.textures_dir,
+            cfg.textures_dir_share,
+            cfg.texture_scale_m,
+        )
+    return material
+
+
+def sample_distractors(
+    rng: np.random.Generator,
+    cfg: DistractorsConfig,
+    materials: MaterialsConfig,
+    camera: dict[str, Any],
+    room: dict[str, Any] | None = None,
+) -> list[dict[str, Any]]:
+    """Distractors of one scene, by placement; ``camera`` is the workspace camera's values,
+    ``room`` the background's room (``{"x": [lo, hi], "y": [lo, hi], ...}``) if there is one."""
+    counts = {"table": cfg.on_table, "air": cfg.in_air, "background": cfg.background}
+    view = _View.of(camera)
+    distractors = []
+    for placement in PLACEMENTS:
+        low, high = counts[placement]
+        for _ in range(int(rng.integers(low, high + 1))):
+            size_range = cfg.background_size if placement == "background" else cfg.size
+            size = float(rng.uniform(*size_range))
+            shape = sample_shape(rng, str(rng.choice(SHAPE_FAMILIES)), size)
+            material = _material(rng, materials)
+            radius = size / 2
+            if placement == "air":
+                quat, position = random_quaternion(rng), _air_position(rng, view, radius)
+            else:
+                quat, bounds = _yaw_quaternion(rng), build_geometry(shape).visual.bounds
+                if placement == "table":
+                    position = _table_position(rng, view, bounds, radius)
+                else:
+                    position = _background_position(rng, view, bounds, radius, room)
+            if position is None:
+                continue
+            distractors.append(
+                {
+                    "placement": placement,
+                    "shape": shape,
+                    "pose": {"position": position, "quat_wxyz": quat},
+                    "material": material,
+                }
+            )
+    return distractors
+
+
+def add_distractors(
+    scene: sapien.Scene, distractors: list[dict[str, Any]]
+) -> list[tuple[sapien.Entity, ObjectGeometry]]:
+    """Apply step: one static, visual-only entity per distractor (no collision shape)."""
+    added = []
+    for i, spec in enumerate(distractors):
+        geometry = build_geometry(spec["shape"])
+        render_body = sapien.render.RenderBodyComponent()
+        render_body.attach(render_shape(geometry.visual, spec["material"]))
+        entity = sapien.Entity()
+        entity.name = f"distractor_{i + 1}"
+        entity.add_component(render_body)
+        entity.set_pose(sapien.Pose(spec["pose"]["position"], spec["pose"]["quat_wxyz"]))
+        scene.add_entity(entity)
+        added.append((entity, geometry))
+    return added
