@@ -69,9 +69,10 @@ def test_2d_boxes_and_visibility_agree_with_the_masks(two_worker_build):
     for i in range(len(dataset)):
         item = dataset[i]
         records = item["meta"]["views"]["workspace"]["objects"]
-        assert {r["instance_id"] for r in records} == set(
-            range(1, len(item["meta"]["objects"]) + 1)
-        )
+        targets = {r["instance_id"] for r in records if r["role"] == "target"}
+        assert targets == set(range(1, len(item["meta"]["objects"]) + 1))
+        others = sorted(r["instance_id"] for r in records if r["role"] != "target")
+        assert others == list(range(len(targets) + 1, len(records) + 1))  # distractors after
         assert set(np.unique(item["seg"])) - {0} <= {r["instance_id"] for r in records}
         for record in records:
             ys, xs = np.nonzero(item["seg"] == record["instance_id"])

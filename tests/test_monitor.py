@@ -209,6 +209,21 @@ def test_the_websockets_listener_serves_mqtt_to_the_monitor_account():
 # --- the status a build leaves on an external broker ----------------------------------------------
 
 
+def retained_status(broker, build_id: str) -> bytes:
+    """What a monitor subscribing after the build ended gets: exactly one retained status."""
+    retained: list[mqtt.MQTTMessage] = []
+    late = MqttConnection(
+        broker.url, "late-monitor", subscriptions=[(topics(build_id).live_status, 0)],
+        on_message=lambda m: retained.append(m),
+    )  # fmt: skip
+    deadline = time.monotonic() + 5
+    while not retained and time.monotonic() < deadline:
+        time.sleep(0.05)
+    late.close()
+    assert len(retained) == 1 and retained[0].retain
+    return retained[0].payload
+
+
 @pytest.mark.slow
 @pytest.mark.sim
 @pytest.mark.mqtt
@@ -221,23 +236,38 @@ def test_a_finished_build_leaves_its_final_status_retained_for_a_late_monitor(br
         "objects": {"count": [1, 2]}, "physics": {"settle_time": 0.2},
     })  # fmt: skip
     run_build(config, tmp_path / "ds", 2, broker_url=broker.url, build_id=build_id)
-    retained: list[mqtt.MQTTMessage] = []
-    late = MqttConnection(
-        broker.url, "late-monitor", subscriptions=[(topics(build_id).live_status, 0)],
-        on_message=lambda m: retained.append(m),
-    )  # fmt: skip
-    deadline = time.monotonic() + 5
-    while not retained and time.monotonic() < deadline:
-        time.sleep(0.05)
-    late.close()
-    assert len(retained) == 1 and retained[0].retain
-    status = json.loads(retained[0].payload)
+    payload = retained_status(broker, build_id)
+    status = json.loads(payload)
     assert status["state"] == "finished" and status["message"] == "finished: 6/6 durable"
     assert (status["total"], status["durable"], status["published"]) == (6, 6, 6)
     assert status["restarts"] == {"worker": 0, "writer": 0, "broker": 0}
     assert status["history"][-1][1] == 6 and len(status["workers"]) == 2
     secret = json.loads((tmp_path / "ds" / "build.json").read_text())["secret"]
-    assert secret not in retained[0].payload.decode()
+    assert secret not in payload.decode()
+
+
+@pytest.mark.slow
+@pytest.mark.sim
+@pytest.mark.mqtt
+def test_a_failed_build_leaves_failed_and_why_retained_for_a_late_monitor(broker, build_id, tmp_path):  # fmt: skip
+    """A real failure: every sample is larger than transfer.max_sample_mb, and the policy is
+    to fail at the first failing sample."""
+    from datagen.build.run import run_build
+    from datagen.config import config_from_dict
+    from datagen.errors import BuildError
+
+    config = config_from_dict({
+        "num_samples": 4, "seed": 3, "render": {"width": 320, "height": 240},
+        "objects": {"count": [1, 2]}, "physics": {"settle_time": 0.2},
+        "transfer": {"max_sample_mb": 0.1}, "build": {"on_sample_error": "fail"},
+    })  # fmt: skip
+    with pytest.raises(BuildError):
+        run_build(config, tmp_path / "ds", 1, broker_url=broker.url, build_id=build_id)
+    payload = retained_status(broker, build_id)
+    status = json.loads(payload)
+    assert status["state"] == "failed", status
+    assert status["message"].startswith("failed: ") and "max_sample_mb" in status["message"], status
+    assert status["durable"] < status["total"] == 4
 
 
 # --- a real build watched in a real browser ------------------------------------------------------

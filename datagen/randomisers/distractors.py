@@ -30,7 +30,7 @@ from datagen.config.sections import SHAPE_FAMILIES, MaterialsConfig
 from datagen.geometry import random_quaternion
 from datagen.randomisers.materials import random_material
 from datagen.randomisers.objects import render_shape, sample_shape
-from datagen.randomisers.textures import sample_surface_texture
+from datagen.randomisers.textures import maybe_texture
 from datagen.shapes import ObjectGeometry, build_geometry
 from datagen.tabletop_layout import (
     ROBOT_BASE,
@@ -159,15 +159,7 @@ def _background_position(rng, view: _View, bounds, radius, room) -> list[float] 
 def _material(rng: np.random.Generator, cfg: MaterialsConfig) -> dict[str, Any]:
     """A colour like an object's, textured with ``materials.texture_probability``."""
     material = random_material(rng, cfg, cfg.saturation, cfg.value)
-    if rng.random() < cfg.texture_probability:
-        material["texture"] = sample_surface_texture(
-            rng,
-            material["base_color"],
-            cfg,
-            cfg.textures_dir,
-            cfg.textures_dir_share,
-            cfg.texture_scale_m,
-        )
+    maybe_texture(rng, material, cfg)
     return material
 
 

@@ -80,16 +80,22 @@ def add_textures(
         **{surface: dict(materials[surface]) for surface in SURFACES},
     }
     for material in [*textured["objects"], *(textured[surface] for surface in SURFACES)]:
-        if rng.random() < cfg.texture_probability:
-            material["texture"] = sample_surface_texture(
-                rng,
-                material["base_color"],
-                cfg,
-                cfg.textures_dir,
-                cfg.textures_dir_share,
-                cfg.texture_scale_m,
-            )
+        maybe_texture(rng, material, cfg)
     return textured
+
+
+def maybe_texture(rng: np.random.Generator, material: dict[str, Any], cfg: MaterialsConfig) -> None:
+    """Gives ``material`` a ``texture`` with ``materials.texture_probability`` (one draw, then
+    the texture's own draws when it is textured)."""
+    if rng.random() < cfg.texture_probability:
+        material["texture"] = sample_surface_texture(
+            rng,
+            material["base_color"],
+            cfg,
+            cfg.textures_dir,
+            cfg.textures_dir_share,
+            cfg.texture_scale_m,
+        )
 
 
 def texture_surfaces(

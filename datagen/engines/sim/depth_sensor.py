@@ -102,7 +102,8 @@ def edge_holes(z: np.ndarray, jump: float, width_px: int) -> np.ndarray:
     nearest = cv2.erode(np.where(z > 0, z, np.float32(np.inf)), cross)  # no surface: no edge
     # a neighbour farther than z (1 + jump), or nearer than z / (1 + jump): jump x the nearer
     ratio = np.float32(1 + jump)
-    edges = (farthest > z * ratio) | (nearest * ratio < z)
+    with np.errstate(over="ignore"):  # OpenCV's border value is FLT_MAX: x ratio gives inf
+        edges = (farthest > z * ratio) | (nearest * ratio < z)
     edges &= z > 0
     if width_px > 1:
         kernel = np.ones((2 * width_px - 1, 2 * width_px - 1), np.uint8)
