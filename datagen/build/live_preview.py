@@ -68,13 +68,12 @@ def thumbnail(sample: Sample, width: int = PREVIEW_WIDTH) -> np.ndarray | None:
     item = {field: _decoded(sample.parts[name]) for name, field in wanted.items() if name in sample.parts}  # fmt: skip
     if "json" in sample.parts:
         item["meta"] = sample.metadata
-    if "map" in item or "rgb" in item:  # PNGs decode as BGR: ours are RGB
-        item = {k: cv2.cvtColor(v, cv2.COLOR_BGR2RGB) if k in ("map", "rgb") else v for k, v in item.items()}  # fmt: skip
+    # cv2.imdecode gives the stored RGB PNGs in BGR order, which is what cv2.imencode expects
     if "map" in item:
-        return _scaled(cv2.cvtColor(item["map"], cv2.COLOR_RGB2BGR), width)
+        return _scaled(item["map"], width)
     if "rgb" not in item:
         return None
-    image = _scaled(cv2.cvtColor(item["rgb"], cv2.COLOR_RGB2BGR), width)
+    image = _scaled(item["rgb"], width)
     instances = labelled_views(item["meta"])[0].instances if "meta" in item else []
     if "seg" not in item or not instances:
         return image
