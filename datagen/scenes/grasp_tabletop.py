@@ -79,12 +79,15 @@ def _sensor(config, seed: int, index: int, attempt: int, camera: str, shiny: lis
 
 def _specular_instances(scene: GraspScene, config: BuildConfig) -> list[int]:
     """Instance ids of the objects and distractors whose material a depth sensor cannot read."""
-    materials = scene.params["materials"]["objects"]
-    found = [o.instance_id for o, m in zip(scene.objects, materials, strict=True) if specular(m, config.depth_sensor)]  # fmt: skip
-    return found + [
+    materials = [
+        *scene.params["materials"]["objects"],
+        *(o.spec.get("material", {}) for o in scene.distractors),
+    ]
+    things = [*scene.objects, *scene.distractors]
+    return [
         o.instance_id
-        for o in scene.distractors
-        if specular(o.spec.get("material", {}), config.depth_sensor)
+        for o, material in zip(things, materials, strict=True)
+        if specular(material, config.depth_sensor)
     ]
 
 
