@@ -1,0 +1,77 @@
+"""JSON that comes from outside (the network, a dataset on disk, a journal) decoded with bounds.
+
+``json.loads`` alone accepts 100k-deep nesting (``RecursionError`` here or later, in whatever
+walks the value), ``NaN``/``Infinity``, escaped lone surrogates (``"\\ud800"``, which fail later
+when the string is encoded) and any size. ``loads_bounded`` refuses each of these with a
+``JsonInputError`` that names what was being read, so a caller catches one exception type.
+"""
+
+from __future__ import annotations
+
+import json
+from typing import Any
+
+MAX_DEPTH = 64  # nesting of objects and arrays; datagen's own documents use fewer than 10
+MAX_DOCUMENT_BYTES = 16 * 2**20  # default size bound; callers pass tighter ones
+
+
+class JsonInputError(ValueError):
+    """A JSON document from outside is malformed or exceeds a bound; the text says which."""
+
+
+def _refuse_constant(name: str) -> Any:
+    raise ValueError(f"{name} is not JSON")
+
+
+def loads_bounded(
+    data: bytes | bytearray | memoryview | str,
+    *,
+    what: str,
+    max_bytes: int = MAX_DOCUMENT_BYTES,
+    max_depth: int = MAX_DEPTH,
+) -> Any:
+    """The value of ``data`` (UTF-8 JSON), or ``JsonInputError`` naming ``what`` (e.g.
+    ``"control message on topic T"`` or ``"journal /d/.writer-0.journal line 3"``)."""
+    size = len(data.encode("utf-8", "surrogatepass")) if isinstance(data, str) else len(data)
+    if size > max_bytes:
+        raise JsonInputError(f"{what}: {size} bytes of JSON, more than the {max_bytes} allowed")
+    try:
+        text = data if isinstance(data, str) else bytes(data).decode("utf-8")
+        value = json.loads(text, parse_constant=_refuse_constant)
+    except RecursionError:
+        raise JsonInputError(f"{what}: JSON nested deeper than {max_depth} levels") from None
+    except (ValueError, TypeError) as e:  # UnicodeDecodeError and JSONDecodeError included
+        raise JsonInputError(f"{what}: not valid JSON ({_short(e)})") from None
+    check_value(value, what=what, max_depth=max_depth)
+    return value
+
+
+def check_value(value: Any, *, what: str, max_depth: int = MAX_DEPTH) -> None:
+    """Raises ``JsonInputError`` unless ``value`` nests at most ``max_depth`` levels and every
+    string in it (keys too) encodes as UTF-8. Iterative: safe on any depth."""
+    stack: list[tuple[Any, int]] = [(value, 0)]
+    while stack:
+        item, depth = stack.pop()
+        if isinstance(item, str):
+            _check_text(item, what)
+        elif isinstance(item, dict | list):
+            if depth >= max_depth:
+                raise JsonInputError(f"{what}: JSON nested deeper than {max_depth} levels")
+            if isinstance(item, dict):
+                for key in item:
+                    _check_text(key, what)
+                stack.extend((v, depth + 1) for v in item.values())
+            else:
+                stack.extend((v, depth + 1) for v in item)
+
+
+def _check_text(text: str, what: str) -> None:
+    try:
+        text.encode("utf-8")
+    except UnicodeEncodeError:
+        raise JsonInputError(f"{what}: a string holds a lone surrogate (not UTF-8)") from None
+
+
+def _short(error: Exception) -> str:
+    text = str(error)
+    return text if len(text) <= 120 else text[:117] + "..."
