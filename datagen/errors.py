@@ -2,6 +2,9 @@
 
 from __future__ import annotations
 
+import errno
+import os
+
 
 class UserInputError(ValueError):
     """The user's input (a config, an option, a path) is wrong; the message says where and why.
@@ -18,3 +21,14 @@ class OutDirError(UserInputError):
 
 class BuildError(RuntimeError):
     """The build cannot finish; the message says what is missing and why."""
+
+
+def is_disk_full(exc: BaseException) -> bool:
+    """An OSError of a full file system or an exhausted quota (ENOSPC, EDQUOT)."""
+    return isinstance(exc, OSError) and exc.errno in (errno.ENOSPC, errno.EDQUOT)
+
+
+def disk_full_message(exc: OSError, where: str | os.PathLike) -> str:
+    """One line: ``disk full: PATH (No space left on device)``; PATH is the file when the error
+    names one, else ``where``."""
+    return f"disk full: {exc.filename or where} ({exc.strerror or exc})"

@@ -7,7 +7,9 @@ decomposition (CoACD, seeded, so the same file always gives the same parts). A f
 be read, is empty, has non-finite or degenerate geometry, or fails to decompose is skipped and
 reported, never fatal; the build fails only if no mesh at all is usable. A mesh with more faces
 than ``objects.max_mesh_faces`` is refused before anything starts (config validation,
-:func:`oversized_meshes`): its decomposition would take minutes in every worker.
+:func:`oversized_meshes`): its decomposition would take minutes in every worker; so is a mesh with
+a non-finite vertex coordinate or one beyond ``MAX_COORDINATE`` (:func:`out_of_range_meshes`):
+normalised, it would collapse into a point or a needle.
 """
 
 from __future__ import annotations
@@ -27,6 +29,7 @@ log = logging.getLogger(__name__)
 MESH_SUFFIXES = {".obj", ".stl", ".ply", ".glb", ".gltf", ".usd", ".usda", ".usdc"}
 MAX_PARTS = 8  # convex parts per object
 MIN_EXTENT = 1e-6  # metres (before normalisation): smaller is degenerate
+MAX_COORDINATE = 1e6  # file units (metres, millimetres, ...): farther is no object's vertex
 
 
 class AssetError(ValueError):
@@ -192,11 +195,48 @@ def _gltf_faces(path: Path) -> int:
     return faces
 
 
+def _mesh_files(base: Path) -> list[Path]:
+    return sorted(p for p in base.rglob("*") if p.suffix.lower() in MESH_SUFFIXES)
+
+
+def coordinate_problem(path: Path) -> str | None:
+    """Why the vertices of the mesh file ``path`` are unusable (a non-finite coordinate, or one
+    beyond ``MAX_COORDINATE``), else None. Reads the file as stored (``process=False``: trimesh
+    would otherwise drop non-finite vertices and the faces using them without a word)."""
+    if path.suffix.lower() in {".usd", ".usda", ".usdc"}:
+        vertices = _usd_mesh(path).vertices
+    else:
+        vertices = trimesh.load(str(path), force="mesh", process=False).vertices
+    vertices = np.asarray(vertices, float)
+    if not np.isfinite(vertices).all():
+        return "non-finite vertex coordinates (NaN or infinity)"
+    largest = float(np.abs(vertices).max(initial=0.0))
+    if largest > MAX_COORDINATE:
+        return f"a vertex coordinate of {largest:.3g}"
+    return None
+
+
+def out_of_range_meshes(root: str) -> list[tuple[str, str]]:
+    """(path relative to ``root``, why) of every mesh file in ``root`` whose vertices are
+    unusable (:func:`coordinate_problem`); a file that cannot be read is left to
+    :func:`load_library`. Call it after :func:`oversized_meshes`: it parses every file."""
+    base, found = Path(root), []
+    for path in _mesh_files(base):
+        try:
+            problem = coordinate_problem(path) if path.is_file() else None
+        except Exception as exc:  # an unreadable file of any kind: load_library reports it
+            log.debug("vertices of %s unread: %s", path, exc)
+            continue
+        if problem:
+            found.append((path.relative_to(base).as_posix(), problem))
+    return found
+
+
 def oversized_meshes(root: str, max_faces: int) -> list[tuple[str, int]]:
     """(path relative to ``root``, faces) of every mesh file in ``root`` with more than
     ``max_faces`` faces; a file whose count cannot be read is left to :func:`load_library`."""
     base, found = Path(root), []
-    for path in sorted(p for p in base.rglob("*") if p.suffix.lower() in MESH_SUFFIXES):
+    for path in _mesh_files(base):
         try:
             faces = face_count(path) if path.is_file() else 0
         except Exception as exc:  # an unreadable file of any kind: load_library reports it

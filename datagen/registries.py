@@ -8,12 +8,18 @@ else lists the names. Adding a plug-in is one module plus one line here (docs/ex
 
 Installed packages may add entries through entry points in the groups ``datagen.families``,
 ``datagen.samplers``, ``datagen.exports``, ``datagen.executors`` and ``datagen.layouts``: an
-entry point's object is the record itself (for example a :class:`SceneFamily`).
+entry point's object is the record itself (for example a :class:`SceneFamily`). They are
+loaded the first time a table is read. A plug-in that cannot be used (its import fails, its
+object is not a record of the table's kind, it has no name, or its name is a built-in's or an
+earlier plug-in's) is skipped and reported once on the ``datagen.plugins`` logger; the table
+stays usable, and choosing its name is an error that says why it failed to load.
 """
 
 from __future__ import annotations
 
 import importlib
+import logging
+import re
 from collections.abc import Callable, Iterator, Mapping
 from dataclasses import dataclass
 from importlib import metadata
@@ -22,6 +28,7 @@ from typing import Any, Generic, TypeVar
 from datagen.errors import ConfigError
 
 T = TypeVar("T")
+PLUGIN_LOG = logging.getLogger("datagen.plugins")  # one warning per plug-in skipped
 
 
 def resolve(ref: str) -> Any:
@@ -80,26 +87,68 @@ class LayoutKind:
     params: str  # a dataclass of the generator's parameters
 
 
+@dataclass(frozen=True)
+class PluginFailure:
+    """An entry point that was skipped: its name, its distribution and why."""
+
+    name: str
+    distribution: str  # "name version"
+    reason: str
+
+    def __str__(self) -> str:
+        return _plugin(self.name, self.distribution)
+
+
+def _plugin(entry_name: str, distribution: str) -> str:
+    return f"plug-in {entry_name!r} (from distribution {distribution})"
+
+
 class Registry(Mapping[str, T], Generic[T]):
     """A read-only name -> record table with the error message every chooser shares."""
 
     def __init__(self, kind: str, group: str, records: list[T]):
         self.kind, self.group = kind, group
+        self.record_type = type(records[0])
         self._records = {r.name: r for r in records}  # type: ignore[attr-defined]
+        self._builtins = frozenset(self._records)
         self._plugins_loaded = False
+        self.failures: dict[str, PluginFailure] = {}  # entry point name -> why it was skipped
 
     def _load_plugins(self) -> None:
         if self._plugins_loaded:
             return
         self._plugins_loaded = True
-        for entry in metadata.entry_points(group=self.group):
-            record = entry.load()
-            if record.name in self._records:
-                raise ConfigError(
-                    f"entry point {entry.value} ({self.group}) registers {self.kind} "
-                    f"{record.name!r}, which is already registered"
-                )
+        owners: dict[str, str] = {}  # a plug-in's record name -> its entry point's description
+        for entry in _entry_points(self.group):
+            distribution = _distribution(entry)
+            try:
+                record = self._plugin_record(entry, owners)
+            except _Unusable as exc:
+                failure = PluginFailure(entry.name, distribution, str(exc))
+                self.failures.setdefault(entry.name, failure)
+                PLUGIN_LOG.warning("%s skipped: %s", failure, failure.reason)
+                continue
             self._records[record.name] = record
+            owners[record.name] = _plugin(entry.name, distribution)
+
+    def _plugin_record(self, entry: metadata.EntryPoint, owners: dict[str, str]) -> T:
+        try:
+            record = entry.load()
+        except (Exception, SystemExit) as exc:  # a plug-in's import may raise anything
+            raise _Unusable(f"loading {entry.value} raised {_one_line(exc)}") from None
+        expected = self.record_type.__name__
+        if not isinstance(record, self.record_type):
+            raise _Unusable(f"{entry.value} is not a {expected} but a {type(record).__name__}")
+        name = record.name  # type: ignore[attr-defined]
+        if not isinstance(name, str) or not name.strip():
+            raise _Unusable(f"{entry.value}: its {expected} has no name")
+        if name in self._builtins:
+            raise _Unusable(f"{entry.value} registers {self.kind} {name!r}, a built-in {self.kind}")
+        if name in owners:
+            raise _Unusable(
+                f"{entry.value} registers {self.kind} {name!r}, already registered by {owners[name]}"
+            )
+        return record
 
     def __getitem__(self, name: str) -> T:
         self._load_plugins()
@@ -116,13 +165,61 @@ class Registry(Mapping[str, T], Generic[T]):
     def names(self) -> list[str]:
         return list(self)
 
+    def unknown(self, name: str) -> str:
+        """Why ``name`` is not a choice: the choices, and the failure of a plug-in by that name."""
+        text = f"expected one of {self.names()} ({self.kind}), got {name!r}"
+        failure = self.failures.get(name)
+        return f"{text}; {failure} failed to load: {failure.reason}" if failure else text
+
     def check(self, name: str, where: str) -> T:
         """The record of ``name``, or a ConfigError naming ``where`` and the choices."""
         if name not in self:
-            raise ConfigError(
-                f"{where}: expected one of {self.names()} ({self.kind}), got {name!r}"
-            )
+            raise ConfigError(f"{where}: {self.unknown(name)}")
         return self[name]
+
+
+class _Unusable(Exception):
+    """An entry point that cannot be registered; the text says why."""
+
+
+def _one_line(exc: BaseException) -> str:
+    text = " ".join(f"{type(exc).__name__}: {exc}".split())
+    return text if len(text) <= 300 else text[:297] + "..."
+
+
+def _distribution(entry: metadata.EntryPoint) -> str:
+    dist = getattr(entry, "dist", None)
+    return f"{dist.name} {dist.version}" if dist is not None else "unknown"
+
+
+_reported_distributions: set[str] = set()
+
+
+def _entry_points(group: str) -> list[metadata.EntryPoint]:
+    """The group's entry points. Where one installed distribution's entry_points.txt cannot be
+    parsed (``importlib.metadata`` then fails for all), that distribution is reported once and
+    the others' are read one by one."""
+    try:
+        return list(metadata.entry_points(group=group))
+    except Exception:  # a malformed entry_points.txt anywhere; found below
+        pass
+    found, seen = [], set()
+    for dist in metadata.distributions():
+        name = dist.metadata["Name"] or "(no name)"
+        if (normalised := re.sub(r"[-_.]+", "-", name).lower()) in seen:
+            continue  # the first on sys.path wins, as in importlib.metadata.entry_points
+        seen.add(normalised)
+        try:
+            found += list(dist.entry_points.select(group=group))
+        except Exception as exc:  # the distribution's own metadata is broken
+            if name not in _reported_distributions:
+                _reported_distributions.add(name)
+                PLUGIN_LOG.warning(
+                    "plug-ins of distribution %s skipped: its entry_points.txt cannot be read (%s)",
+                    name,
+                    _one_line(exc),
+                )
+    return found
 
 
 def choices(registry: Registry) -> Callable[[str], str]:
@@ -132,9 +229,7 @@ def choices(registry: Registry) -> Callable[[str], str]:
         import argparse
 
         if text not in registry:
-            raise argparse.ArgumentTypeError(
-                f"expected one of {registry.names()} ({registry.kind}), got {text!r}"
-            )
+            raise argparse.ArgumentTypeError(registry.unknown(text))
         return text
 
     return parse

@@ -144,15 +144,19 @@ def test_missing_executable_is_a_clear_error():
 
 
 @pytest.mark.mqtt
-def test_failed_start_reports_the_log_tail():
+def test_failed_start_reports_the_log_tail_and_a_taken_port_in_one_line():
     with socket.socket() as taken:
         taken.bind(("127.0.0.1", 0))
         taken.listen()
         port = taken.getsockname()[1]
         b = ManagedBroker(port=port)
-        with pytest.raises(BrokerError, match=r"(?s)exited with code.*log tail:.*in use"), b:
+        with pytest.raises(BrokerError, match=rf"^127\.0\.0\.1:{port} is already in use"), b:
             pass
     assert b.dir is None  # temp dir removed
+    b = ManagedBroker(host="192.0.2.1", port=port)  # an address (TEST-NET-1) no interface has
+    with pytest.raises(BrokerError, match=r"(?s)exited with code.*log tail:.*Cannot assign"), b:
+        pass
+    assert b.dir is None
 
 
 @pytest.mark.mqtt

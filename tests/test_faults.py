@@ -27,6 +27,7 @@ from datagen.config.sections import RenderConfig, TransferConfig
 from datagen.dataset.loader import load, verify
 from datagen.engines.transfer.broker_url import parse_broker_url
 from datagen.engines.transfer.publisher import SamplePublisher
+from datagen.engines.transfer.run_binding import RunBinding, config_digest
 from datagen.engines.transfer.topics import topics
 from datagen.engines.transfer.wire import encode_sample
 from datagen.sample import Sample
@@ -133,8 +134,9 @@ def test_injected_duplicates_are_written_once(tmp_path):
     build = BuildThread(tmp_path)
     build.wait_progress(5)
     url, build_id = build.events["broker"]["url"], _build_id(tmp_path)
-    secret = _secret(tmp_path)  # as a worker of the build would
-    with SamplePublisher(url, build_id, client_id="test-duplicates", secret=secret) as publisher:
+    secret = _secret(tmp_path)  # as a worker of the build would, in the build's run
+    run = RunBinding(_run_id(url, build_id), config_digest(CONFIG.to_dict()), CONFIG.seed)
+    with SamplePublisher(url, build_id, "test-duplicates", secret=secret, run=run) as publisher:
         for _ in range(3):
             for sample in duplicates:
                 publisher.publish(sample)
@@ -154,8 +156,36 @@ def _secret(out: Path) -> bytes:
     return bytes.fromhex(json.loads((out / "build.json").read_text())["secret"])
 
 
+def _run_id(url: str, build_id: str) -> str:
+    """The run of the build, as a worker knows it: read here from the writer's retained status
+    (the envelope names its run)."""
+    address = parse_broker_url(url)
+    got = threading.Event()
+    found: list[str] = []
+
+    def on_message(client, userdata, message) -> None:
+        run = json.loads(message.payload).get("run")
+        if run:
+            found.append(run)
+            got.set()
+
+    client = mqtt.Client(mqtt.CallbackAPIVersion.VERSION2, protocol=mqtt.MQTTv5)
+    client.username_pw_set(address.username, address.password)
+    client.on_message = on_message
+    client.connect(address.host, address.port)
+    client.subscribe(topics(build_id).status("0"))
+    client.loop_start()
+    try:
+        assert got.wait(30), "no status of the writer names the run"
+    finally:
+        client.loop_stop()
+        client.disconnect()
+    return found[0]
+
+
 def _hostile_payloads(build_id: str, secret: bytes) -> list[bytes]:
-    genuine = encode_sample(build_id, Sample(3, {"json": b'{"x":1}'}), secret)
+    run = RunBinding.draw({}, 0)  # not the build's: a run of this build id, its secret
+    genuine = encode_sample(build_id, Sample(3, {"json": b'{"x":1}'}), secret, run)
     wrong_version = bytearray(genuine)
     wrong_version[4] = 9
     return [
@@ -169,8 +199,9 @@ def _hostile_payloads(build_id: str, secret: bytes) -> list[bytes]:
         json.dumps({"index": 5, "rgb": "pickle?"}).encode(),
         # forged: well-formed samples of this build that no worker made
         encode_sample(build_id, Sample(6, {"json": b'{"x":1}'})),  # unsigned
-        encode_sample(build_id, Sample(7, {"json": b'{"x":1}'}), os.urandom(32)),  # wrong key
-        encode_sample(build_id, Sample(10**6, {"json": b'{"x":1}'}), os.urandom(32)),  # index >= N
+        encode_sample(build_id, Sample(7, {"json": b'{"x":1}'}), os.urandom(32), run),  # wrong key
+        encode_sample(build_id, Sample(10**6, {"json": b'{"x":1}'}), os.urandom(32), run),
+        genuine,  # signed with the build's secret, in another run
     ]
 
 

@@ -11,6 +11,7 @@ from pathlib import Path
 import pytest
 
 from datagen.engines.transfer.envelope import derive_key
+from datagen.engines.transfer.run_binding import RunBinding
 from datagen.engines.transfer.topics import ack_indices, topics
 from datagen.engines.transfer.wire import MAGIC, WireError, decode_sample, encode_sample
 from datagen.sample import Sample
@@ -19,7 +20,7 @@ REPO = Path(__file__).resolve().parents[1]
 
 
 def frame(
-    header: object, body: bytes = b"", *, magic=MAGIC, version=1, flags=0, header_bytes=None
+    header: object, body: bytes = b"", *, magic=MAGIC, version=2, flags=0, header_bytes=None
 ) -> bytes:
     """A message with a valid CRC around arbitrary (possibly wrong) contents."""
     h = header_bytes if header_bytes is not None else json.dumps(header).encode()
@@ -65,13 +66,13 @@ def test_valid_frame_helper_decodes():
         (b"", "truncated"),
         (b"DGS1\x01\x00", "truncated"),
         (frame(header(), b"{}", magic=b"XXXX"), "bad magic"),
-        (frame(header(), b"{}", version=2), "unknown wire version 2"),
+        (frame(header(), b"{}", version=1), "unknown wire version 1, this decoder reads version 2"),
         (frame(header(), b"{}", flags=2), "unknown flags"),
         (frame(header(), b"{}", flags=1), "truncated"),  # signed, but no room for the MAC
         (frame(header(), b"{}")[:-1], "CRC32 mismatch"),
         (frame(header(), b"{}")[:-3] + b"\x00\x00\x00", "CRC32 mismatch"),
-        (frame(None, header_bytes=b"\xff\xfe"), "not UTF-8 JSON"),
-        (frame(None, header_bytes=b"{not json"), "not UTF-8 JSON"),
+        (frame(None, header_bytes=b"\xff\xfe"), "header: not valid JSON"),
+        (frame(None, header_bytes=b"{not json"), "header: not valid JSON"),
         (frame([1, 2]), "expected an object"),
         (frame(header(build_id=7), b"{}"), "build_id"),
         (frame(header(build_id=""), b"{}"), "build_id"),
@@ -163,9 +164,9 @@ def test_signed_samples_verify_only_with_the_builds_secret():
 
     secret, other = b"s" * 32, b"o" * 32
     sample = Sample(5, {"json": b'{"a":1}', "rgb.png": b"\x89PNG..."})
-    payload = encode_sample("b1", sample, secret)
+    payload = encode_sample("b1", sample, secret, DOC_RUN)
     assert int.from_bytes(payload[6:8], "little") == FLAG_SIGNED
-    build_id, decoded = decode_sample(payload, secret=secret)
+    build_id, decoded = decode_sample(payload, secret=secret, run=DOC_RUN)
     assert build_id == "b1" and decoded.parts == sample.parts
     assert decode_sample(payload)[1].parts == sample.parts  # readable without verifying
     with pytest.raises(WireError, match="signature does not verify"):
@@ -181,6 +182,7 @@ def test_signed_samples_verify_only_with_the_builds_secret():
 
 
 DOC_SECRET = bytes(range(32))  # the secret of docs/wire-format.md's signed example
+DOC_RUN = RunBinding("0123456789abcdef0123456789abcdef", hashlib.sha256(b"{}").hexdigest(), 7)
 
 
 def _doc_value(tag: str) -> str:
@@ -201,11 +203,11 @@ def _documented_decoder(hex_line: str, secret: bytes | None) -> dict[str, bytes]
 
 def test_signed_spec_example_is_the_encoders_test_vector():
     sample = Sample(7, {"json": b'{"n":1}', "note.txt": b"hi"})
-    signed = encode_sample("demo", sample, DOC_SECRET)
+    signed = encode_sample("demo", sample, DOC_SECRET, DOC_RUN)
     assert signed.hex() == _doc_value("wire-example-signed")
-    assert derive_key(DOC_SECRET, "sample").hex() == _doc_value("sample-key")
+    assert derive_key(DOC_SECRET, "sample", DOC_RUN.run).hex() == _doc_value("sample-key")
     assert signed[-36:-4].hex() == _doc_value("sample-mac")
-    assert decode_sample(signed, secret=DOC_SECRET)[1].parts == sample.parts
+    assert decode_sample(signed, secret=DOC_SECRET, run=DOC_RUN)[1].parts == sample.parts
 
 
 def test_the_documented_decoder_verifies_as_the_writer_does():
@@ -219,21 +221,28 @@ def test_the_documented_decoder_verifies_as_the_writer_does():
 
 
 def _signed_with(key: bytes, sample: Sample, build_id: str = "b1") -> bytes:
-    """A sample whose MAC is HMAC-SHA256 under ``key`` itself (no HKDF)."""
-    body = bytearray(encode_sample(build_id, sample)[:-4])
+    """A sample of run DOC_RUN whose MAC is HMAC-SHA256 under ``key`` itself (no HKDF)."""
+    body = bytearray(encode_sample(build_id, sample, run=DOC_RUN)[:-4])
     body[6] = 1  # flags: signed
     body += hmac.new(key, bytes(body), hashlib.sha256).digest()
     return bytes(body) + zlib.crc32(body).to_bytes(4, "little")
 
 
-def test_only_the_sample_key_of_the_secret_verifies_a_sample():
-    secret = DOC_SECRET
+def test_only_the_sample_key_of_the_secret_in_the_run_verifies_a_sample():
+    secret, run = DOC_SECRET, DOC_RUN.run
     sample = Sample(1, {"json": b"{}"})
-    assert _signed_with(derive_key(secret, "sample"), sample) == encode_sample("b1", sample, secret)
-    for wrong in (secret, derive_key(secret, "ack"), derive_key(secret, "control")):
+    genuine = encode_sample("b1", sample, secret, DOC_RUN)
+    assert _signed_with(derive_key(secret, "sample", run), sample) == genuine
+    other_run = "f" * 32
+    for wrong in (
+        secret,
+        derive_key(secret, "sample"),  # the key of no run (wire version 1)
+        derive_key(secret, "sample", other_run),
+        derive_key(secret, "ack", run),
+        derive_key(secret, "control", run),
+    ):
         with pytest.raises(WireError, match="signature does not verify"):
             decode_sample(_signed_with(wrong, sample), secret=secret)
-    genuine = encode_sample("b1", sample, secret)
     renumbered = bytearray(
         genuine.replace(b'"index":1,"key":"000000001"', b'"index":2,"key":"000000002"')
     )
@@ -241,3 +250,23 @@ def test_only_the_sample_key_of_the_secret_verifies_a_sample():
     renumbered[-4:] = zlib.crc32(bytes(renumbered[:-4])).to_bytes(4, "little")  # a valid CRC
     with pytest.raises(WireError, match="signature does not verify"):
         decode_sample(bytes(renumbered), secret=secret)
+
+
+def test_a_genuine_sample_of_another_run_is_refused_as_a_replay():
+    sample = Sample(1, {"json": b'{"seed": 7, "index": 1}'})
+    earlier = RunBinding.draw({}, 7)
+    replayed = encode_sample("b1", sample, DOC_SECRET, earlier)
+    assert decode_sample(replayed, secret=DOC_SECRET)[1].parts == sample.parts  # genuine
+    with pytest.raises(WireError, match=rf"another run .*run {earlier.run} is not this run"):
+        decode_sample(replayed, secret=DOC_SECRET, run=DOC_RUN)
+    other_seed = RunBinding(DOC_RUN.run, DOC_RUN.config_sha256, 8)
+    with pytest.raises(WireError, match="seed 8 is not this build's seed 7"):
+        decode_sample(
+            encode_sample("b1", sample, DOC_SECRET, other_seed), secret=DOC_SECRET, run=DOC_RUN
+        )
+    with pytest.raises(WireError, match="a signed sample names its run"):
+        encode_sample("b1", sample, DOC_SECRET)
+    assert DOC_RUN.metadata_mismatch({"seed": 6, "index": 1}, 1) == (
+        "metadata seed 6 is not this build's seed 7"
+    )
+    assert DOC_RUN.metadata_mismatch({"seed": 7, "index": 2}, 1).startswith("metadata index 2")

@@ -34,11 +34,17 @@ from datagen.build.out_dir import BuildIdentity
 from datagen.build.production import Task
 from datagen.build.result import BuildResult, Observer, ProgressCallback
 from datagen.build.schedule import Schedule
-from datagen.build.supervise import MAX_RESTARTS, WRITER_READY_TIMEOUT_S, Supervisor
+from datagen.build.supervise import (
+    MAX_RESTARTS,
+    WRITER_READY_TIMEOUT_S,
+    Supervisor,
+    writer_ended,
+)
 from datagen.config import BuildConfig
 from datagen.dataset.loader import DatasetError, check_complete
 from datagen.engines.transfer.collector import AckCollector
 from datagen.engines.transfer.mosquitto import ManagedBroker
+from datagen.engines.transfer.run_binding import RunBinding
 from datagen.errors import BuildError
 from datagen.registries import EXECUTORS
 
@@ -72,6 +78,8 @@ class Coordinator:
         self.out_dir = out_dir
         self.build_id = identity.build_id
         self.secret = identity.secret
+        # every run (a --resume too) is a new one: what is signed is bound to it
+        self.run_binding = RunBinding.draw(config.to_dict(), config.seed)
         self.num_workers = workers
         self.external_writers = writers
         self.writer_ids = list(writers) if writers else [LOCAL_WRITER_ID]
@@ -99,7 +107,9 @@ class Coordinator:
     def run(self, url: str, broker: ManagedBroker | None, worker_url: str | None = None) -> None:
         """``worker_url``: the workers' own URL for the broker (their user), else ``url``."""
         self.url, self.broker = url, broker
-        spec = WorkerSpec(self.config.to_dict(), worker_url or url, self.build_id, self.secret)
+        spec = WorkerSpec(
+            self.config.to_dict(), worker_url or url, self.build_id, self.secret, self.run_binding
+        )
         self.executor = EXECUTORS[self.executor_name].load()(spec, **self.executor_options)
         total = self.config.num_samples
         self.supervisor = Supervisor(
@@ -109,7 +119,11 @@ class Coordinator:
         with (
             self.supervisor,
             AckCollector(
-                url, self.build_id, on_ack=self.acks.append, secret=self.secret
+                url,
+                self.build_id,
+                on_ack=self.acks.append,
+                secret=self.secret,
+                run=self.run_binding,
             ) as collector,
         ):
             self.collector = self.supervisor.collector = collector
@@ -131,7 +145,8 @@ class Coordinator:
                 )
                 self.acks.clear()
                 self._report(total - len(self.schedule.remaining))
-                for _ in range(self.num_workers if not self.schedule.done else 0):
+                # no idle workers: at most one per sample still to make
+                for _ in range(min(self.num_workers, len(self.schedule.remaining))):
                     self._start_worker()
                 self._drive()
                 if self.failed:
@@ -139,6 +154,7 @@ class Coordinator:
                 manifest = build_manifest(self.config, self.build_id, self.num_workers)
                 self.result.rejected = collector.rejected
                 manifest["rejected_control_messages_coordinator"] = self.result.rejected
+                manifest["run"] = self.run_binding.run  # the run that finished it
                 if self.result.retried:
                     manifest["retried_samples"] = {
                         str(i): r for i, r in sorted(self.result.retried.items())
@@ -305,10 +321,11 @@ class Coordinator:
                 self.supervisor.check(writers=False)
                 if self.writer is not None and self.writer.exit_code is not None:
                     raise BuildError(
-                        f"the dataset writer exited with code {self.writer.exit_code} before it was ready"
+                        f"the dataset writer {writer_ended(self.writer)} before it was ready"
                     )
                 with contextlib.suppress(TimeoutError):
-                    self.collector.wait_status("ready", writer=writer_id, timeout_s=0.5)
+                    ready = self.collector.wait_status("ready", writer=writer_id, timeout_s=0.5)
+                    self.result.note_changed(ready)
                     break
                 if time.monotonic() > deadline:
                     raise BuildError(
@@ -339,9 +356,14 @@ class Coordinator:
         """Success means the data is there: the finished manifest is this build's, and the
         shards hold every sample 0..N-1 exactly once with the sizes and digests it lists."""
         try:
-            check_complete(self.out_dir, self.config.num_samples, self.build_id)
+            manifest = check_complete(self.out_dir, self.config.num_samples, self.build_id)
         except DatasetError as exc:
             raise BuildError(f"the writers reported the dataset finished, but {exc}") from None
+        if manifest.get("run") != self.run_binding.run:
+            raise BuildError(
+                f"the writers finished the dataset, but its manifest is of run "
+                f"{manifest.get('run')!r}, not of this run {self.run_binding.run!r}"
+            )
 
     def _failed_report(self) -> str:
         lines = [
@@ -357,6 +379,11 @@ class Coordinator:
 def _unsigned_hint(rejected: dict[str, int]) -> str:
     if not rejected:
         return ""
+    if rejected.get("wrong_version"):
+        return (
+            f" (the coordinator dropped control-plane messages of another envelope version: "
+            f"{rejected}; the writers and the build must run the same datagen)"
+        )
     return (
         f" (the coordinator dropped control-plane messages it could not authenticate: "
         f"{rejected}; a writer without the build secret sends unsigned ones)"

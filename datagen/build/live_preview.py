@@ -23,6 +23,7 @@ import numpy as np
 from datagen.build.live_status import live_enabled
 from datagen.dataset.views import labelled_views
 from datagen.engines.transfer.connection import MqttConnectError, MqttConnection
+from datagen.engines.transfer.run_binding import client_id
 from datagen.engines.transfer.topics import topics
 from datagen.sample import Sample
 
@@ -122,7 +123,7 @@ class PreviewFeed:
             return
         try:
             self.conn = MqttConnection(
-                broker_url, f"datagen-{build_id}-preview-{worker}", timeout_s=5.0
+                broker_url, client_id(build_id, f"preview-{worker}"), timeout_s=5.0
             )
         except MqttConnectError as exc:
             log.warning("no previews from worker %s (%s)", worker, exc)

@@ -19,6 +19,7 @@ from collections.abc import Iterable
 from typing import TYPE_CHECKING, Any
 
 from datagen.engines.transfer.connection import MqttConnectError, MqttConnection
+from datagen.engines.transfer.run_binding import client_id
 from datagen.engines.transfer.topics import topics
 from datagen.errors import BuildError
 
@@ -108,7 +109,7 @@ class LiveStatus:
         if not self.enabled:
             return
         try:
-            self.conn = MqttConnection(url, f"datagen-{self.build_id}-live", timeout_s=5.0)
+            self.conn = MqttConnection(url, client_id(self.build_id, "live"), timeout_s=5.0)
         except MqttConnectError as exc:
             log.warning("no live status for monitors (%s)", exc)
         self.state = "running"

@@ -4,7 +4,7 @@ identity; a directory holding something else is never mixed into."""
 
 from __future__ import annotations
 
-import json
+import fnmatch
 import os
 import re
 import secrets
@@ -18,16 +18,31 @@ from typing import Any
 from datagen.config import BuildConfig
 from datagen.engines.transfer.wire import SECRET_ENV, parse_secret
 from datagen.errors import BuildError, OutDirError
+from datagen.registries import EXPORTS
+from datagen.safe_json import loads_bounded
 from datagen.shards import DATASET_FORMAT, MANIFEST, write_manifest
 
 BUILD_STATE = "build.json"
+# What datagen writes in a dataset directory (names, or shell patterns), and so all that
+# --overwrite deletes; a folder among them (an export, inspect/) is datagen's as a whole.
+DATAGEN_FILES = (
+    MANIFEST, BUILD_STATE, "shard-*.tar", "preview.png", "replay-*.png", "inspect",
+    ".writer-*.journal", ".writer-*.lock", "writer-*.json",  # the writers' journals, locks, parts
+    # written, then renamed into place or removed
+    f"{MANIFEST}.tmp", f"{BUILD_STATE}.tmp", "writer-*.json.tmp", ".shard-*.tar.rewrite",
+    ".datagen-write-test-*",
+)  # fmt: skip
+MAX_MANIFEST_BYTES = 2**30  # 89 bytes a sample (docs/dataset-format.md): 10^7 samples fit
+SHOWN = 5  # names listed in a message; the count says how many more there are
 
 
 def _read_json(path: Path) -> dict[str, Any] | None:
+    """The object in ``path``; None if it cannot be read or is not bounded JSON (safe_json)."""
     try:
-        return json.loads(path.read_text())
+        doc = loads_bounded(path.read_bytes(), what=str(path), max_bytes=MAX_MANIFEST_BYTES)
     except (OSError, ValueError):
         return None
+    return doc if isinstance(doc, dict) else None
 
 
 @dataclass(frozen=True)
@@ -69,7 +84,13 @@ def plan_out_dir(out_dir: Path, config: BuildConfig, overwrite: bool, resume: bo
     ``complete`` (it holds this build: nothing to do), ``resume``, ``overwrite`` (a datagen
     output, cleared first) or ``new`` (absent or empty). Raises OutDirError, saying what it
     found, for a directory the build must not use: not a directory, not writable, holding
-    something else (without ``--overwrite``), or not a datagen output (with it)."""
+    something else (without ``--overwrite``), not a datagen output or holding files datagen
+    did not write (with it), or both ``--resume`` and ``--overwrite``."""
+    if resume and overwrite:
+        raise OutDirError(
+            f"{out_dir}: --resume finishes the build in it, --overwrite deletes it: give one of "
+            "them, not both"
+        )
     _check_writable(out_dir)
     manifest = _read_json(out_dir / MANIFEST)
     if (
@@ -80,7 +101,7 @@ def plan_out_dir(out_dir: Path, config: BuildConfig, overwrite: bool, resume: bo
     ):
         return "complete"
     state = _read_json(out_dir / BUILD_STATE)
-    if resume and not overwrite:
+    if resume:
         if state is None:
             raise OutDirError(
                 f"{out_dir}: nothing to resume (no {BUILD_STATE}); start it without --resume"
@@ -110,13 +131,29 @@ def plan_out_dir(out_dir: Path, config: BuildConfig, overwrite: bool, resume: bo
             f"or pass --overwrite to replace it"
         )
     if not _is_datagen_output(manifest, state):
-        shown = ", ".join(entries[:5]) + (f" and {len(entries) - 5} more" if entries[5:] else "")
         raise OutDirError(
             f"{out_dir}: --overwrite deletes only a datagen output (with its {BUILD_STATE}, or a "
             f"{MANIFEST} of format {DATASET_FORMAT!r}) or an empty directory; this one holds "
-            f"{shown} and neither, so it is left as it is: choose another --out"
+            f"{_first_few(entries)} and neither, so it is left as it is: choose another --out"
+        )
+    if foreign := [name for name in entries if not _written_by_datagen(name)]:
+        raise OutDirError(
+            f"{out_dir}: --overwrite would delete {len(foreign)} files datagen did not write: "
+            f"{_first_few(foreign)}; nothing was deleted: move them out of it (or delete them) "
+            "and run the command again"
         )
     return "overwrite"
+
+
+def _written_by_datagen(name: str) -> bool:
+    exports = [fmt.path for fmt in EXPORTS.values()]
+    patterns = (*DATAGEN_FILES, *exports, *(f".{path}.partial" for path in exports))
+    return any(fnmatch.fnmatchcase(name, pattern) for pattern in patterns)
+
+
+def _first_few(names: list[str]) -> str:
+    more = f" and {len(names) - SHOWN} more" if names[SHOWN:] else ""
+    return ", ".join(names[:SHOWN]) + more
 
 
 def _is_datagen_output(manifest: dict[str, Any] | None, state: dict[str, Any] | None) -> bool:

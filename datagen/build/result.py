@@ -19,6 +19,16 @@ class BuildResult:
     restarts: dict[str, int] = field(default_factory=dict)
     retried: dict[int, dict[str, Any]] = field(default_factory=dict)  # index -> attempt, failures
     rejected: dict[str, int] = field(default_factory=dict)  # control messages dropped, by reason
+    # samples a resumed build found changed on disk since they were made durable: made again
+    changed: int = 0
+    changed_keys: list[str] = field(default_factory=list)  # the first few
+
+    def note_changed(self, ready: dict[str, Any]) -> None:
+        """Counts what a writer's ``ready`` status says it removed as changed on disk."""
+        count, keys = ready.get("changed"), ready.get("changed_keys")
+        if isinstance(count, int) and count > 0 and isinstance(keys, list):
+            self.changed += count
+            self.changed_keys += [k for k in keys[:10] if isinstance(k, str)]
 
 
 ProgressCallback = Callable[[int, int], None]  # (samples durable, samples requested)

@@ -3,10 +3,12 @@
 What the build started itself (a managed broker, the local writer) is restarted when it exits
 or stops answering: the broker when no probe got an answer for ``build.broker_timeout_s``
 (killed, then started again on the same port with its saved state), the writer when it sent
-nothing (its status repeats every 2 s) for ``build.writer_timeout_s``. What runs elsewhere (an
-external broker or writer) cannot be restarted from here: it is reported with what to do, and if
-it stays silent ``build.outage_wait_s`` longer the build stops with a :class:`BuildError`; the
-samples already durable stay, and ``--resume`` finishes the build later.
+nothing (its status repeats every 2 s) for ``build.writer_timeout_s``. A writer that stopped
+because its disk is full (its status ``error`` with ``disk full: PATH``, exit status 5) is not:
+the build stops saying so, and ``--resume`` finishes it once there is room. What runs
+elsewhere (an external broker or writer) cannot be restarted from here: it is reported with what
+to do, and if it stays silent ``build.outage_wait_s`` longer the build stops with a
+:class:`BuildError`; the samples already durable stay, and ``--resume`` finishes the build later.
 
 Writers are judged only while the broker answers: a hung broker silences every writer too. The
 finalize round (:meth:`Supervisor.finalize`) is bounded in time, and a broker restarted during
@@ -29,7 +31,9 @@ from datagen.engines.transfer.broker_url import parse_broker_url
 from datagen.engines.transfer.broker_watch import PROBE_INTERVAL_S, BrokerWatch
 from datagen.engines.transfer.collector import AckCollector
 from datagen.engines.transfer.mosquitto import ManagedBroker
+from datagen.engines.transfer.run_binding import client_id
 from datagen.errors import BuildError
+from datagen.sinks.writer import EXIT_DISK_FULL
 
 log = logging.getLogger("datagen.build.coordinator")
 MAX_RESTARTS = 10  # of each kind (worker, writer, broker) before the build gives up
@@ -58,7 +62,7 @@ class Supervisor:
         self.url, self.broker, self.writer, self.writer_ids = url, broker, writer, writer_ids
         self.observer, self.restarts, self.missing = observer, restarts, missing
         self.collector: AckCollector | None = None  # set once it is connected
-        self.watch = BrokerWatch(url, f"datagen-{build_id}-probe")
+        self.watch = BrokerWatch(url, client_id(build_id, "probe"))
         now = time.monotonic()
         self.broker_silence = Silence(now)
         self.broker_doubted = False  # a probe failed since the broker last answered
@@ -84,6 +88,7 @@ class Supervisor:
         now = time.monotonic()
         answers = self._check_broker(now)
         if writers:
+            self._stop_on_full_disk()
             self._check_local_writer_exit()
             if answers:
                 self._check_writers(now)
@@ -146,7 +151,20 @@ class Supervisor:
     def _check_local_writer_exit(self) -> None:
         if self.writer is None or self.writer.exit_code is None:
             return
+        if self.writer.exit_code == EXIT_DISK_FULL:
+            raise BuildError(self.missing(f"the dataset writer {writer_ended(self.writer)}"))
         self._restart_writer(f"exited with code {self.writer.exit_code}")
+
+    def _stop_on_full_disk(self) -> None:
+        """A writer that stopped on a full disk says so in its last status (``disk full:
+        PATH``): restarting it or waiting for it cannot help."""
+        assert self.collector is not None
+        for writer_id, status in self.collector.latest_status().items():
+            reason = status.get("reason") if status.get("state") == "error" else None
+            if writer_id in self.writer_ids and str(reason).startswith("disk full"):
+                raise BuildError(
+                    self.missing(f"writer {writer_id!r} stopped: {reason}; what is durable stays")
+                )
 
     def _restart_writer(self, why: str) -> None:
         self.restarts["writer"] += 1
@@ -208,6 +226,7 @@ class Supervisor:
                 status = collector.wait_finalized(round_, timeout_s=0.5)
                 break
             self.check(writers=False)
+            self._stop_on_full_disk()
             if self.restarts["broker"] != broker_restarts:
                 broker_restarts = self.restarts["broker"]
                 collector.resend(round_)
@@ -215,7 +234,7 @@ class Supervisor:
             if code == 0:
                 return  # it finished; its last status may have gone with the broker: disk decides
             if code is not None:
-                raise BuildError(f"the dataset writer exited with code {code} while finalizing")
+                raise BuildError(f"the dataset writer {writer_ended(self.writer)} while finalizing")
             if time.monotonic() > deadline:
                 raise BuildError(
                     f"the writers did not finish the dataset within {timeout_s:.0f} s; their "
@@ -225,3 +244,10 @@ class Supervisor:
             raise BuildError(
                 f"the writers could not finalize the dataset: {status.get('reason', status)}"
             )
+
+
+def writer_ended(writer: LocalWriter) -> str:
+    """How the local writer ended, for a report: a full disk is named, with the directory."""
+    if writer.exit_code == EXIT_DISK_FULL:
+        return f"stopped: disk full in {writer.out_dir}; what is durable stays"
+    return f"exited with code {writer.exit_code}"

@@ -35,6 +35,7 @@ from datagen.config import config_from_dict
 from datagen.engines.sim.render import keep_renderer_alive
 from datagen.engines.sim.stage_clock import take
 from datagen.engines.transfer.publisher import SamplePublisher, SampleTooLarge
+from datagen.engines.transfer.run_binding import RunBinding, client_id
 
 log = logging.getLogger(__name__)
 _PR_SET_PDEATHSIG = 1
@@ -97,6 +98,7 @@ def worker_main(
     broker_url: str,
     build_id: str,
     secret: bytes,
+    run: RunBinding,
     conn: Connection,
 ) -> None:
     """Runs in a spawned process until the coordinator sends ``None`` or the pipe closes."""
@@ -116,10 +118,11 @@ def worker_main(
         with SamplePublisher(
             broker_url,
             build_id,
-            client_id=f"datagen-{build_id}-worker-{worker_id}",
+            client_id=client_id(build_id, f"worker-{worker_id}"),
             window=config.transfer.window,
             max_message_bytes=int(config.transfer.max_sample_mb * 2**20),
             secret=secret,
+            run=run,
         ) as publisher:
             stage_log = os.environ.get(STAGE_LOG_ENV)
             previews = PreviewFeed(broker_url, build_id, str(worker_id))

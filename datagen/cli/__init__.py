@@ -46,9 +46,48 @@ def parser() -> argparse.ArgumentParser:
     return root
 
 
+class _CurrentStderr(logging.StreamHandler):
+    """Writes to whatever ``sys.stderr`` is when a record comes (tests redirect it)."""
+
+    @property
+    def stream(self):
+        return sys.stderr
+
+    @stream.setter
+    def stream(self, _value) -> None:
+        pass
+
+
+def _report_plugins_on_stderr() -> None:
+    """A skipped plug-in as one line, ``datagen: plug-in 'X' (from distribution Y) skipped: why``,
+    whatever the log level (the registries load plug-ins while the parser is built)."""
+    plugins = logging.getLogger("datagen.plugins")
+    if not any(isinstance(h, _CurrentStderr) for h in plugins.handlers):
+        handler = _CurrentStderr()
+        handler.setFormatter(logging.Formatter("datagen: %(message)s"))
+        plugins.addHandler(handler)
+        plugins.propagate = False
+
+
+def _asks_version(argv: list[str]) -> bool:
+    """Whether the options before the command hold ``--version``: answered without building the
+    commands' parsers, whose help lists the plug-ins (so no plug-in is imported)."""
+    for token in argv:
+        if token == "--version":
+            return True
+        if not token.startswith("-"):
+            return False
+    return False
+
+
 def main(argv: list[str] | None = None) -> int:
     # a parent may hand us SIGINT blocked (it is then never delivered): Ctrl-C must work
     signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGINT})
+    argv = sys.argv[1:] if argv is None else list(argv)
+    if _asks_version(argv):
+        print(f"datagen {version()}")
+        return 0
+    _report_plugins_on_stderr()
     args = parser().parse_args(argv)
     logging.basicConfig(
         level=logging.INFO if args.verbose else logging.WARNING,
@@ -57,7 +96,7 @@ def main(argv: list[str] | None = None) -> int:
     from datagen.dataset.loader import DatasetError
     from datagen.engines.transfer.connection import MqttConnectError
     from datagen.engines.transfer.mosquitto import BrokerError
-    from datagen.errors import BuildError
+    from datagen.errors import BuildError, disk_full_message, is_disk_full
 
     try:
         return args.run(args)
@@ -69,6 +108,12 @@ def main(argv: list[str] | None = None) -> int:
         return EXIT_USER_ERROR
     except (BuildError, BrokerError, MqttConnectError, DatasetError) as exc:
         print(f"datagen: {args.command} failed: {exc}{_resume_hint(args)}", file=sys.stderr)
+        return 1
+    except OSError as exc:
+        if not is_disk_full(exc):
+            raise
+        where = disk_full_message(exc, getattr(args, "out", None) or ".")
+        print(f"datagen: {args.command} failed: {where}{_resume_hint(args)}", file=sys.stderr)
         return 1
     except KeyboardInterrupt:
         hint = ""

@@ -246,9 +246,11 @@ def run_build_command(args: argparse.Namespace, config=None) -> int:
     if args.ca_file:  # read by every MQTT client of the build, workers and writer included
         os.environ["DATAGEN_MQTT_CA_FILE"] = args.ca_file
     writers = [w.strip() for w in args.writers.split(",") if w.strip()] if args.writers else None
+    workers = min(args.workers, config.num_samples)  # a worker more would have nothing to make
+    capped = "" if workers == args.workers else f" (--workers {args.workers}: one per sample)"
     print(
         f"datagen: building {config.num_samples} samples of '{config.scene}' "
-        f"(seed {config.seed}) with {args.workers} workers into {out}"
+        f"(seed {config.seed}) with {workers} workers{capped} into {out}"
     )
     bar = progress(config.num_samples, "durable")
     pages = contextlib.ExitStack()
@@ -256,7 +258,7 @@ def run_build_command(args: argparse.Namespace, config=None) -> int:
         result = run_build(
             config,
             out,
-            args.workers,
+            workers,
             overwrite=args.overwrite,
             on_progress=lambda done, _total: bar.update_to(done),
             resume=args.resume,
@@ -278,6 +280,12 @@ def run_build_command(args: argparse.Namespace, config=None) -> int:
         made = result.samples - result.resumed_from
         rate = made / result.seconds if result.seconds else 0.0
         resumed = f"; {result.resumed_from} were already durable" if result.resumed_from else ""
+        if result.changed:
+            shown = ", ".join(result.changed_keys) + (" ..." if result.changed > 10 else "")
+            print(
+                f"datagen: made again {result.changed} samples whose bytes on disk were not those "
+                f"journalled when they were made durable (changed since): {shown}"
+            )
         print(
             f"datagen: {made} samples in {result.seconds:.1f} s ({rate:.2f} samples/s){resumed} -> {out}"
         )

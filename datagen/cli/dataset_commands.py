@@ -169,12 +169,33 @@ def run_export(args: argparse.Namespace) -> int:
     return 0
 
 
+MAX_SKIP_LINES = 20  # skipped samples named one per line; the rest are counted
+
+
+def _skip_reporter(command: str):
+    """``on_skip`` of a tool: ``datagen COMMAND: sample KEY skipped: why`` on stderr, for the
+    first MAX_SKIP_LINES samples, then one line that counts the others."""
+    from datagen.cli.common import one_line
+
+    seen = 0
+
+    def report(key: str, reason: str) -> None:
+        nonlocal seen
+        seen += 1
+        if seen <= MAX_SKIP_LINES:
+            print(f"datagen {command}: sample {one_line(key)} skipped: {one_line(reason)}", file=sys.stderr)  # fmt: skip
+        elif seen == MAX_SKIP_LINES + 1:
+            print(f"datagen {command}: more samples skipped (the first {MAX_SKIP_LINES} are named)", file=sys.stderr)  # fmt: skip
+
+    return report
+
+
 def run_inspect(args: argparse.Namespace) -> int:
     import json
 
     from datagen.tools.inspection import inspect_dataset
 
-    summary, files = inspect_dataset(args.dataset)
+    summary, files = inspect_dataset(args.dataset, on_skip=_skip_reporter("inspect"))
     print(summary_table(summary))
     summary_path = Path(args.dataset) / "inspect" / "summary.json"
     summary_path.write_text(json.dumps(summary, indent=2))
@@ -201,7 +222,9 @@ def run_preview(args: argparse.Namespace) -> int:
     from datagen.tools.preview import write_preview
 
     out = Path(args.out) if args.out else Path(args.dataset) / "preview.png"
-    path = write_preview(Path(args.dataset), out, count=args.count)
+    path = write_preview(
+        Path(args.dataset), out, count=args.count, on_skip=_skip_reporter("preview")
+    )
     print(f"datagen: wrote {path}")
     return 0
 

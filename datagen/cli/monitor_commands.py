@@ -6,7 +6,9 @@ from __future__ import annotations
 import argparse
 import contextlib
 import os
+import socket
 import threading
+from collections.abc import Sequence
 
 from datagen.cli.common import build_id, whole_number
 from datagen.errors import UserInputError
@@ -32,6 +34,14 @@ def add_parsers(commands) -> None:
     monitor.add_argument("--build-id", type=build_id, help="the build to show (default: choose)")
     monitor.add_argument("--host", default="127.0.0.1", help="address the page is served on")
     monitor.add_argument(
+        "--public-name",
+        action="append",
+        default=[],
+        metavar="NAME",
+        help="a name browsers use for this machine besides its IP addresses, localhost and its "
+        "host name (e.g. a DNS alias); requests naming any other host are refused",
+    )
+    monitor.add_argument(
         "--port", type=whole_number(0, 65535), default=8765, help="0: a free port (default 8765)"
     )
     monitor.set_defaults(run=run_monitor)
@@ -42,7 +52,7 @@ def run_monitor(args: argparse.Namespace) -> int:
         config = page_config(args.broker, args.build_id)
     except ValueError as exc:
         raise UserInputError(str(exc)) from None
-    with serving(config, args.host, args.port) as server:
+    with serving(config, args.host, args.port, args.public_name) as server:
         where = f" for {config.broker}" if config.broker else ""
         print(f"datagen: monitor{where}: open {server.url}  (Ctrl-C stops it)", flush=True)
         with contextlib.suppress(KeyboardInterrupt):
@@ -51,9 +61,15 @@ def run_monitor(args: argparse.Namespace) -> int:
 
 
 @contextlib.contextmanager
-def serving(config: PageConfig, host: str = "127.0.0.1", port: int = 0):
+def serving(
+    config: PageConfig, host: str = "127.0.0.1", port: int = 0, public_names: Sequence[str] = ()
+):
     try:
-        server = MonitorServer(config, host, port)
+        server = MonitorServer(config, host, port, public_names)
+    except socket.gaierror as exc:
+        raise UserInputError(
+            f"--host {host}: not an address of this machine ({exc.strerror})"
+        ) from None
     except OSError as exc:
         raise UserInputError(
             f"--port {port}: cannot serve the monitor page on {host}:{port} ({exc.strerror}); "

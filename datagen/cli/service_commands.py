@@ -5,14 +5,20 @@ from __future__ import annotations
 
 import argparse
 import functools
+import logging
 import os
+import signal
+import sys
+from pathlib import Path
 
-from datagen.cli.common import positive_int
-from datagen.engines.transfer.connection import CA_FILE_ENV
+from datagen.cli.common import whole_number
+from datagen.engines.transfer.connection import CA_FILE_ENV, MqttConnectError
 from datagen.engines.transfer.topics import valid_build_id
 from datagen.engines.transfer.wire import DEFAULT_MAX_MESSAGE_BYTES, SECRET_ENV, parse_secret
 from datagen.shards import valid_writer_id
-from datagen.sinks.writer import DEFAULT_SESSION_EXPIRY_S, run_writer
+from datagen.sinks.writer import DEFAULT_SESSION_EXPIRY_S, EXIT_FAILED, DatasetWriter
+
+log = logging.getLogger("datagen.writer")  # the writer process's log
 
 
 def add_parsers(commands) -> None:
@@ -26,7 +32,9 @@ def add_parsers(commands) -> None:
         "broker", help="run Mosquitto with the settings datagen needs and print how to connect"
     )
     broker.add_argument("--host", default="127.0.0.1", help="address to listen on (0.0.0.0: all)")
-    broker.add_argument("--port", type=positive_int, default=1883)
+    broker.add_argument(
+        "--port", type=whole_number(1, 65535), default=1883, help="TCP port (default: 1883)"
+    )
     broker.add_argument("--data-dir", help="persistence directory (default: a temporary one)")
     broker.add_argument("--username", help="default: generated")
     broker.add_argument("--password", help="default: generated; prefer $DATAGEN_BROKER_PASSWORD")
@@ -118,3 +126,46 @@ def run_broker(args: argparse.Namespace) -> int:
         advertise_host=args.advertise_host,
         on_ready=ready,
     )
+
+
+def run_writer(
+    out: str | Path,
+    build_id: str,
+    writer_id: str = "0",
+    *,
+    broker_url: str,
+    shard_size: int = 1000,
+    max_message_bytes: int = DEFAULT_MAX_MESSAGE_BYTES,
+    session_expiry_s: int = DEFAULT_SESSION_EXPIRY_S,
+    ca_file: str | None = None,
+    secret: bytes | None = None,
+    log_level: str = "INFO",
+) -> int:
+    """Runs one writer until SIGTERM/SIGINT or a finished build; returns its exit code. Logs go
+    to stderr at ``log_level``, each line tagged ``writer[{writer_id}]``."""
+    logging.basicConfig(
+        stream=sys.stderr,
+        level=log_level.upper(),
+        format=f"%(asctime)s writer[{writer_id}] %(levelname)s %(name)s: %(message)s",
+        force=True,
+    )
+    writer = DatasetWriter(
+        broker_url,
+        build_id,
+        out,
+        writer_id=writer_id,
+        shard_size=shard_size,
+        max_message_bytes=max_message_bytes,
+        session_expiry_s=session_expiry_s,
+        ca_file=ca_file,
+        secret=secret,
+    )
+    if secret is None:
+        log.warning("no $%s: accepting any well-formed sample of build %s", SECRET_ENV, build_id)
+    for sig in (signal.SIGTERM, signal.SIGINT):
+        signal.signal(sig, lambda *_: writer.stop())
+    try:
+        return writer.run()
+    except (MqttConnectError, ValueError) as exc:
+        log.error("%s", exc)
+        return EXIT_FAILED

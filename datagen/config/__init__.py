@@ -241,9 +241,10 @@ def _check_camera(camera: CameraConfig, source: str) -> None:
 
 
 def _check_mesh_sizes(assets_dir: str, max_faces: int, source: str) -> None:
-    """A huge mesh would take minutes to decompose in every worker: refused before any
-    process starts (reading headers only, so this check stays cheap)."""
-    from datagen.mesh_library import oversized_meshes
+    """A huge mesh would take minutes to decompose in every worker, and one with a vertex at
+    NaN or 1e300 would collapse when normalised: refused before any process starts (the face
+    counts from headers first, so a huge file is refused before it is parsed)."""
+    from datagen.mesh_library import MAX_COORDINATE, out_of_range_meshes, oversized_meshes
 
     oversized = oversized_meshes(assets_dir, max_faces)
     if oversized:
@@ -253,6 +254,14 @@ def _check_mesh_sizes(assets_dir: str, max_faces: int, source: str) -> None:
             f"{source}: objects.assets_dir: {Path(assets_dir) / path} has {faces} faces, more "
             f"than objects.max_mesh_faces ({max_faces}){more}: simplify it (decimate it in "
             f"MeshLab or Blender) or raise objects.max_mesh_faces"
+        )
+    out_of_range = out_of_range_meshes(assets_dir)
+    if out_of_range:
+        path, problem = out_of_range[0]
+        more = f" (and {len(out_of_range) - 1} more)" if len(out_of_range) > 1 else ""
+        raise ConfigError(
+            f"{source}: objects.assets_dir: {Path(assets_dir) / path} has {problem}{more}; "
+            f"expected finite vertex coordinates within +-{MAX_COORDINATE:.0e}: fix or remove it"
         )
 
 

@@ -1,6 +1,6 @@
 """Checking a dataset against its manifest, sample by sample: ``verify_dataset``.
 
-Every listed shard is read once, front to back (``read_shard``: one sample in memory at a
+Every listed shard is read once, front to back (``read_shard``: a megabyte in memory at a
 time), for its size, its sha256 and each sample's ``sample_sha256``. The result names what is
 wrong: shards missing, resized or changed; samples missing (listed, in no shard), extra (in a
 shard, not listed), duplicated, or altered (a digest that differs from the manifest's). A
@@ -16,11 +16,12 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from datagen.dataset.manifest import read_manifest
+from datagen.dataset.manifest import DatasetError, read_manifest
 from datagen.sample import sample_key
-from datagen.shards import keys_sha256, read_shard, shards_by_writer
+from datagen.shards import MAX_MEMBER_BYTES, keys_sha256, read_shard, shards_by_writer
 
 SHOWN = 10  # keys named per kind of problem; the count says how many there are
+MAX_KEYS_WITHOUT_DIGESTS = 10**7  # samples 0..N-1 checked by key when the manifest has no digests
 
 
 @dataclass
@@ -93,6 +94,8 @@ def _wanted(report: Verification, listed: dict[str, str], expected: int | None) 
                 f"the manifest says {count} samples but lists the digests of {len(listed)}"
             )
         return set(listed)
+    if (count or 0) > MAX_KEYS_WITHOUT_DIGESTS:  # a forged count: no set of 10^9 keys
+        return None
     keys = {sample_key(i) for i in range(count or 0)}
     return keys if digest is None or digest == keys_sha256(keys) else None
 
@@ -123,16 +126,23 @@ def _keys(keys: list[str]) -> str:
 def _read(
     root: Path, record: dict, report: Verification, on_sample: Callable[[], None] | None
 ) -> list[tuple[str, str]]:
-    """The (key, digest) of each sample in one listed shard; its shard-level problems."""
+    """The (key, digest) of each sample in one listed shard; its shard-level problems. A member
+    that is no sample's part, or larger than the whole shard as listed, is one (its samples are
+    then missing)."""
     name = record["name"]
     path = root / name
     try:
-        contents = read_shard(path, on_sample)
+        contents = read_shard(
+            path, on_sample, min(MAX_MEMBER_BYTES, record.get("bytes", MAX_MEMBER_BYTES))
+        )
     except FileNotFoundError:
         report.problems.append(f"{name}: missing")
         return []
     except OSError as exc:
         report.problems.append(f"{name}: cannot read it: {exc.strerror or exc}")
+        return []
+    except DatasetError as exc:
+        report.problems.append(str(exc))
         return []
     report.shards += 1
     report.bytes += contents.bytes
@@ -154,6 +164,9 @@ def _compare(
             f"the manifest's sample digests are not those of samples 0..{len(wanted) - 1}: "
             f"{len(wanted - listed.keys())} absent, {len(listed.keys() - wanted)} of other keys"
         )
+    count = report.manifest.get("samples")
+    if wanted is None and count is not None and count != len(found):
+        report.problems.append(f"the manifest says {count} samples, its shards hold {len(found)}")
     wanted = set(found) if wanted is None else wanted
     missing = sorted(wanted - found.keys())
     extra = sorted(found.keys() - wanted)

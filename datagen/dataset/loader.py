@@ -11,7 +11,6 @@ from __future__ import annotations
 
 import contextlib
 import functools
-import json
 import os
 import re
 import sys
@@ -25,7 +24,8 @@ import numpy as np
 
 from datagen.dataset.integrity import verify_dataset
 from datagen.dataset.manifest import DatasetError, read_manifest
-from datagen.shards import member_key, scan_members
+from datagen.safe_json import JsonInputError, loads_bounded
+from datagen.shards import member_key, open_regular, read_members
 
 # part name -> item field, for the parts decoded as images (depth_sensor.png: the sensor
 # model's depth, rgb_clean.png: colour before the camera effects; only where the build made them)
@@ -63,7 +63,7 @@ def decode_parts(parts: dict[str, bytes]) -> dict[str, Any]:
     jobs: list[tuple[dict[str, Any], str, str, bytes]] = []  # (into, field, image kind, data)
     for name, data in parts.items():
         if name == "json":
-            item["meta"] = json.loads(data.decode("utf-8"))
+            item["meta"] = metadata_of(data, "part 'json'")
         elif name in _IMAGES:
             jobs.append((item, _IMAGES[name], name, data))
         elif match := _FRAME_PART.match(name):
@@ -90,10 +90,22 @@ def decode_parts(parts: dict[str, bytes]) -> dict[str, Any]:
         item["views"] = cameras
     if frames:
         records = item.get("meta", {}).get("frames", [])
+        records = records if isinstance(records, list) else []
         item["frames"] = [
             frames[k] | ({"meta": records[k]} if k < len(records) else {}) for k in sorted(frames)
         ]
     return item
+
+
+def metadata_of(data: bytes, what: str) -> dict[str, Any]:
+    """A sample's ``json`` part as a dict (``loads_bounded``), or DatasetError naming ``what``."""
+    try:
+        meta = loads_bounded(data, what=what)
+    except JsonInputError as exc:
+        raise DatasetError(str(exc)) from None
+    if not isinstance(meta, dict):
+        raise DatasetError(f"{what}: a JSON {type(meta).__name__}, expected an object")
+    return meta
 
 
 _pool: tuple[int, ThreadPoolExecutor | None] | None = None
@@ -114,7 +126,15 @@ def _decoder_pool() -> ThreadPoolExecutor | None:
     return _pool[1]
 
 
+MAX_IMAGE_PIXELS = 2**26  # 4x the largest render (render.width, render.height <= 4096)
+_PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"
+
+
 def _decode_png(name: str, data: bytes) -> np.ndarray:
+    if data[:8] == _PNG_SIGNATURE and data[12:16] == b"IHDR":  # its size, before decoding
+        width, height = int.from_bytes(data[16:20], "big"), int.from_bytes(data[20:24], "big")
+        if width * height > MAX_IMAGE_PIXELS:
+            raise DatasetError(f"part {name!r} is a PNG of {width}x{height} pixels, too large")
     image = cv2.imdecode(np.frombuffer(data, np.uint8), cv2.IMREAD_UNCHANGED)
     if image is None:
         raise DatasetError(f"part {name!r} is not a decodable image")
@@ -137,15 +157,19 @@ class ShardDataset:
         members: dict[str, list[tuple[int, int, int, str]]] = {}
         for i, name in enumerate(self.shards):
             path = self.root / name
-            if not path.is_file():
-                raise DatasetError(f"{self.root}: shard {name} listed in the manifest is missing")
+            try:
+                shard_members = read_members(path)  # DatasetError naming a bad member
+            except FileNotFoundError:
+                raise DatasetError(
+                    f"{self.root}: shard {name} listed in the manifest is missing"
+                ) from None
             listed = self.manifest["shards"][i].get("bytes")
             if listed is not None and path.stat().st_size != listed:
                 raise DatasetError(
                     f"{path}: {path.stat().st_size} bytes, the manifest lists {listed} "
                     "(truncated or altered)"
                 )
-            for m in scan_members(path):
+            for m in shard_members:
                 key = member_key(m.name)
                 members.setdefault(key, []).append(
                     (i, m.offset_data, m.size, m.name[len(key) + 1 :])
@@ -164,7 +188,10 @@ class ShardDataset:
         return len(self.keys)
 
     def __getitem__(self, i: int) -> dict[str, Any]:
-        item = decode_parts(self.raw(i))
+        try:
+            item = decode_parts(self.raw(i))
+        except DatasetError as exc:
+            raise DatasetError(f"{self.root}: sample {self.keys[i]}: {exc}") from None
         item["key"] = self.keys[i]
         return item
 
@@ -191,8 +218,10 @@ class ShardDataset:
         """Only the JSON metadata of item ``i`` (no image decoding)."""
         for shard, offset, size, part in self._members[i]:
             if part == "json":
-                return json.loads(self._read(shard, offset, size))
-        raise DatasetError(f"item {i} has no json part")
+                return metadata_of(
+                    self._read(shard, offset, size), f"{self.root}: {self.keys[i]}.json"
+                )
+        raise DatasetError(f"{self.root}: sample {self.keys[i]} has no json part")
 
     def shard_paths(self) -> list[str]:
         return [str(self.root / name) for name in self.shards]
@@ -217,7 +246,7 @@ class ShardDataset:
             self._fds, self._pid = {}, os.getpid()
         fd = self._fds.get(shard)
         if fd is None:
-            fd = self._fds[shard] = os.open(self.root / self.shards[shard], os.O_RDONLY)
+            fd = self._fds[shard] = open_regular(self.root / self.shards[shard])
         data = os.pread(fd, size, offset)
         if len(data) != size:
             raise DatasetError(f"{self.shards[shard]}: truncated member at byte {offset}")

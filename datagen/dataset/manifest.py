@@ -4,18 +4,23 @@ says what is wrong, naming the path."""
 
 from __future__ import annotations
 
-import json
 import re
 from pathlib import Path
 from typing import Any
 
-from datagen.shards import DATASET_FORMAT, DATASET_FORMAT_NAME, DATASET_FORMAT_VERSION, MANIFEST
+from datagen.safe_json import JsonInputError, loads_bounded
+from datagen.shards import (
+    DATASET_FORMAT,
+    DATASET_FORMAT_NAME,
+    DATASET_FORMAT_VERSION,
+    MANIFEST,
+    DatasetError,
+)
 
 _FORMAT = re.compile(rf"^{re.escape(DATASET_FORMAT_NAME)}/(\d{{1,9}})$")
-
-
-class DatasetError(ValueError):
-    """The directory is not a (valid) datagen dataset; the text says why."""
+# 10^6 samples' digests take 89 MB (docs/dataset-format.md); a manifest beyond is not datagen's
+MAX_MANIFEST_BYTES = 2**30
+__all__ = ["DatasetError", "format_problem", "read_manifest"]
 
 
 def read_manifest(root: str | Path) -> dict[str, Any]:
@@ -25,20 +30,21 @@ def read_manifest(root: str | Path) -> dict[str, Any]:
     path = Path(root) / MANIFEST
     try:
         found = None if Path(root).is_dir() else Path(root).exists()
-        text = path.read_text(encoding="utf-8") if found is None and path.is_file() else None
+        size = path.stat().st_size if found is None and path.is_file() else None
+        if size is not None and size > MAX_MANIFEST_BYTES:
+            raise DatasetError(f"{path}: {size} bytes, more than a manifest may hold")
+        data = path.read_bytes() if size is not None else None
     except OSError as exc:
         raise DatasetError(f"{exc.filename or path}: cannot read it: {exc.strerror}") from None
-    except UnicodeDecodeError as exc:
-        raise DatasetError(f"{path}: not valid JSON: {exc}") from None
     if found is not None:
         found = "not a directory" if found else "no such directory"
         raise DatasetError(f"{root}: {found}; expected a dataset directory (with {MANIFEST})")
-    if text is None:
+    if data is None:
         raise DatasetError(f"{root} is not a datagen dataset: no {MANIFEST} (not finalized?)")
     try:
-        manifest = json.loads(text)
-    except (ValueError, RecursionError) as exc:
-        raise DatasetError(f"{path}: not valid JSON: {exc}") from None
+        manifest = loads_bounded(data, what=str(path), max_bytes=MAX_MANIFEST_BYTES)
+    except JsonInputError as exc:
+        raise DatasetError(str(exc)) from None
     if not isinstance(manifest, dict):
         raise DatasetError(f"{path}: not a JSON object; not a datagen manifest")
     if problem := format_problem(manifest.get("dataset_format")):

@@ -4,6 +4,7 @@ the ``instance`` and ``semantic`` attributes; the legacy reader gets positions a
 
 from __future__ import annotations
 
+import errno
 from pathlib import Path
 from typing import Any
 
@@ -85,8 +86,27 @@ def write_ply(path: str | Path, cloud: dict[str, np.ndarray]) -> None:
     pcd.point.colors = o3d.core.Tensor(cloud["colors"].astype(np.float32) / 255.0)
     for name in ("instance", "semantic", "view"):
         pcd.point[name] = o3d.core.Tensor(cloud[name].astype(np.int32).reshape(-1, 1))
-    if not o3d.t.io.write_point_cloud(str(path), pcd):
-        raise OSError(f"Open3D could not write {path}")
+    if not o3d.t.io.write_point_cloud(str(path), pcd) or not _whole_ply(Path(path)):
+        raise OSError(errno.EIO, "Open3D could not write it whole", str(path))
+
+
+_PLY_TYPE_BYTES = {"char": 1, "uchar": 1, "short": 2, "ushort": 2, "int": 4, "uint": 4,
+                   "float": 4, "double": 8}  # fmt: skip
+
+
+def _whole_ply(path: Path) -> bool:
+    """Whether a binary PLY of vertices is as long as its header says (Open3D reports success
+    when a write fails part way, on a full disk say)."""
+    with open(path, "rb") as f:
+        head = f.read(4096)
+    end = head.find(b"end_header\n")
+    lines = head[:end].decode("ascii", "replace").splitlines()
+    vertices = [int(line.split()[2]) for line in lines if line.startswith("element vertex ")]
+    sizes = [
+        _PLY_TYPE_BYTES.get(line.split()[1], 0) for line in lines if line.startswith("property ")
+    ]
+    expected = end + len(b"end_header\n") + sum(vertices) * sum(sizes)
+    return end >= 0 and path.stat().st_size == expected
 
 
 def read_ply(path: str | Path) -> dict[str, np.ndarray]:

@@ -20,6 +20,7 @@ import numpy as np
 from pycocotools import mask as mask_utils
 
 from datagen.dataset.views import labelled_views, thing_classes
+from datagen.exports.files import inside
 
 
 def _rle(mask: np.ndarray) -> dict[str, Any]:
@@ -46,7 +47,7 @@ def export(
         raw = dataset.raw(i, wanted)
         for view in views:
             file_name = f"{key}.{view.prefix}png"
-            (images_dir / file_name).write_bytes(raw[f"{view.prefix}rgb.png"])  # PNG as stored
+            inside(images_dir, file_name).write_bytes(raw[f"{view.prefix}rgb.png"])  # as stored
             seg = cv2.imdecode(np.frombuffer(raw[f"{view.prefix}seg.png"], np.uint8), -1)
             image_id = len(images) + 1
             images.append({

@@ -27,6 +27,7 @@ import numpy as np
 
 from datagen.dataset.loader import decode_parts
 from datagen.dataset.views import LabelledView, is_sequence, labelled_views
+from datagen.exports.files import FailureRecordingFile
 
 FORMAT = "datagen.hdf5/1"
 _IMAGES = (
@@ -108,8 +109,19 @@ def export(
     out: Path,
     on_progress: Callable[[int, int], None] | None = None,
 ) -> list[Path]:
+    target = FailureRecordingFile(out)  # HDF5 never sees a failed write (it would crash)
+    try:
+        _write(target, dataset, manifest, on_progress)
+    finally:
+        target.close()
+    if target.error is not None:
+        raise OSError(target.error.errno, target.error.strerror, str(out))
+    return [out]
+
+
+def _write(target, dataset, manifest: dict[str, Any], on_progress) -> None:
     keys, success, frames = [], [], []
-    with h5py.File(out, "w") as f:
+    with h5py.File(target, "w") as f:
         f.attrs["format"] = FORMAT
         f.attrs["scene"] = manifest.get("scene", "")
         f.attrs["classes"] = json.dumps(manifest.get("classes", []))
@@ -140,4 +152,3 @@ def export(
             index.create_dataset("success", data=np.array(success, dtype=bool))
         if len(frames) == len(keys):
             index.create_dataset("frames", data=np.array(frames, dtype=np.int64))
-    return [out]

@@ -10,6 +10,7 @@ from typing import Any
 
 from datagen.dataset.pointcloud import sample_point_cloud, write_ply
 from datagen.dataset.views import is_sequence, labelled_views
+from datagen.exports.files import inside
 
 SEQUENCE_STRIDE = 4  # pixels: a sequence's many frames would make clouds of millions of points
 
@@ -25,7 +26,7 @@ def export(
     for i in range(len(dataset)):
         meta = dataset.metadata(i)
         stride = SEQUENCE_STRIDE if is_sequence(labelled_views(meta)) else 1
-        path = out / f"{dataset.keys[i]}.ply"
+        path = inside(out, f"{dataset.keys[i]}.ply")
         write_ply(path, sample_point_cloud(dataset.raw(i), meta, stride=stride))
         files.append(path)
         if on_progress:

@@ -4,25 +4,37 @@ and its ``export(dataset, manifest, out, on_progress=None) -> files`` function, 
 ``on_progress(done, total)`` as samples are exported. Nothing here draws progress bars: callers
 pass ``on_progress(format, done, total)`` to :func:`run_exports` and show it as they like.
 
-An export is written beside the shards into a temporary name, renamed into place when complete,
-and then recorded in the manifest under ``exports``. An interrupted export leaves no partial
-output and is redone by the next ``datagen build --resume`` or ``datagen export``.
+An export is written beside the shards into a temporary name (``.NAME.partial``), flushed to
+disk, renamed into place when complete (an older copy, with ``force``, is kept aside until
+then), and then recorded in the manifest under ``exports``. An export that fails or is
+interrupted leaves nothing behind and is redone by the next ``datagen build --resume`` or
+``datagen export``: a full disk is a BuildError that says "disk full", a sample whose content is
+not what datagen writes a DatasetError naming it.
 """
 
 from __future__ import annotations
 
-import functools
+import logging
 import os
 import shutil
 import time
 from collections.abc import Callable
 from pathlib import Path
-from typing import Any
+from typing import Any, NoReturn
 
+from datagen.dataset.manifest import DatasetError, read_manifest
+from datagen.errors import BuildError
+from datagen.exports.files import disk_full, fsync_tree, inside
 from datagen.registries import EXPORTS, FAMILIES, STORE, ExportFormat, resolve
-from datagen.shards import write_manifest
+from datagen.shards import fsync_dir, write_manifest
 
+log = logging.getLogger(__name__)
 ExportProgress = Callable[[str, int, int], None]  # (format name, samples done, samples in all)
+# what an export meets in a sample whose metadata is not what datagen writes (RuntimeError:
+# USD's Tf.ErrorException and Qhull's errors, on a name or a shape they refuse)
+_CONTENT_ERRORS = (
+    KeyError, IndexError, TypeError, AttributeError, ValueError, ArithmeticError, RuntimeError,
+)  # fmt: skip
 
 
 def _size(path: Path) -> int:
@@ -40,8 +52,6 @@ def _remove(path: Path) -> None:
 
 def check_world(fmt: ExportFormat, manifest: dict[str, Any], root: Path) -> None:
     """Raises DatasetError unless ``fmt`` can describe the dataset's scenes (its ``worlds``)."""
-    from datagen.dataset.loader import DatasetError
-
     if fmt.worlds is None:
         return
     scene = manifest.get("scene")
@@ -62,8 +72,9 @@ def run_exports(
     on_progress: ExportProgress | None = None,
 ) -> dict[str, dict[str, Any]]:
     """Exports each of ``sinks`` (other than the webdataset store) not yet recorded in the
-    manifest, or every one with ``force``; returns the manifest's ``exports`` record."""
-    from datagen.dataset.loader import DatasetError, load, read_manifest
+    manifest or no longer there, or every one with ``force``; returns the manifest's
+    ``exports`` record."""
+    from datagen.dataset.loader import load
 
     unknown = [s for s in sinks if s != STORE and s not in EXPORTS]
     if unknown:
@@ -72,34 +83,74 @@ def run_exports(
         )
     root = Path(root)
     manifest = read_manifest(root)
-    done = dict(manifest.get("exports", {}))
-    todo = [EXPORTS[s] for s in sinks if s in EXPORTS and (force or s not in done)]
+    recorded = manifest.get("exports", {})
+    done = dict(recorded) if isinstance(recorded, dict) else {}
+    missing = {s for s in done if s in EXPORTS and not os.path.lexists(root / EXPORTS[s].path)}
+    todo = [EXPORTS[s] for s in sinks if s in EXPORTS and (force or s not in done or s in missing)]
     if not todo:
         return done
     for fmt in todo:  # refuse before writing anything
         check_world(fmt, manifest, root)
     dataset = load(root)
     for fmt in todo:
-        export = resolve(fmt.export)
-        final, tmp = root / fmt.path, root / f".{fmt.path}.partial"
-        for stale in (tmp, final):
-            if stale.is_dir():
-                shutil.rmtree(stale)
-            else:
-                stale.unlink(missing_ok=True)
-        start = time.monotonic()
-        progress = functools.partial(on_progress, fmt.name) if on_progress else None
-        try:
-            export(dataset, manifest, tmp, on_progress=progress)
-        except BaseException:
-            _remove(tmp)  # a failed export leaves nothing behind (Ctrl-C included)
-            raise
-        os.replace(tmp, final)
-        done[fmt.name] = {
-            "path": fmt.path,
-            "bytes": _size(final),
-            "seconds": round(time.monotonic() - start, 3),
-        }
-        manifest = read_manifest(root) | {"exports": done}
-        write_manifest(root, manifest)
+        done[fmt.name] = _export(root, fmt, dataset, manifest, done, on_progress)
     return done
+
+
+def _export(root: Path, fmt: ExportFormat, dataset, manifest, done, on_progress) -> dict:
+    """Writes one format into place and records it in the manifest, or leaves nothing."""
+    final = inside(root, fmt.path)
+    tmp, aside = inside(root, f".{fmt.path}.partial"), inside(root, f".{fmt.path}.old")
+    for stale in (tmp, aside):  # left by a crash
+        _remove(stale)
+    start, exported = time.monotonic(), [0]
+
+    def progress(count: int, total: int) -> None:
+        exported[0] = count
+        if on_progress:
+            on_progress(fmt.name, count, total)
+
+    try:
+        resolve(fmt.export)(dataset, manifest, tmp, on_progress=progress)
+        fsync_tree(tmp)
+    except BaseException as exc:
+        _fail(exc, root, fmt, tmp, dataset.keys[exported[0] :][:1])
+    if final.exists() or final.is_symlink():
+        os.replace(final, aside)
+    os.replace(tmp, final)
+    record = {"path": fmt.path, "bytes": _size(final), "seconds": round(time.monotonic() - start, 3)}  # fmt: skip
+    try:
+        write_manifest(root, read_manifest(root) | {"exports": done | {fmt.name: record}})
+    except BaseException as exc:  # as it was: the older copy back in place
+        os.replace(final, tmp)
+        if aside.exists() or aside.is_symlink():
+            os.replace(aside, final)
+        _fail(exc, root, fmt, tmp, [])
+    _remove(aside)
+    fsync_dir(root)
+    return record
+
+
+def _fail(
+    exc: BaseException, root: Path, fmt: ExportFormat, tmp: Path, keys: list[str]
+) -> NoReturn:
+    """Removes ``tmp`` and raises what the user is told: "disk full", or the sample (``keys``:
+    the one being exported, if any) whose content the export could not use."""
+    full = disk_full(exc, tmp)  # before the removal frees space
+    _remove(tmp)
+    sample = f"sample {keys[0]}, " if keys else ""
+    if full:
+        where = getattr(exc, "filename", None) or tmp
+        raise BuildError(
+            f"disk full: the {fmt.name} export of {root} needs more space than is free "
+            f"(writing {where}); nothing of it was kept"
+        ) from None
+    if isinstance(exc, DatasetError) and not str(exc).startswith(str(root)):  # a part's
+        raise DatasetError(f"{root}: {sample}{fmt.name} export: {exc}") from None
+    if isinstance(exc, _CONTENT_ERRORS) and not isinstance(exc, DatasetError):
+        log.info("export %s of %s failed", fmt.name, root, exc_info=exc)
+        raise DatasetError(
+            f"{root}: the dataset's content is not what datagen writes ({sample}{fmt.name} "
+            f"export: {type(exc).__name__}: {str(exc)[:200]}); -v shows where"
+        ) from None
+    raise exc

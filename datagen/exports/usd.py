@@ -17,15 +17,16 @@ def export(
 ) -> list[Path]:
     from pxr import Usd
 
+    from datagen.exports.files import inside, written
     from datagen.exports.usd_stage import scene_stage, validation_errors
 
     out.mkdir(parents=True)
     files = []
     for i in range(len(dataset)):
-        path = out / f"{dataset.keys[i]}.usda"
+        path = inside(out, f"{dataset.keys[i]}.usda")
         # textured looks' tiles go to out/textures/; validated from the file, where they resolve
         stage = scene_stage(dataset.metadata(i), out)  # held: the layer lives as long as it
-        stage.GetRootLayer().Export(str(path))
+        written(stage.GetRootLayer().Export(str(path)), path, "USD")
         errors = validation_errors(Usd.Stage.Open(str(path)))
         if errors:
             raise ValueError(f"USD of sample {dataset.keys[i]} fails validation: {errors[:5]}")

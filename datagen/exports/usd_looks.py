@@ -14,6 +14,7 @@ import numpy as np
 import trimesh
 from pxr import Gf, Sdf, UsdGeom, UsdShade, Vt
 
+from datagen.exports.files import inside, written
 from datagen.textures import surface_uv, texture_tile
 from datagen.uv_mapping import box_mapped
 
@@ -40,9 +41,10 @@ def material(
     if "texture" in values:
         asset = texture_asset(key, name)
         if out_dir is not None:
-            path = out_dir / asset
+            path = inside(out_dir, asset)  # the key and the look's name come from the sample
             path.parent.mkdir(parents=True, exist_ok=True)
-            cv2.imwrite(str(path), cv2.cvtColor(texture_tile(values["texture"]), cv2.COLOR_RGB2BGR))
+            tile = cv2.cvtColor(texture_tile(values["texture"]), cv2.COLOR_RGB2BGR)
+            written(cv2.imwrite(str(path), tile), path, "OpenCV")
         reader = UsdShade.Shader.Define(stage, f"/World/Looks/{name}/st")
         reader.CreateIdAttr("UsdPrimvarReader_float2")
         reader.CreateInput("varname", Sdf.ValueTypeNames.String).Set("st")

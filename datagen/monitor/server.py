@@ -1,20 +1,33 @@
 """The monitor page's web server: the static page of this package (``static/``) and one
 generated ``config.json`` (which broker to connect to, as whom, and which build), on
-127.0.0.1 by default. The page itself talks to the broker over MQTT-over-WebSockets
-(docs/monitor.md); this server never touches MQTT.
+127.0.0.1 by default, to requests that pass ``request_checks``. The page itself talks to the
+broker over MQTT-over-WebSockets (docs/monitor.md); this server never touches MQTT.
 """
 
 from __future__ import annotations
 
 import json
+import logging
+import socket
+import sys
 import threading
+from collections.abc import Iterable
 from dataclasses import asdict, dataclass
-from functools import partial
-from http.server import SimpleHTTPRequestHandler, ThreadingHTTPServer
+from http.server import BaseHTTPRequestHandler, ThreadingHTTPServer
 from importlib.resources import files
 from pathlib import Path
 from urllib.parse import unquote, urlsplit
 
+from datagen.monitor.request_checks import (
+    WILDCARD_HOSTS,
+    RefusedRequest,
+    check_host,
+    check_own_fetch,
+    requested_path,
+    server_names,
+)
+
+log = logging.getLogger(__name__)
 STATIC = Path(str(files("datagen.monitor") / "static"))
 WEBSOCKET_SCHEMES = ("ws", "wss")
 
@@ -61,42 +74,120 @@ def _redacted(url: str) -> str:
     return url.replace(f":{parts.password}@", ":***@", 1)
 
 
-class _Handler(SimpleHTTPRequestHandler):
-    def __init__(self, *args, config: PageConfig, **kwargs):
-        self.page_config = config
-        super().__init__(*args, directory=str(STATIC), **kwargs)
+CONTENT_TYPES = {
+    ".html": "text/html; charset=utf-8",
+    ".js": "text/javascript; charset=utf-8",
+    ".css": "text/css; charset=utf-8",
+    ".md": "text/plain; charset=utf-8",
+}
+
+
+def static_files() -> dict[str, Path]:
+    """The only paths served besides ``/config.json``: ``/`` and each file of ``static/``."""
+    found = {"/" + p.relative_to(STATIC).as_posix(): p for p in STATIC.rglob("*") if p.is_file()}
+    return found | {"/": STATIC / "index.html"}
+
+
+def content_security_policy(config: PageConfig) -> str:
+    """The page may load its own files and open a WebSocket to its broker only (any, when no
+    broker is configured and the page asks for one)."""
+    if config.broker:
+        parts = urlsplit(config.broker)
+        broker = f"{parts.scheme}://{parts.netloc}"
+    else:
+        broker = "ws: wss:"
+    return (
+        f"default-src 'self'; connect-src 'self' {broker}; img-src 'self' blob:; worker-src blob:; "
+        "object-src 'none'; base-uri 'none'; form-action 'none'; frame-ancestors 'none'"
+    )
+
+
+class _Handler(BaseHTTPRequestHandler):
+    server: _Server
+    timeout = 30  # s without a byte from the client: the connection is dropped
 
     def do_GET(self) -> None:
-        if urlsplit(self.path).path == "/config.json":
-            body = json.dumps(asdict(self.page_config)).encode("utf-8")
-            self.send_response(200)
-            self.send_header("Content-Type", "application/json")
-            self.send_header("Cache-Control", "no-store")
-            self.send_header("Content-Length", str(len(body)))
-            self.end_headers()
-            self.wfile.write(body)
+        self._answer(with_body=True)
+
+    def do_HEAD(self) -> None:
+        self._answer(with_body=False)
+
+    def _answer(self, with_body: bool) -> None:
+        try:
+            check_host(self.headers.get_all("Host") or [], self.server.names)
+            path = requested_path(self.path)
+            if path == "/config.json":
+                check_own_fetch(self.headers.get("Sec-Fetch-Site"))
+                body = json.dumps(asdict(self.server.page_config)).encode("utf-8")
+                self._send(200, "application/json", body, with_body, {"Cache-Control": "no-store"})
+                return
+            file = self.server.files.get(path)
+            if file is None:
+                raise RefusedRequest(404, "no such file")
+        except RefusedRequest as refused:
+            body = f"{refused.status} {refused.reason}\n".encode()
+            self._send(refused.status, "text/plain; charset=utf-8", body, with_body)
             return
-        super().do_GET()
+        extra = {"Content-Security-Policy": self.server.policy} if file.suffix == ".html" else {}
+        content_type = CONTENT_TYPES.get(file.suffix, "application/octet-stream")
+        self._send(200, content_type, file.read_bytes(), with_body, extra)
+
+    def _send(
+        self,
+        status: int,
+        content_type: str,
+        body: bytes,
+        with_body: bool,
+        headers: dict | None = None,
+    ) -> None:
+        self.send_response(status)
+        self.send_header("Content-Type", content_type)
+        self.send_header("Content-Length", str(len(body)))
+        self.send_header("X-Content-Type-Options", "nosniff")
+        for name, value in (headers or {}).items():
+            self.send_header(name, value)
+        self.end_headers()
+        if with_body:
+            self.wfile.write(body)
 
     def log_message(self, format: str, *args) -> None:  # quiet: the terminal is the build's
         pass
 
 
+class _Server(ThreadingHTTPServer):
+    daemon_threads = True
+
+    def __init__(self, host: str, port: int, config: PageConfig, public_names: Iterable[str]):
+        self.address_family = socket.AF_INET6 if ":" in host else socket.AF_INET
+        self.page_config, self.policy = config, content_security_policy(config)
+        self.files, self.names = static_files(), server_names(host, public_names)
+        super().__init__((host, port), _Handler)
+
+    def handle_error(self, request, client_address) -> None:
+        # one line, never a traceback: a client that hung up, or a request the checks missed
+        log.warning("monitor: a request from %s failed: %r", client_address[0], sys.exc_info()[1])
+
+
 class MonitorServer:
     """Serves the page in a background thread: ``with MonitorServer(config) as server:
-    server.url``. ``port`` 0 takes a free one."""
+    server.url``. ``port`` 0 takes a free one. Requests must name this server in their Host
+    header: by IP address, as ``localhost``, or as one of ``public_names`` (request_checks)."""
 
-    def __init__(self, config: PageConfig, host: str = "127.0.0.1", port: int = 0):
-        handler = partial(_Handler, config=config)
-        self.httpd = ThreadingHTTPServer((host, port), handler)
-        self.httpd.daemon_threads = True
+    def __init__(
+        self,
+        config: PageConfig,
+        host: str = "127.0.0.1",
+        port: int = 0,
+        public_names: Iterable[str] = (),
+    ):
+        self.httpd = _Server(host, port, config, public_names)
         self.host, self.port = host, self.httpd.server_address[1]
         self.thread = threading.Thread(target=self.httpd.serve_forever, name="monitor", daemon=True)
 
     @property
     def url(self) -> str:
-        host = "127.0.0.1" if self.host in ("", "0.0.0.0") else self.host
-        return f"http://{host}:{self.port}/"
+        host = "127.0.0.1" if self.host in WILDCARD_HOSTS else self.host
+        return f"http://[{host}]:{self.port}/" if ":" in host else f"http://{host}:{self.port}/"
 
     def __enter__(self) -> MonitorServer:
         self.thread.start()

@@ -8,9 +8,12 @@ Each writer, once every listed writer has stopped writing (``sealed``):
 2. ``write_part``: ``writer-<id>.json`` lists its shards and counters.
 
 The leader (the smallest listed id) then runs ``combine``: every shard in the directory must
-belong to a listed writer's part file with a digest for each of its samples, no key may be in
-two shards, and the keys must number exactly ``expected``; it returns what ``manifest.json``
-adds to the coordinator's manifest (the shards' records carry the per-sample digests).
+belong to a listed writer's part file with a digest for each of its samples, be the bytes its
+writer reported (re-read: every sample's digest, the shard's sha256), no key may be in two
+shards, and the keys must number exactly ``expected``; it returns what ``manifest.json`` adds to
+the coordinator's manifest (the shards' records carry the per-sample digests). So a manifest is
+never written over a sample changed on disk: the build fails instead, and ``--resume`` makes
+that sample again.
 Who waits for whom (the round over MQTT statuses): ``datagen.sinks.finalize_round``.
 """
 
@@ -21,9 +24,16 @@ import logging
 from pathlib import Path
 from typing import Any
 
-from datagen.shards import ShardInfo, keys_sha256, read_keys, shards_by_writer, write_manifest
-from datagen.sinks.journal import append_journal, journal_entry
-from datagen.sinks.shard_writer import remove_keys
+from datagen.shards import (
+    ShardInfo,
+    keys_sha256,
+    read_keys,
+    read_shard,
+    shards_by_writer,
+    write_manifest,
+)
+from datagen.sinks.journal import append_journal, whole_shard_entry
+from datagen.sinks.shard_rewrite import remove_keys
 
 log = logging.getLogger(__name__)
 
@@ -70,7 +80,7 @@ def drop_copies_held_by_smaller(
         removed |= drop
         if new is not None:
             kept.append(new)
-            journal.append(journal_entry(new.name, new.bytes, new.samples, closed=True))
+            journal.append(whole_shard_entry(new))
     if journal:
         append_journal(out, writer_id, journal)
     return kept, removed
@@ -113,13 +123,7 @@ def combine(
         path = out / name
         if path.stat().st_size != listed[name]["bytes"]:
             raise FinalizeError(f"{name} changed after its writer reported it")
-        keys = read_keys(path)
-        if len(keys) != listed[name]["samples"]:
-            raise FinalizeError(
-                f"{name}: {len(keys)} samples, its writer reported {listed[name]['samples']}"
-            )
-        if set(keys) != set(listed[name].get("sample_sha256", ())):
-            raise FinalizeError(f"{name}: its writer's sample digests do not match its samples")
+        keys = _check_bytes(path, listed[name])
         for key in keys:
             if key in owner:
                 raise FinalizeError(f"sample {key} is in both {owner[key]} and {name}")
@@ -140,3 +144,25 @@ def combine(
         "duplicate_messages": sum(p.get("duplicate_messages", 0) for p in parts.values()),
         "duplicate_copies_removed": sum(p.get("copies_removed", 0) for p in parts.values()),
     }
+
+
+def _check_bytes(path: Path, record: dict[str, Any]) -> list[str]:
+    """The keys of the shard ``path``, re-read and checked against its writer's ``record``:
+    its samples, each sample's digest and the shard's sha256."""
+    name = path.name
+    contents = read_shard(path)
+    if len(contents.samples) != record["samples"]:
+        raise FinalizeError(
+            f"{name}: {len(contents.samples)} samples, its writer reported {record['samples']}"
+        )
+    digests = record.get("sample_sha256", {})
+    if {key for key, _ in contents.samples} != set(digests):
+        raise FinalizeError(f"{name}: its writer's sample digests do not match its samples")
+    changed = sorted(key for key, digest in contents.samples if digests[key] != digest)
+    if changed or contents.sha256 != record["sha256"]:
+        shown = f" (samples {', '.join(changed[:10])})" if changed else ""
+        raise FinalizeError(
+            f"{path}: changed on disk after its writer made it durable{shown}; no manifest is "
+            f"written: resume the build to make those samples again"
+        )
+    return [key for key, _ in contents.samples]

@@ -1,15 +1,18 @@
 """Writing shards: ``ShardWriter`` rolls samples into shards and makes them durable;
-``remove_keys`` rewrites a closed shard without some samples, atomically.
+``remove_keys`` (``datagen.sinks.shard_rewrite``) rewrites a closed shard without some samples,
+atomically.
 
 Members carry mtime 0, uid/gid 0, empty user/group names and mode 0o644, so the same samples
 in the same order give byte-identical shards. Each shard's ``ShardInfo`` records every sample's
 ``sample_sha256``, computed from the parts as they are written; re-reading the shard
-(``read_shard``) gives the same digests. Durability and crash recovery:
-``datagen.sinks.journal``.
+(``read_shard``) gives the same digests. Each journal line carries the digests of the samples it
+makes durable, so a resumed build can tell a sample changed on disk since. Durability and crash
+recovery: ``datagen.sinks.journal``.
 """
 
 from __future__ import annotations
 
+import contextlib
 import hashlib
 import io
 import json
@@ -18,17 +21,9 @@ import tarfile
 from pathlib import Path
 
 from datagen.sample import Sample
-from datagen.shards import (
-    ShardInfo,
-    fsync_dir,
-    member_key,
-    read_shard,
-    sample_sha256,
-    scan_members,
-    shard_name,
-    valid_writer_id,
-)
-from datagen.sinks.journal import journal_entry, journal_path
+from datagen.shards import ShardInfo, fsync_dir, sample_sha256, shard_name, valid_writer_id
+from datagen.sinks.journal import journal_entry, open_journal
+from datagen.sinks.shard_rewrite import remove_keys as remove_keys  # where callers look for it
 
 
 class _HashingFile:
@@ -53,6 +48,7 @@ class _OpenShard:
         self.tar = tarfile.TarFile(fileobj=self.file, mode="w", format=tarfile.USTAR_FORMAT)  # type: ignore[arg-type]
         self.samples = 0
         self.digests: dict[str, str] = {}  # key -> sample_sha256
+        self.unjournalled: dict[str, str] = {}  # the digests no journal line carries yet
 
     def add(self, sample: Sample) -> None:
         for part, data in sample.parts.items():
@@ -64,7 +60,8 @@ class _OpenShard:
             info.uname = info.gname = ""
             self.tar.addfile(info, io.BytesIO(data))
         self.samples += 1
-        self.digests[sample.key] = sample_sha256(sample.parts.items())
+        digest = sample_sha256(sample.parts.items())
+        self.digests[sample.key] = self.unjournalled[sample.key] = digest
 
     def sync(self) -> int:
         """Flushes and fsyncs; returns the durable length in bytes."""
@@ -98,7 +95,7 @@ class ShardWriter:
         self.shards: list[ShardInfo] = []
         self._next = start_shard
         self._open: _OpenShard | None = None
-        self._journal = open(journal_path(self.out_dir, writer_id), "a", encoding="utf-8")  # noqa: SIM115
+        self._journal = open_journal(self.out_dir, writer_id)
 
     def __enter__(self) -> ShardWriter:
         return self
@@ -119,7 +116,7 @@ class ShardWriter:
         """Everything written so far survives a crash once this returns."""
         if self._open is not None:
             offset = self._open.sync()
-            self._log(self._open.path.name, offset, self._open.samples, closed=False)
+            self._log(self._open, self._open.path.name, offset, closed=False)
 
     def close(self) -> list[ShardInfo]:
         """Closes the open shard; returns every shard this writer closed."""
@@ -129,46 +126,25 @@ class ShardWriter:
             self._journal.close()
         return list(self.shards)
 
+    def abandon(self) -> None:
+        """Closes the files without finishing the open shard (its disk is full): what the
+        journal says is durable stays, and recovery cuts the rest."""
+        for f in (self._open.file.f if self._open else None, self._journal):
+            if f is not None:
+                with contextlib.suppress(OSError):  # the buffered bytes find no room either
+                    f.close()
+        self._open = None
+
     def _close_shard(self) -> None:
         assert self._open is not None
-        info = self._open.close()
-        self._open = None
-        self._log(info.name, info.bytes, info.samples, closed=True)
+        shard, self._open = self._open, None
+        info = shard.close()
+        self._log(shard, info.name, info.bytes, closed=True)
         self.shards.append(info)
 
-    def _log(self, name: str, offset: int, samples: int, closed: bool) -> None:
-        entry = journal_entry(name, offset, samples, closed)
+    def _log(self, shard: _OpenShard, name: str, offset: int, closed: bool) -> None:
+        entry = journal_entry(name, offset, shard.samples, closed, shard.unjournalled)
         self._journal.write(json.dumps(entry) + "\n")
         self._journal.flush()
         os.fsync(self._journal.fileno())
-
-
-def remove_keys(path: Path, keys: set[str]) -> ShardInfo | None:
-    """Rewrites the closed shard ``path`` without the samples in ``keys`` (new tar next to it,
-    fsync, rename over it, fsync the dir); deletes it when nothing is left (returns None)."""
-    members = scan_members(path)
-    kept = [m for m in members if member_key(m.name) not in keys]
-    out = path.parent
-    if not kept:
-        path.unlink()
-        fsync_dir(out)
-        return None
-    tmp = out / f".{path.name}.rewrite"
-    with open(path, "rb") as src, open(tmp, "wb") as dst:
-        for m in kept:
-            src.seek(m.offset)
-            left = m.end - m.offset
-            while left:
-                chunk = src.read(min(left, 1 << 20))
-                if not chunk:
-                    raise OSError(f"{path.name}: shorter than its headers say")
-                dst.write(chunk)
-                left -= len(chunk)
-        end = dst.tell() + 2 * tarfile.BLOCKSIZE
-        dst.write(tarfile.NUL * (2 * tarfile.BLOCKSIZE + (-end) % tarfile.RECORDSIZE))
-        dst.flush()
-        os.fsync(dst.fileno())
-    info = read_shard(tmp).info(path.name)  # read back: the digests are of what is on disk
-    os.replace(tmp, path)
-    fsync_dir(out)
-    return info
+        shard.unjournalled = {}

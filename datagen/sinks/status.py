@@ -38,6 +38,7 @@ class WriterStatus:
         self.writer_id = writer_id
         self.sealer, self.opener = sealer, opener
         self.conn: MqttConnection | None = None  # set once the connection exists
+        self.tags: dict[str, Any] = {}  # in every status: the writer's challenge and run
         self._last: dict[str, Any] | None = None
         self._peers: dict[str, dict[str, Any]] = {}
         self._peers_cond = threading.Condition()
@@ -52,7 +53,7 @@ class WriterStatus:
         return (topic, self.sealer.seal(topic, lost, session=self.sealer.session + "w"), 1, True)
 
     def publish(self, state: str, **fields: Any) -> None:
-        msg = {"state": state, "writer": self.writer_id, **fields}
+        msg = {"state": state, "writer": self.writer_id, **self.tags, **fields}
         self._last = msg
         try:
             if self.conn is None:

@@ -1,8 +1,8 @@
 """The dataset-writer process: MQTT samples in, durable WebDataset shards out.
 
 ``datagen writer --broker URL --build-id ID --out DIR [--writer-id W]`` (options:
-``datagen/cli/service_commands.py``) runs ``run_writer``; ``python -m datagen.sinks.writer ...``
-is the same command. Several writers may serve one build, into one directory (same machine or a
+``datagen/cli/service_commands.py``, which also sets up its log and signals) runs a
+``DatasetWriter``. Several writers may serve one build, into one directory (same machine or a
 shared file system), each with its own ``--writer-id``: they share the samples through an MQTT
 v5 shared subscription, so each sample reaches one of them.
 
@@ -14,17 +14,16 @@ held. A clean stop (SIGTERM/SIGINT, or a finished build) unsubscribes, finishes 
 delivered and ends the session, so nothing more is routed to it.
 
 On start a writer repairs its shards, then acks every sample durable in the directory (all
-writers' shards, in batches) before announcing ``ready``. ``finalize``: see
+writers' shards, in batches) before announcing ``ready``; with the build secret it first waits
+(``waiting``) for the coordinator's ``bind`` to a run, and only then acks and takes samples
+(``datagen/sinks/binding.py``). ``finalize``: see
 ``datagen/sinks/finalize_round.py``, ``datagen/sinks/finalize.py`` and docs/wire-format.md.
 """
 
 from __future__ import annotations
 
-import json
 import logging
 import queue
-import signal
-import sys
 import threading
 import time
 from pathlib import Path
@@ -33,18 +32,21 @@ from typing import Any
 import paho.mqtt.client as mqtt
 from paho.mqtt.subscribeoptions import SubscribeOptions
 
-from datagen.engines.transfer.connection import MqttConnectError, MqttConnection
+from datagen.engines.transfer.connection import MqttConnection
 from datagen.engines.transfer.envelope import Opener, Sealer
+from datagen.engines.transfer.run_binding import writer_client_id
 from datagen.engines.transfer.topics import topics
 from datagen.engines.transfer.wire import (
     DEFAULT_MAX_MESSAGE_BYTES,
-    SECRET_ENV,
     WireError,
     decode_sample,
 )
+from datagen.errors import disk_full_message, is_disk_full
+from datagen.safe_json import loads_bounded
 from datagen.sample import Sample
 from datagen.shards import ShardInfo, valid_writer_id
 from datagen.sinks.acks import announce, others_acked_keys
+from datagen.sinks.binding import WriterBinding
 from datagen.sinks.finalize_round import finalize_args, run_round
 from datagen.sinks.journal import others_durable_keys, recover
 from datagen.sinks.lock import WriterLock, WriterLocked
@@ -57,6 +59,7 @@ EXIT_OK = 0
 EXIT_FAILED = 1
 EXIT_FINALIZE_MISMATCH = 3  # finalize refused (count mismatch, a writer missing): no manifest
 EXIT_LOCKED = 4  # another process runs this writer id on this directory
+EXIT_DISK_FULL = 5  # its disk is full: not restarted; what is durable stays for --resume
 
 DEFAULT_SESSION_EXPIRY_S = 60
 DRAIN_TIMEOUT_S = 10.0
@@ -66,7 +69,7 @@ DRAIN_QUIET_S = 0.5
 class DatasetWriter:
     """One writer of a build: takes samples from MQTT and keeps them in durable shards.
 
-    Subscriptions (persistent session ``datagen-{build_id}-writer-{writer_id}``):
+    Subscriptions (persistent session ``run_binding.writer_client_id``):
     ``topics.shared_samples`` (QoS 1, shared: each sample reaches one writer),
     ``topics.control`` (QoS 1: ``finalize`` and ``announce`` commands), ``topics.acks`` (QoS 0,
     no-local: other writers' acks) and ``topics.status_all`` (QoS 0: every writer's retained
@@ -84,8 +87,8 @@ class DatasetWriter:
     start, or learnt from another writer's acks) is acked again but not written again.
 
     ``run()`` returns ``EXIT_OK`` (stopped by ``stop()``, or finalized), ``EXIT_FAILED``,
-    ``EXIT_FINALIZE_MISMATCH`` (the finalize round refused: no manifest) or ``EXIT_LOCKED``
-    (another process runs this writer id on this directory).
+    ``EXIT_FINALIZE_MISMATCH`` (the finalize round refused: no manifest), ``EXIT_LOCKED``
+    (another process runs this writer id on this directory) or ``EXIT_DISK_FULL``.
     """
 
     def __init__(
@@ -123,6 +126,9 @@ class DatasetWriter:
         self._sealer = Sealer(secret, self.topics, "writer", writer_id)
         self._opener = Opener(secret, self.topics)  # acks, status and commands must be signed
         self._status = WriterStatus(self.topics, writer_id, self._sealer, self._opener)
+        self._binding = WriterBinding(
+            secret, self._sealer, self._opener, self._status, hold_max=batch_max // 2
+        )
         self._finalized = False
 
     def stop(self) -> None:
@@ -138,6 +144,11 @@ class DatasetWriter:
         code = EXIT_FAILED
         try:
             code = self._run()
+        except OSError as exc:
+            if not is_disk_full(exc):
+                raise
+            log.error("%s; stopping: what is durable stays", disk_full_message(exc, self.out_dir))
+            code = EXIT_DISK_FULL
         finally:
             lock.release(remove=code == EXIT_OK and self._finalized)
         return code
@@ -156,7 +167,7 @@ class DatasetWriter:
             )
         self._conn = MqttConnection(
             self.broker_url,
-            f"datagen-{self.build_id}-writer-{self.writer_id}",
+            writer_client_id(self.build_id, self.writer_id, self.secret),
             subscriptions=[
                 (self.topics.shared_samples, 1),
                 (self.topics.control, 1),
@@ -177,9 +188,16 @@ class DatasetWriter:
             self.out_dir, self.writer_id, self.shard_size, recovered.next_shard
         )
         try:
-            self._announce(self._seen)
-            self._status.publish("ready", samples=len(self._keys), durable=len(self._seen))
-            log.info("ready: subscribed to %s", self.topics.shared_samples)
+            changed = recovered.changed  # removed by recover(): to be made again
+            self._report = (
+                {"changed": len(changed), "changed_keys": changed[:10]} if changed else {}
+            )
+            if self._binding.bound:  # no secret: no run to wait for
+                self._announce_durable(None)
+                log.info("ready: subscribed to %s", self.topics.shared_samples)
+            else:
+                self._status.publish("waiting", samples=len(self._keys), durable=len(self._seen))
+                log.info("waiting for the coordinator to bind this writer to its run")
             code = self._loop()
             if code is None:  # stopped by a signal
                 self._drain()
@@ -190,6 +208,11 @@ class DatasetWriter:
                 return EXIT_OK
             return code
         except Exception as exc:
+            if is_disk_full(exc):  # one line, by run(); recovery cuts the open shard
+                self._sink.abandon()
+                self._status.publish("error", reason=disk_full_message(exc, self.out_dir))
+                self._conn.close()
+                raise
             log.exception("writer failed")
             self._sink.close()
             self._status.publish("error", reason=f"{type(exc).__name__}: {exc}")
@@ -248,8 +271,10 @@ class DatasetWriter:
                     return code
             elif msg.topic == self.topics.acks:
                 self._learn_acks(msg)
-            else:
+            elif self._binding.bound:
                 pending.append((msg, self._accept(msg)))
+            elif not self._binding.hold(msg):
+                pending.append((msg, self._reject(msg, "no run yet: not bound by a coordinator")))
         self._commit(pending)
         return None
 
@@ -259,19 +284,20 @@ class DatasetWriter:
 
     def _accept(self, msg: mqtt.MQTTMessage) -> Sample | None:
         """Writes a new sample; returns the sample to ack, or None for a rejected message."""
+        run = self._binding.run
         try:
-            build_id, sample = decode_sample(msg.payload, self.max_message_bytes, self.secret)
+            build_id, sample = decode_sample(msg.payload, self.max_message_bytes, self.secret, run)
             if build_id != self.build_id:
                 raise WireError(f"build_id {build_id!r} is not this build's {self.build_id!r}")
             if "json" in sample.parts:
                 try:
-                    json.loads(sample.parts["json"].decode("utf-8"))
-                except (UnicodeDecodeError, ValueError) as exc:
+                    meta = loads_bounded(sample.parts["json"], what="part 'json'")
+                except ValueError as exc:
                     raise WireError(f"part 'json' is not UTF-8 JSON: {exc}") from None
+                if run is not None and (why := run.metadata_mismatch(meta, sample.index)):
+                    raise WireError(f"sample {sample.key}: {why}")
         except WireError as exc:
-            self.rejected += 1
-            log.warning("rejected message %d (%d bytes): %s", msg.mid, len(msg.payload), exc)
-            return None
+            return self._reject(msg, exc)
         if sample.key in self._seen:
             self.duplicates += 1
             log.debug("duplicate %s: acking again, not rewriting", sample.key)
@@ -280,6 +306,10 @@ class DatasetWriter:
         self._seen.add(sample.key)
         self._keys.add(sample.key)
         return sample
+
+    def _reject(self, msg: mqtt.MQTTMessage, why: object) -> None:
+        self.rejected += 1
+        log.warning("rejected message %d (%d bytes): %s", msg.mid, len(msg.payload), why)
 
     def _commit(self, pending: list[tuple[mqtt.MQTTMessage, Sample | None]]) -> None:
         if not pending:
@@ -299,19 +329,21 @@ class DatasetWriter:
     def _control(self, msg: mqtt.MQTTMessage) -> int | None:
         code = None
         try:
-            cmd = self._opener.open(msg.topic, msg.payload)
-            if cmd is None:  # not the coordinator's (unsigned, forged, replayed): counted
-                self._conn.client.ack(msg.mid, msg.qos)
-                return None
+            opened = self._opener.open_any_run(msg.topic, msg.payload)
+            # not the coordinator's (unsigned, forged, replayed), or of another run: counted
+            run, cmd = opened if opened is not None else ("", {"cmd": None})
             kind = cmd.get("cmd")
-            if kind == "finalize":
+            if kind == "bind":
+                if self._binding.bind(run, cmd):
+                    self._announce_durable(None)
+                    held, self._binding.held = self._binding.held, []
+                    self._commit([(m, self._accept(m)) for m in held])
+            elif opened is None or not self._binding.command_of_our_run(run):
+                pass
+            elif kind == "finalize":
                 code = self._finalize(finalize_args(cmd, self.writer_id))
             elif kind == "announce":
-                everything = self._keys | others_durable_keys(self.out_dir, self.writer_id)
-                self._seen |= everything
-                self._announce(everything)
-                counts = {"samples": len(self._keys), "durable": len(everything)}
-                self._status.publish("ready", **counts, announce=cmd.get("id"))
+                self._announce_durable(cmd.get("id"))
             else:
                 raise ValueError(f"unknown command {cmd!r:.200}")
         except (ValueError, KeyError, TypeError) as exc:
@@ -320,6 +352,17 @@ class DatasetWriter:
         if code is not None:
             self._conn.close(end_session=code == EXIT_OK)
         return code
+
+    def _announce_durable(self, announce_id: str | None) -> None:
+        """Acks every sample durable in the directory again, then says ``ready`` (with the
+        announce command's ``announce_id``)."""
+        everything = self._keys | others_durable_keys(self.out_dir, self.writer_id)
+        self._seen |= everything
+        self._announce(everything)
+        counts = {"samples": len(self._keys), "durable": len(everything), **self._report}
+        self._status.publish(
+            "ready", **counts, **({"announce": announce_id} if announce_id else {})
+        )
 
     def _finalize(self, args: dict[str, Any] | None) -> int | None:
         if args is None:
@@ -330,7 +373,9 @@ class DatasetWriter:
         counters = {
             "rejected_messages": self.rejected,
             "duplicate_messages": self.duplicates,
-            "rejected_control_messages": sum(self._opener.rejected.values()),
+            # dropped by the opener, or failed in a callback (``MqttConnection.guarded``)
+            "rejected_control_messages": sum(self._opener.rejected.values())
+            + self._conn.callback_errors,
         }
         done = run_round(
             args,
@@ -347,46 +392,3 @@ class DatasetWriter:
         self._shards, self._keys = done
         self._finalized = True
         return EXIT_OK
-
-
-def run_writer(
-    out: str | Path,
-    build_id: str,
-    writer_id: str = "0",
-    *,
-    broker_url: str,
-    shard_size: int = 1000,
-    max_message_bytes: int = DEFAULT_MAX_MESSAGE_BYTES,
-    session_expiry_s: int = DEFAULT_SESSION_EXPIRY_S,
-    ca_file: str | None = None,
-    secret: bytes | None = None,
-    log_level: str = "INFO",
-) -> int:
-    """Runs one writer until SIGTERM/SIGINT or a finished build; returns its exit code. Logs go
-    to stderr at ``log_level``, each line tagged ``writer[{writer_id}]``."""
-    logging.basicConfig(
-        stream=sys.stderr,
-        level=log_level.upper(),
-        format=f"%(asctime)s writer[{writer_id}] %(levelname)s %(name)s: %(message)s",
-        force=True,
-    )
-    writer = DatasetWriter(
-        broker_url,
-        build_id,
-        out,
-        writer_id=writer_id,
-        shard_size=shard_size,
-        max_message_bytes=max_message_bytes,
-        session_expiry_s=session_expiry_s,
-        ca_file=ca_file,
-        secret=secret,
-    )
-    if secret is None:
-        log.warning("no $%s: accepting any well-formed sample of build %s", SECRET_ENV, build_id)
-    for sig in (signal.SIGTERM, signal.SIGINT):
-        signal.signal(sig, lambda *_: writer.stop())
-    try:
-        return writer.run()
-    except (MqttConnectError, ValueError) as exc:
-        log.error("%s", exc)
-        return EXIT_FAILED

@@ -7,6 +7,10 @@ their pre-grasp frame, green for success and red for failure) and ``inspect/dist
 returns the summary. The summary
 and plots are chosen by the samples' metadata format (``SUMMARIES``), never by the scene
 family's name; campaign statistics are added wherever the metadata holds grasp attempts.
+
+A sample whose metadata cannot be read or summarised, or one of the overview's samples that
+cannot be drawn, is reported through ``on_skip``, left out of the summary, the plots and the
+pictures, and counted as ``skipped_samples`` (``datagen.tools.sample_checks``).
 """
 
 from __future__ import annotations
@@ -24,6 +28,16 @@ from datagen.dataset.loader import DatasetError, load
 from datagen.grasping.stats import campaign_stats
 from datagen.tools.preview import sample_tile, tile_grid
 from datagen.tools.randomisation_plots import plot_randomisation, randomisation_panels
+from datagen.tools.sample_checks import (
+    OnSkip,
+    Skipped,
+    check_plottable,
+    each_sample,
+    log_skip,
+    no_sample_left,
+    read_item,
+    read_metadata,
+)
 
 GRID_SAMPLES = 12
 
@@ -140,28 +154,53 @@ SUMMARIES: dict[str, Summary] = {
 }
 
 
-def inspect_dataset(root: str | Path) -> tuple[dict[str, Any], list[Path]]:
+def _summarisable(kind: Summary, meta: dict[str, Any]) -> dict[str, Any]:
+    """``meta`` if the summary, the plots and the campaign statistics can take it (numbers
+    finite, names text), else the error of the first that cannot."""
+    check_plottable(kind.summary([meta]), "its summary")
+    check_plottable(kind.distributions([meta]), "its distributions")
+    if meta.get("format") == "datagen.sample/1":
+        check_plottable(randomisation_panels([meta]), "its randomisation")
+    if "attempt" in meta:
+        check_plottable(campaign_stats([meta["attempt"]]), "its grasp attempt")
+    return meta
+
+
+def inspect_dataset(
+    root: str | Path, on_skip: OnSkip = log_skip
+) -> tuple[dict[str, Any], list[Path]]:
     """Summary of the dataset and the picture files written under ``root/inspect/``."""
     root = Path(root)
     dataset = load(root)
-    metas = [dataset.metadata(i) for i in range(len(dataset))]
-    fmt = metas[0].get("format") if metas else "datagen.sample/1"
-    if fmt not in SUMMARIES:
+    skipped = Skipped(on_skip)
+    readable = each_sample(dataset, range(len(dataset)), lambda i: read_metadata(dataset, i), skipped)  # fmt: skip
+    fmt = next(iter(readable.values())).get("format") if readable else "datagen.sample/1"
+    if not isinstance(fmt, str) or fmt not in SUMMARIES:
         raise DatasetError(
-            f"{root}: no inspect summary for metadata format {fmt!r}; "
+            f"{root}: no inspect summary for metadata format {repr(fmt)[:80]}; "
             f"expected one of {list(SUMMARIES)}"
         )
     kind = SUMMARIES[fmt]
+    usable = each_sample(dataset, readable, lambda i: _summarisable(kind, readable[i]), skipped)
+    # the overview's samples spread over the dataset; one that cannot be drawn is left out
+    indices = list(usable)
+    chosen = [indices[k] for k in np.linspace(0, len(indices) - 1, min(GRID_SAMPLES, len(indices))).astype(int)]  # fmt: skip
+    tiles = each_sample(dataset, chosen, lambda i: sample_tile(read_item(dataset, i)), skipped)
+    if not tiles:
+        raise no_sample_left(root, skipped, "inspect")
+    undrawable = set(chosen) - set(tiles)  # found bad too: left out of everything
+    metas = [meta for i, meta in usable.items() if i not in undrawable]
     summary = kind.summary(metas)
+    if skipped:
+        summary["skipped_samples"] = len(dataset) - len(metas)
     attempts = [m["attempt"] for m in metas if "attempt" in m]
     if attempts:
         summary["campaign"] = dataset.manifest.get("campaign") or campaign_stats(attempts)
     values = kind.distributions(metas)
     out = root / "inspect"
     out.mkdir(exist_ok=True)
-    chosen = np.linspace(0, len(dataset) - 1, min(GRID_SAMPLES, len(dataset))).astype(int)
     overview = out / "overview.png"
-    cv2.imwrite(str(overview), tile_grid([sample_tile(dataset[int(i)]) for i in chosen]))
+    cv2.imwrite(str(overview), tile_grid(list(tiles.values())))
     distributions = out / "distributions.png"
     _plot_distributions(values, f"{len(metas)} {kind.noun}", distributions)
     pictures = [overview, distributions]

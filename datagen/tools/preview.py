@@ -2,7 +2,8 @@
 labels, grasps; navigation frames with their classes, path and map).
 
 A sample is drawn by the tile of its views' shape (``datagen.dataset.views``), never by its scene
-family's name: a time sequence by :func:`sequence_tile`, cameras by :func:`camera_tile`."""
+family's name: a time sequence by :func:`sequence_tile`, cameras by :func:`camera_tile`. A sample
+whose stored values cannot be drawn is reported and left out (``datagen.tools.sample_checks``)."""
 
 from __future__ import annotations
 
@@ -15,6 +16,18 @@ import numpy as np
 
 from datagen.dataset.views import is_sequence, labelled_views
 from datagen.geometry import project
+from datagen.tools.sample_checks import (
+    OnSkip,
+    Skipped,
+    each_sample,
+    finite_matrix,
+    intrinsics,
+    log_skip,
+    no_sample_left,
+    pixel_box,
+    pixels,
+    read_item,
+)
 
 # (i, j) corner pairs of the 8 box corners ordered x-major, then y, then z (see annotate.py)
 _BOX_EDGES = [
@@ -51,28 +64,33 @@ def put_label(image: np.ndarray, text: str, origin: tuple[int, int], scale: floa
         )
 
 
-def draw_annotations(rgb: np.ndarray, instance: np.ndarray, view: dict[str, Any]) -> np.ndarray:
-    """BGR image: masks blended in, 3D oriented boxes, 2D boxes and class labels on top."""
+def draw_annotations(
+    rgb: np.ndarray, instance: np.ndarray, view: dict[str, Any], where: str = "views.workspace"
+) -> np.ndarray:
+    """BGR image: masks blended in, 3D oriented boxes, 2D boxes and class labels on top.
+    ``where`` names the view record in the sample's metadata, for a BadSample's message."""
     image = cv2.cvtColor(rgb, cv2.COLOR_RGB2BGR)
     overlay = image.copy()
     for obj in view["objects"]:
         if obj["visible"]:
             overlay[instance == obj["instance_id"]] = instance_colour(obj["instance_id"])
     image = cv2.addWeighted(overlay, 0.45, image, 0.55, 0)
-    for obj in view["objects"]:
+    camera = view.get("camera", {})
+    K = intrinsics(camera, f"{where}.camera") if "intrinsics" in camera else None
+    for k, obj in enumerate(view["objects"]):
         if not obj["visible"]:
             continue
         colour = instance_colour(obj["instance_id"])
-        corners = np.asarray(obj["obb_corners_px"])
-        if np.isfinite(corners).all() and np.abs(corners).max() < 1e5:
-            for i, j in _BOX_EDGES:
-                p, q = np.rint(corners[[i, j]] - 0.5).astype(int)  # cv2: centres at integers
-                cv2.line(image, tuple(p), tuple(q), colour, 1, cv2.LINE_AA)
-        if "pose_camera" in obj and "intrinsics" in view.get("camera", {}):
-            draw_axes(image, np.asarray(obj["pose_camera"]["matrix"]), np.asarray(view["camera"]["intrinsics"]))  # fmt: skip
-        x0, y0, x1, y1 = obj["bbox_xyxy"]
+        # OpenCV draws with pixel centres at integers
+        corners = pixels(np.asarray(obj["obb_corners_px"], dtype=float) - 0.5)
+        for i, j in _BOX_EDGES if corners is not None else ():
+            cv2.line(image, tuple(corners[i]), tuple(corners[j]), colour, 1, cv2.LINE_AA)
+        if "pose_camera" in obj and K is not None:
+            pose = finite_matrix(obj["pose_camera"]["matrix"], (4, 4), f"{where}.objects[{k}].pose_camera.matrix")  # fmt: skip
+            draw_axes(image, pose, K)
+        x0, y0, x1, y1 = pixel_box(obj["bbox_xyxy"], f"{where}.objects[{k}].bbox_xyxy")
         cv2.rectangle(image, (x0, y0), (x1, y1), (255, 255, 255), 1)
-        label = f"{obj['class']} {obj['visible_fraction']:.2f}"
+        label = f"{str(obj['class'])[:40]} {obj['visible_fraction']:.2f}"
         put_label(image, label, (x0, max(10, y0 - 3)), 0.38)
     return image
 
@@ -87,7 +105,9 @@ def draw_axes(image: np.ndarray, pose_camera: np.ndarray, intrinsics: np.ndarray
     if (points[:, 2] <= 0.01).any():
         return
     uv = points @ intrinsics.T
-    uv = np.rint(uv[:, :2] / uv[:, 2:3] - 0.5).astype(int)
+    uv = pixels(uv[:, :2] / uv[:, 2:3] - 0.5)
+    if uv is None:  # an axis reaches far off the image
+        return
     for axis in range(3):
         cv2.line(image, tuple(uv[0]), tuple(uv[axis + 1]), _AXIS_BGR[axis], 2, cv2.LINE_AA)
 
@@ -109,19 +129,19 @@ def draw_grasp(image: np.ndarray, attempt: dict[str, Any], camera: dict[str, Any
     grasp = attempt["grasp"]
     if grasp is None:
         return
-    pose = np.asarray(grasp["pose_world"])
+    pose = finite_matrix(grasp["pose_world"], (4, 4), "attempt.grasp.pose_world")
     centre, closing, approach = pose[:3, 3], pose[:3, 1], pose[:3, 2]
-    half = max(grasp["width"], 0.02) / 2
+    half = max(finite_matrix([[grasp["width"]]], (1, 1), "attempt.grasp.width")[0, 0], 0.02) / 2
     finger = 0.045  # metres, finger length back from the tool centre point
     tips = [centre + s * half * closing for s in (-1, 1)]
     points = np.array(
         [*tips, *(t - finger * approach for t in tips), centre - (finger + 0.06) * approach]
     )
-    K, E = np.asarray(camera["intrinsics"]), np.asarray(camera["extrinsics_world_to_camera"])
-    uv, _ = project(points, K, E)
-    if not np.isfinite(uv).all() or np.abs(uv).max() > 1e5:
+    K = intrinsics(camera, "views.workspace.camera")
+    E = finite_matrix(camera["extrinsics_world_to_camera"], (4, 4), "views.workspace.camera.extrinsics_world_to_camera")  # fmt: skip
+    uv = pixels(project(points, K, E)[0])
+    if uv is None:
         return
-    uv = np.rint(uv).astype(int)
     colour = SUCCESS_BGR if attempt["outcome"]["success"] else FAILURE_BGR
     for a, b in ((0, 2), (1, 3), (2, 3)):
         cv2.line(image, tuple(uv[a]), tuple(uv[b]), colour, 2, cv2.LINE_AA)
@@ -170,7 +190,8 @@ def draw_navigation_frame(
         points = np.stack(
             [np.interp(t, s, path_xy[:, 0]), np.interp(t, s, path_xy[:, 1]), 0 * t], 1
         )
-        K, E = np.asarray(camera["intrinsics"]), np.asarray(meta["extrinsics_world_to_camera"])
+        K = intrinsics(camera, "camera")
+        E = finite_matrix(meta["extrinsics_world_to_camera"], (4, 4), "frames[].extrinsics_world_to_camera")  # fmt: skip
         uv, depth = project(points, K, E)
         ahead = (depth > 0.05) & (np.abs(uv) < 1e4).all(axis=1)
         for a, b in zip(
@@ -178,9 +199,9 @@ def draw_navigation_frame(
         ):
             cv2.line(image, tuple(np.rint(a).astype(int)), tuple(np.rint(b).astype(int)), (230, 140, 30), 2, cv2.LINE_AA)  # fmt: skip
     for thing in meta["things"]:
-        x0, y0, x1, y1 = thing["bbox_xyxy"]
+        x0, y0, x1, y1 = pixel_box(thing["bbox_xyxy"], "frames[].things[].bbox_xyxy")
         cv2.rectangle(image, (x0, y0), (x1, y1), (255, 255, 255), 1)
-        put_label(image, thing["class"], (x0 + 2, max(10, y0 + 12)), 0.38)
+        put_label(image, str(thing["class"])[:40], (x0 + 2, max(10, y0 + 12)), 0.38)
     v, w = meta["command"]
     state = f"d={meta['distance_to_goal']:.2f}m v={v:.2f} w={w:+.2f}"
     put_label(image, state, (6, image.shape[0] - 8), 0.45)
@@ -230,7 +251,7 @@ def other_views_strip(item: dict[str, Any], views: list, width: int) -> np.ndarr
     strip = np.zeros((cell_h, width, 3), np.uint8)
     for k, view in enumerate(views):
         images = item["views"][view.name]
-        drawn = draw_annotations(images["rgb"], images["seg"], view.record)
+        drawn = draw_annotations(images["rgb"], images["seg"], view.record, f"views.{view.name}")
         put_label(drawn, view.name, (6, 18), 0.55)
         strip[:, k * cell_w : (k + 1) * cell_w] = _fit(drawn, cell_h, cell_w)
     return strip
@@ -245,6 +266,8 @@ def sample_tile(item: dict[str, Any]) -> np.ndarray:
 
 
 def tile_grid(tiles: list[np.ndarray], columns: int = 4, max_width: int = 2400) -> np.ndarray:
+    """The tiles in rows of ``columns``; a tile of another size than the first is fitted to it."""
+    tiles = [t if t.shape == tiles[0].shape else _fit(t, *tiles[0].shape[:2]) for t in tiles]
     blank = np.zeros_like(tiles[0])
     while len(tiles) % columns and len(tiles) > columns:
         tiles.append(blank)
@@ -255,14 +278,19 @@ def tile_grid(tiles: list[np.ndarray], columns: int = 4, max_width: int = 2400) 
     return grid
 
 
-def write_preview(dataset_dir: Path, out_path: Path, count: int = 8, columns: int = 4) -> Path:
-    """A grid of the first ``count`` samples, drawn by :func:`sample_tile`."""
-    from datagen.dataset.loader import DatasetError, load
+def write_preview(
+    dataset_dir: Path, out_path: Path, count: int = 8, columns: int = 4, on_skip: OnSkip = log_skip
+) -> Path:
+    """A grid of the first ``count`` samples, drawn by :func:`sample_tile`; a sample that cannot
+    be drawn is reported through ``on_skip`` and left out (DatasetError if none is left)."""
+    from datagen.dataset.loader import load
 
     dataset = load(dataset_dir)
-    tiles = [sample_tile(dataset[i]) for i in range(min(count, len(dataset)))]
+    skipped = Skipped(on_skip)
+    indices = range(min(count, len(dataset)))
+    tiles = list(each_sample(dataset, indices, lambda i: sample_tile(read_item(dataset, i)), skipped).values())  # fmt: skip
     if not tiles:
-        raise DatasetError(f"{dataset_dir}: the dataset has no samples to preview")
+        raise no_sample_left(dataset_dir, skipped, "preview")
     out_path.parent.mkdir(parents=True, exist_ok=True)
     if not cv2.imwrite(str(out_path), tile_grid(tiles, columns)):
         raise OSError(errno.EIO, "OpenCV could not write the image", str(out_path))

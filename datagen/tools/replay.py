@@ -2,11 +2,19 @@
 (``DIR/usd/KEY.usda``: the randomised values, the settled object poses and the robot's joints)
 with the build's config from the manifest, and render it again with SAPIEN: every camera of
 the sample (workspace, the extra views of ``render.views`` from their stored camera values,
-the wrist camera)."""
+the wrist camera).
+
+The stage is read as untrusted input (``stored_description``): only a text stage (``#usda``) with
+no composition arcs is opened, so no other file is read and usd-core's binary (crate) reader,
+which crashes on corrupt files, is never reached; its values must describe the sample (the
+randomisation equal to the sample's metadata, finite poses within reach, finite joint
+positions). Anything else is a ``DatasetError`` naming the file.
+"""
 
 from __future__ import annotations
 
-import json
+import os
+import stat
 from pathlib import Path
 from typing import Any
 
@@ -14,24 +22,137 @@ import numpy as np
 
 from datagen.config import config_from_dict
 from datagen.dataset.loader import DatasetError, read_manifest
+from datagen.safe_json import JsonInputError, loads_bounded
+
+MAX_STAGE_BYTES = 16 * 2**20  # datagen's stages are under 1 MiB
+MAX_REACH = 100.0  # metres from the world origin: a settled object farther is not the sample's
+MAX_JOINTS = 64
 
 
-def stored_description(usd_path: Path) -> tuple[dict[str, Any], list[dict[str, Any]], list[float]]:
-    """(randomised values, settled object poses in instance order, robot joint positions)."""
-    from pxr import Usd, UsdGeom
+def stored_description(
+    usd_path: Path, randomisation: dict[str, Any] | None = None
+) -> tuple[dict[str, Any], list[dict[str, Any]], list[float]]:
+    """(randomised values, settled object poses in instance order, robot joint positions), read
+    from the text stage ``usd_path``; DatasetError naming it if it is not a datagen description
+    (of the sample whose metadata's ``randomisation`` is given, when it is)."""
+    from pxr import Tf
+
+    try:
+        return _read_description(Path(usd_path), randomisation)
+    except Tf.ErrorException as exc:  # usd-core's errors: a parse error, a bad value type
+        raise DatasetError(f"{usd_path}: usd-core cannot read it ({_usd_error(exc)})") from None
+
+
+def _usd_error(exc: Exception) -> str:
+    """The first message of a usd-core error. Its text may quote the file's bytes, and then
+    ``str()`` of it raises UnicodeDecodeError."""
+    for error in exc.args:
+        try:
+            message = " ".join(str(error.commentary).split())
+        except (AttributeError, UnicodeDecodeError):
+            message = "a message quoting bytes that are not UTF-8"
+        if message:
+            return message if len(message) <= 200 else message[:197] + "..."
+    return "no message"
+
+
+def _read_description(usd_path: Path, randomisation: dict[str, Any] | None):
+    from pxr import Sdf, Usd, UsdGeom
     from transforms3d.quaternions import mat2quat
 
-    stage = Usd.Stage.Open(str(usd_path))
-    params = json.loads(stage.GetDefaultPrim().GetCustomDataByKey("datagen:randomisation"))
+    stage = Usd.Stage.Open(_text_layer(usd_path), Usd.Stage.LoadNone)
+    world = stage.GetDefaultPrim()
+    if not world or not world.IsValid():
+        raise DatasetError(f"{usd_path}: no default prim; expected a datagen description's /World")
+    text = world.GetCustomDataByKey("datagen:randomisation")
+    if not isinstance(text, str):
+        raise DatasetError(f"{usd_path}: {world.GetPath()} has no datagen:randomisation text")
+    try:
+        params = loads_bounded(text, what=f"{usd_path}: datagen:randomisation")
+    except JsonInputError as exc:
+        raise DatasetError(str(exc)) from None
+    if randomisation is not None and params != randomisation:
+        raise DatasetError(
+            f"{usd_path}: its datagen:randomisation is not the sample's (it differs from the "
+            "'randomisation' of the sample's metadata)"
+        )
+    if not isinstance(params, dict) or not isinstance(params.get("objects"), list):
+        raise DatasetError(f"{usd_path}: datagen:randomisation has no 'objects' list")
     poses = []
     for k in range(1, len(params["objects"]) + 1):
-        prim = stage.GetPrimAtPath(f"/World/Objects/object_{k}")
+        prim = stage.GetPrimAtPath(Sdf.Path(f"/World/Objects/object_{k}"))
         if not prim.IsValid():
             raise DatasetError(f"{usd_path}: no /World/Objects/object_{k}")
-        matrix = np.asarray(UsdGeom.Xformable(prim).ComputeLocalToWorldTransform(0)).T
+        matrix = np.asarray(UsdGeom.Xformable(prim).ComputeLocalToWorldTransform(0), float).T
+        if not np.isfinite(matrix).all() or np.abs(matrix[:3, 3]).max() > MAX_REACH:
+            raise DatasetError(
+                f"{usd_path}: /World/Objects/object_{k}: expected a finite pose within "
+                f"{MAX_REACH:g} m of the origin, got translation {matrix[:3, 3].tolist()}"
+            )
         poses.append({"position": matrix[:3, 3].tolist(), "quat_wxyz": mat2quat(matrix[:3, :3]).tolist()})  # fmt: skip
-    qpos = list(stage.GetPrimAtPath("/World/Robot").GetCustomDataByKey("datagen:qpos"))
-    return params, poses, qpos
+    robot = stage.GetPrimAtPath(Sdf.Path("/World/Robot"))
+    return params, poses, _joint_positions(usd_path, robot)
+
+
+def _text_layer(usd_path: Path):
+    """The root layer of a text stage with nothing to compose from other files."""
+    from pxr import Sdf
+
+    try:  # non-blocking: a FIFO under the stage's name must not hang replay
+        fd = os.open(usd_path, os.O_RDONLY | os.O_NONBLOCK)
+        try:
+            info = os.fstat(fd)
+            regular = stat.S_ISREG(info.st_mode)
+            size, head = (info.st_size, os.read(fd, 6)) if regular else (None, b"")
+        finally:
+            os.close(fd)
+    except OSError as exc:
+        raise DatasetError(f"{usd_path}: cannot read it ({exc.strerror})") from None
+    if size is None or size > MAX_STAGE_BYTES or head != b"#usda ":
+        raise DatasetError(
+            f"{usd_path}: expected a text USD stage ('#usda' header, at most "
+            f"{MAX_STAGE_BYTES // 2**20} MiB) as 'datagen export --to usd' writes, got "
+            + ("no regular file" if size is None else f"{size} bytes starting {head!r}")
+        )
+    layer = Sdf.Layer.FindOrOpen(str(usd_path))
+    if layer is None:
+        raise DatasetError(f"{usd_path}: usd-core cannot open it")
+    others = sorted(layer.GetCompositionAssetDependencies()) + _value_clips(layer)
+    if others:
+        raise DatasetError(
+            f"{usd_path}: it refers to other files ({', '.join(others)[:200]}); a datagen "
+            "description is one self-contained stage"
+        )
+    return layer
+
+
+def _value_clips(layer) -> list[str]:
+    """The specs with value clips: usd-core opens their files as soon as the stage is opened."""
+    from pxr import Sdf
+
+    found = []
+
+    def visit(path) -> None:
+        spec = layer.GetObjectAtPath(path)
+        if spec is not None and "clips" in spec.ListInfoKeys():
+            found.append(f"value clips on {path}")
+
+    layer.Traverse(Sdf.Path.absoluteRootPath, visit)
+    return found
+
+
+def _joint_positions(usd_path: Path, robot) -> list[float]:
+    value = robot.GetCustomDataByKey("datagen:qpos") if robot.IsValid() else None
+    try:
+        qpos = np.asarray(list(value), dtype=float) if value is not None else np.empty(0)
+    except (TypeError, ValueError):
+        qpos = np.empty(0)
+    if not 1 <= qpos.size <= MAX_JOINTS or qpos.ndim != 1 or not np.isfinite(qpos).all():
+        raise DatasetError(
+            f"{usd_path}: /World/Robot: expected datagen:qpos, up to {MAX_JOINTS} finite joint "
+            "positions"
+        )
+    return qpos.tolist()
 
 
 REPLAYABLE_WORLDS = ("tabletop",)  # the scenes replay can rebuild: grasp samples and attempts
@@ -53,7 +174,9 @@ def refusal(root: str | Path) -> str | None:
 
 def replay(root: str | Path, key: str) -> dict[str, np.ndarray]:
     """RGB image (H, W, 3) per camera of the replayed scene."""
+    from datagen.dataset.loader import load
     from datagen.engines.sim.render import capture, keep_renderer_alive
+    from datagen.tools.sample_checks import read_metadata
     from datagen.worlds.tabletop import construct_scene
 
     root = Path(root)
@@ -61,15 +184,23 @@ def replay(root: str | Path, key: str) -> dict[str, np.ndarray]:
     if reason := refusal(root):
         raise DatasetError(reason)
     usd_path = root / "usd" / f"{key}.usda"
-    if not usd_path.is_file():
+    if not usd_path.exists():
         raise DatasetError(
             f"{usd_path} does not exist: add 'usd' to output.sinks, or run "
             f"'datagen export {root} --to usd' first"
         )
     config = config_from_dict(manifest["config"], source=str(root / "manifest.json"))
-    params, poses, qpos = stored_description(usd_path)
+    dataset = load(root)
+    meta = read_metadata(dataset, dataset.keys.index(key))
+    if not isinstance(meta.get("randomisation"), dict):
+        raise DatasetError(f"{root}: sample {key}'s metadata has no 'randomisation' record")
+    params, poses, qpos = stored_description(usd_path, meta["randomisation"])
     keep_renderer_alive()
     scene = construct_scene(config, params | {"drop_poses": poses})
+    if len(qpos) != scene.robot.dof:
+        raise DatasetError(
+            f"{usd_path}: /World/Robot: {len(qpos)} joint positions, the robot has {scene.robot.dof}"
+        )
     scene.robot.set_qpos(np.asarray(qpos, np.float32))
     scene.scene.update_render()
     return {name: capture(camera).rgb for name, camera in scene.cameras.items()}
@@ -83,9 +214,10 @@ def replay_differences(
     from datagen.dataset.loader import load
     from datagen.dataset.views import camera_order
     from datagen.engines.sim.view_effects import stored_colour
+    from datagen.tools.sample_checks import read_item
 
     dataset = load(root)
-    item = dataset[dataset.keys.index(key)]
+    item = read_item(dataset, dataset.keys.index(key))
     # the pinhole renders, through each view's stored lens and camera effects
     replayed = {
         name: stored_colour(rgb, item["meta"]["views"][name])

@@ -182,14 +182,15 @@ def test_a_build_under_the_role_acl_ends_with_exactly_n_verified_samples(tmp_pat
             writer.wait()
     manifest = check_complete(out, 4, BUILD_ID)
     assert manifest["rejected_control_messages"] == 0
-    # each role connected as its own user
+    # each role connected as its own user, with an unguessable client id (16 hex digits)
     connected = broker.log_path.read_text()
     for client_id, role in [
         (f"datagen-{BUILD_ID}-acks", "coordinator"),
         (f"datagen-{BUILD_ID}-writer-A", "writer"),
         (f"datagen-{BUILD_ID}-worker-0", "worker"),
     ]:
-        assert re.search(rf"as {re.escape(client_id)} \(.*u'{BUILD_ID}-{role}'\)", connected), role
+        unguessable = rf"{re.escape(client_id)}-[0-9a-f]{{16}}"
+        assert re.search(rf"as {unguessable} \(.*u'{BUILD_ID}-{role}'\)", connected), role
     # and no password or secret showed up anywhere
     forms = secret_forms([*passwords.values()], secret)
     printed = built.stdout + built.stderr + (tmp_path / "writer.log").read_text()

@@ -166,8 +166,7 @@ def fake_datagen_output(out: Path) -> Path:
     state = {"build_id": "b1", "secret": "00" * 32, "config": {"seed": 1}}
     (out / BUILD_STATE).write_text(json.dumps(state))
     (out / "shard-0-000000.tar").write_bytes(b"\0" * 1024)
-    (out / "journals").mkdir()
-    (out / "journals" / "0.jsonl").write_text("{}\n")
+    (out / ".writer-0.journal").write_text("{}\n")
     return out
 
 

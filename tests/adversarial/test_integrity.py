@@ -26,6 +26,7 @@ from datagen.engines.transfer.collector import AckCollector
 from datagen.engines.transfer.connection import MqttConnection
 from datagen.engines.transfer.envelope import derive_key
 from datagen.engines.transfer.publisher import SamplePublisher
+from datagen.engines.transfer.run_binding import RunBinding
 from datagen.engines.transfer.topics import topics
 from datagen.engines.transfer.wire import SECRET_ENV, encode_sample
 from datagen.sample import Sample
@@ -169,10 +170,10 @@ def test_a_manifest_of_a_future_format_is_refused(copy):
     assert str(err.value) == said
 
 
-def _signed_with(key: bytes, build_id: str, sample: Sample) -> bytes:
-    """A sample whose MAC is HMAC-SHA256 under ``key`` itself: the raw secret (as datagen signed
-    before the HKDF keys), or a key of another purpose."""
-    body = bytearray(encode_sample(build_id, sample)[:-4])
+def _signed_with(key: bytes, build_id: str, sample: Sample, run: RunBinding) -> bytes:
+    """A sample of ``run`` whose MAC is HMAC-SHA256 under ``key`` itself: the raw secret (as
+    datagen signed before the HKDF keys), or a key of another purpose."""
+    body = bytearray(encode_sample(build_id, sample, run=run)[:-4])
     body[6] = 1  # flags: signed
     body += hmac.new(key, bytes(body), hashlib.sha256).digest()
     return bytes(body) + zlib.crc32(body).to_bytes(4, "little")
@@ -188,19 +189,24 @@ def test_samples_not_signed_under_the_builds_sample_key_are_rejected_and_counted
         mark = len(collector.statuses)
         writer = start_writer(out=tmp_path / "ds", writer_id="0", shard_size=4)
         collector.wait_status("ready", writer="0", after=mark, timeout_s=60)
+        run = collector.run  # the writer is bound to it once "ready"
         forged = [
-            _signed_with(secret, build_id, Sample(0, {"json": b'{"forged":0}'})),
-            _signed_with(derive_key(secret, "ack"), build_id, Sample(1, {"json": b'{"f":1}'})),
-            encode_sample(build_id, Sample(2, {"json": b'{"forged":2}'}), foreign_secret),
+            _signed_with(secret, build_id, Sample(0, {"json": b'{"forged":0}'}), run),
+            _signed_with(
+                derive_key(secret, "ack", run.run), build_id, Sample(1, {"json": b'{"f":1}'}), run
+            ),
+            encode_sample(build_id, Sample(2, {"json": b'{"forged":2}'}), foreign_secret, run),
             # a genuine sample of another build, moved onto this build's topic
-            encode_sample("other-build", Sample(3, {"json": b'{"forged":3}'}), secret),
+            encode_sample("other-build", Sample(3, {"json": b'{"forged":3}'}), secret, run),
         ]
         raw = MqttConnection(broker.url, f"forger-{build_id}")
         for payload in forged:
             raw.client.publish(topics(build_id).samples, payload, qos=1).wait_for_publish(10)
         raw.close()
         genuine = [Sample(i, {"json": json.dumps({"genuine": i}).encode()}) for i in range(4)]
-        with SamplePublisher(broker.url, build_id, f"pub-{build_id}", secret=secret) as pub:
+        with SamplePublisher(
+            broker.url, build_id, f"pub-{build_id}", secret=secret, run=run
+        ) as pub:
             for sample in genuine:
                 pub.publish(sample)
         assert collector.wait_acked(set(range(4)), timeout_s=60), writer.log()

@@ -17,6 +17,7 @@ from dataclasses import dataclass, field
 from typing import Any, Protocol
 
 from datagen.build.production import Task
+from datagen.engines.transfer.run_binding import RunBinding
 
 Event = tuple[int, str, Any]  # (worker id, kind, payload); kinds: see datagen/build/worker.py
 # One worker per core: OpenMP/BLAS thread pools in each worker would oversubscribe the cores
@@ -38,12 +39,13 @@ def default_env(defaults: dict[str, str]):
 
 @dataclass
 class WorkerSpec:
-    """What every worker needs: the build's config, broker and identity."""
+    """What every worker needs: the build's config, broker, identity and run."""
 
     config: dict[str, Any]
     broker_url: str = field(repr=False)  # holds the workers' password: never printed
     build_id: str
     secret: bytes = field(repr=False)
+    run: RunBinding  # the coordinator's run: named in every sample, part of its key
 
 
 class Executor(Protocol):

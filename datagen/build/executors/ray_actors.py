@@ -35,6 +35,7 @@ class SceneWorker:
         from datagen.config import config_from_dict
         from datagen.engines.sim.render import keep_renderer_alive
         from datagen.engines.transfer.publisher import SamplePublisher
+        from datagen.engines.transfer.run_binding import client_id
 
         logging.basicConfig(
             level=os.environ.get("DATAGEN_LOG_LEVEL", "WARNING"),
@@ -45,10 +46,11 @@ class SceneWorker:
         self.publisher = SamplePublisher(
             spec.broker_url,
             spec.build_id,
-            client_id=f"datagen-{spec.build_id}-ray-{worker_id}",
+            client_id=client_id(spec.build_id, f"ray-{worker_id}"),
             window=self.config.transfer.window,
             max_message_bytes=int(self.config.transfer.max_sample_mb * 2**20),
             secret=spec.secret,
+            run=spec.run,
         )
         self.publisher.__enter__()
         self.previews = PreviewFeed(spec.broker_url, spec.build_id, str(worker_id))

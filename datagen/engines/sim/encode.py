@@ -95,5 +95,32 @@ def encode_view(
 
 
 def metadata_bytes(metadata: dict[str, Any]) -> bytes:
+    """Strict JSON: writers refuse ``NaN``/``Infinity`` (datagen.safe_json), so a non-finite
+    value fails here, naming where it is, instead of the sample being refused on the bus."""
     with timed("encode"):
-        return json.dumps(metadata, sort_keys=True, separators=(",", ":")).encode()
+        try:
+            return json.dumps(
+                metadata, sort_keys=True, separators=(",", ":"), allow_nan=False
+            ).encode()
+        except ValueError:
+            raise ValueError(
+                f"sample metadata {_non_finite_path(metadata)} is not finite"
+            ) from None
+
+
+def _non_finite_path(value: Any, path: str = "") -> str:
+    if isinstance(value, float) and not np.isfinite(value):
+        return f"{path or '.'} = {value}"
+    items = (
+        value.items()
+        if isinstance(value, dict)
+        else enumerate(value)
+        if isinstance(value, list | tuple)
+        else ()
+    )
+    for key, item in items:
+        if found := _non_finite_path(
+            item, f"{path}.{key}" if isinstance(key, str) else f"{path}[{key}]"
+        ):
+            return found
+    return ""

@@ -1,6 +1,7 @@
 """Acknowledgements and writer status back: ``AckCollector`` (``datagen/<build_id>/acks`` and
-``datagen/<build_id>/status/+``), and the ``finalize`` / ``announce`` commands it sends on
-``datagen/<build_id>/control``. Topics and the ack schema: ``topics``.
+``datagen/<build_id>/status/+``), and the ``bind`` / ``finalize`` / ``announce`` commands it
+sends on ``datagen/<build_id>/control``. Topics and the ack schema: ``topics``; runs and
+binding: ``run_binding``.
 """
 
 from __future__ import annotations
@@ -15,8 +16,10 @@ from typing import Any
 
 import paho.mqtt.client as mqtt
 
+from datagen.engines.transfer import run_binding
 from datagen.engines.transfer.connection import MqttConnection
 from datagen.engines.transfer.envelope import Opener, Sealer
+from datagen.engines.transfer.run_binding import RunBinding
 from datagen.engines.transfer.topics import DEFAULT_FINALIZE_TIMEOUT_S, ack_indices, topics
 
 log = logging.getLogger(__name__)
@@ -36,6 +39,10 @@ class AckCollector:
     Subscribe before any sample is published: acks sent with nobody listening are lost (or
     ask the writers to ``announce`` what they hold). ``on_ack(index)`` and ``on_status(dict)``
     run on paho's network thread; keep them short.
+
+    With the build secret it speaks for one run (``run``; a fresh one if not given): it takes
+    only that run's acks and statuses, and binds to it every writer it hears waiting for a run
+    (or bound to another one) with a ``bind`` command that echoes the writer's challenge.
     """
 
     def __init__(
@@ -49,11 +56,16 @@ class AckCollector:
         session_expiry_s: int = 24 * 3600,
         ca_file: str | None = None,
         secret: bytes | None = None,
+        run: RunBinding | None = None,
     ):
         self.topics = topics(build_id)
+        self.run = run if run is not None or not secret else RunBinding.draw({}, 0)
+        run_id = self.run.run if self.run is not None else ""
         # with the build secret: commands signed, acks and status accepted only when signed
-        self._sealer = Sealer(secret, self.topics, "coordinator", "coordinator")
-        self._opener = Opener(secret, self.topics)
+        self._sealer = Sealer(secret, self.topics, "coordinator", "coordinator", run_id)
+        self._opener = Opener(secret, self.topics, run_id)
+        self._conn: MqttConnection | None = None  # binds asked for before it exists wait
+        self._unsent_binds: list[dict[str, Any]] = []
         self._on_ack = on_ack
         self._on_status = on_status
         self._cond = threading.Condition()
@@ -61,17 +73,21 @@ class AckCollector:
         self._statuses: list[dict[str, Any]] = []
         self._latest: dict[str, dict[str, Any]] = {}
         self._heard: dict[str, float] = {}  # writer -> monotonic time of its last message
-        # Persistent session: acks sent while we are disconnected (broker restart, coordinator
-        # restart with the same client id) wait for us instead of being lost.
-        self._conn = MqttConnection(
+        # Persistent session: acks sent while we are disconnected (a broker restart) wait for
+        # us instead of being lost. Its client id is new for every collector (unguessable).
+        conn = MqttConnection(
             broker_url,
-            client_id or f"datagen-{build_id}-acks",
+            client_id or run_binding.client_id(build_id, "acks"),
             subscriptions=[(self.topics.acks, 1), (self.topics.status_all, 1)],
             on_message=self._handle_message,
             session_expiry_s=session_expiry_s,
             timeout_s=connect_timeout_s,
             ca_file=ca_file,
         )
+        with self._cond:
+            self._conn, unsent, self._unsent_binds = conn, self._unsent_binds, []
+        for cmd in unsent:
+            self._publish_bind(cmd)
 
     def __enter__(self) -> AckCollector:
         return self
@@ -86,8 +102,10 @@ class AckCollector:
 
     @property
     def rejected(self) -> dict[str, int]:
-        """Control-plane messages dropped, by reason (unsigned, bad_mac, replayed, ...)."""
-        return dict(self._opener.rejected)
+        """Control-plane messages dropped, by reason (unsigned, malformed, bad_mac, replayed,
+        ...; ``callback_error``: handling one raised, which ``MqttConnection.guarded`` caught)."""
+        errors = self._conn.callback_errors if self._conn is not None else 0
+        return dict(self._opener.rejected) | ({"callback_error": errors} if errors else {})
 
     @property
     def count(self) -> int:
@@ -257,7 +275,14 @@ class AckCollector:
     def _handle_message(self, message: mqtt.MQTTMessage) -> None:
         if not message.payload:
             return  # a cleared retained status
-        obj = self._opener.open(message.topic, message.payload)
+        if message.topic.startswith(self.topics.status_prefix):
+            opened = self._opener.open_any_run(message.topic, message.payload)
+            run, obj = opened if opened is not None else ("", None)
+            if obj is not None and run != self._opener.run:
+                self._bind(message.topic[len(self.topics.status_prefix) :], obj)
+                return  # a writer not (yet) in our run: only its challenge matters
+        else:
+            obj = self._opener.open(message.topic, message.payload)
         if obj is None:
             log.debug("dropped a message on %s: %s", message.topic, dict(self._opener.rejected))
             return
@@ -277,6 +302,26 @@ class AckCollector:
             log.info("writer status: %s", obj)
             if self._on_status is not None:
                 self._on_status(obj)
+
+    def _bind(self, writer: str, status: dict[str, Any]) -> None:
+        """Binds ``writer`` to our run if ``status`` (of another run, or of none) says it waits
+        for one or serves another: a ``bind`` echoing the challenge in it. The writer refuses
+        a bind with any other challenge, so a recording of another run cannot bind it."""
+        challenge = status.get("challenge")
+        if self.run is None or not isinstance(challenge, str):
+            return
+        if status.get("state") not in ("waiting", "ready"):
+            return
+        cmd = {"cmd": "bind", "writer": writer, "challenge": challenge, **self.run.fields()}
+        with self._cond:
+            if self._conn is None:
+                self._unsent_binds.append(cmd)
+                return
+        self._publish_bind(cmd)
+
+    def _publish_bind(self, cmd: dict[str, Any]) -> None:
+        log.info("binding writer %r to run %s", cmd["writer"], cmd["run"])
+        self._conn.publish(self.topics.control, self._sealer.seal(self.topics.control, cmd), qos=1)
 
     def _handle_ack(self, obj: Any) -> None:
         indices = ack_indices(obj)

@@ -92,6 +92,7 @@ class MqttConnection:
         self._pending_sub_mid: int | None = None
         self._unsubacks: set[int] = set()
         self._unsub_cond = threading.Condition()
+        self.callback_errors = 0  # exceptions our callbacks raised on paho's thread
 
         c = mqtt.Client(
             mqtt.CallbackAPIVersion.VERSION2,
@@ -114,11 +115,11 @@ class MqttConnection:
             c.will_set(topic, payload, qos=qos, retain=retain)
         c.reconnect_delay_set(min_delay=1, max_delay=5)
         c.connect_timeout = max(0.5, min(5.0, timeout_s))
-        c.on_connect = self._handle_connect
-        c.on_subscribe = self._handle_subscribe
-        c.on_unsubscribe = self._handle_unsubscribe
-        c.on_disconnect = self._handle_disconnect
-        c.on_message = self._handle_message
+        c.on_connect = self.guarded(self._handle_connect)
+        c.on_subscribe = self.guarded(self._handle_subscribe)
+        c.on_unsubscribe = self.guarded(self._handle_unsubscribe)
+        c.on_disconnect = self.guarded(self._handle_disconnect)
+        c.on_message = self.guarded(self._handle_message)
         props = Properties(PacketTypes.CONNECT)
         props.SessionExpiryInterval = session_expiry_s
         if receive_maximum is not None:
@@ -163,6 +164,19 @@ class MqttConnection:
             c.loop_stop()
             why = self._failure or f"no CONNACK within {timeout_s} s"
             raise MqttConnectError(f"MQTT {client_id!r} -> {self.address}: {why}")
+
+    def guarded(self, callback: Callable[..., None]) -> Callable[..., None]:
+        """``callback``, for paho: an exception it raises would end paho's network thread (no
+        message, no reconnect ever after); it is logged and counted in ``callback_errors``."""
+
+        def run(*args: Any) -> None:
+            try:
+                callback(*args)
+            except Exception:
+                self.callback_errors += 1  # paho calls back on its one network thread
+                log.exception("MQTT %s: %s failed; going on", self.client_id, callback.__name__)
+
+        return run
 
     def publish_json(
         self, topic: str, obj: Any, qos: int = 1, retain: bool = False

@@ -17,6 +17,7 @@ import json
 import logging
 import os
 import pwd
+import re
 import secrets
 import shutil
 import signal
@@ -31,6 +32,7 @@ from pathlib import Path
 from datagen.engines.transfer.broker_url import broker_url
 from datagen.engines.transfer.connection import broker_answers
 from datagen.engines.transfer.mosquitto_config import write_config
+from datagen.engines.transfer.ports import free_port, port_taken
 from datagen.engines.transfer.wire import DEFAULT_MAX_MESSAGE_BYTES
 
 log = logging.getLogger(__name__)
@@ -38,12 +40,6 @@ log = logging.getLogger(__name__)
 
 class BrokerError(RuntimeError):
     """Mosquitto is missing, failed to start, or died."""
-
-
-def _free_port(host: str) -> int:
-    with socket.socket(socket.AF_INET, socket.SOCK_STREAM) as s:
-        s.bind((host, 0))
-        return s.getsockname()[1]
 
 
 _WILDCARD_HOSTS = ("0.0.0.0", "", "::")
@@ -123,6 +119,7 @@ class ManagedBroker:
             self.advertise_host = advertise_host or host
         self._proc: subprocess.Popen | None = None
         self._run_as: pwd.struct_passwd | None = None
+        self._log_start = 0  # where this start's lines begin in the log (kept across restarts)
 
     @property
     def tls(self) -> bool:
@@ -208,12 +205,16 @@ class ManagedBroker:
             else:
                 self.dir = Path(tempfile.mkdtemp(prefix="datagen-mosquitto-"))
         if self.port is None:
-            self.port = _free_port(self.plain_host)
+            self.port = free_port(self.plain_host)
         if self.tls and self.tls_port is None:
-            self.tls_port = _free_port(self.host if self.host not in _WILDCARD_HOSTS else "0.0.0.0")
+            self.tls_port = free_port(self.host if self.host not in _WILDCARD_HOSTS else "0.0.0.0")
         if self.websockets and self.websockets_port is None:
-            self.websockets_port = _free_port(self.websockets_host)
+            self.websockets_port = free_port(self.websockets_host)
+        for host, port in self._listeners():
+            if port_taken(host, port):
+                raise BrokerError(self._taken(port))
         self._run_as = write_config(self)
+        self._log_start = self.log_path.stat().st_size if self.log_path.exists() else 0
         # As root, start mosquitto as user "mosquitto" ourselves rather than letting it switch:
         # a process that changes its user loses its parent-death signal (prctl(2)), so a
         # ``preexec_fn`` setting one would not outlive mosquitto's own switch
@@ -265,6 +266,27 @@ class ManagedBroker:
             return "(no log)"
         return "\n".join(text.splitlines()[-lines:])
 
+    def _listeners(self) -> list[tuple[str, int | None]]:
+        """(host, port) of each listener: plain, then TLS and WebSockets where configured."""
+        found = [(self.plain_host, self.port)]
+        found += [(self.host, self.tls_port)] if self.tls else []
+        return found + ([(self.websockets_host, self.websockets_port)] if self.websockets else [])
+
+    def _taken(self, port: int) -> str:
+        host = next((h for h, p in self._listeners() if p == port), self.host)
+        return (
+            f"{host or '0.0.0.0'}:{port} is already in use (another broker or program listens "
+            "there): stop it, or choose another port"
+        )
+
+    def _log_since_start(self) -> str:
+        try:
+            with open(self.log_path, "rb") as f:
+                f.seek(self._log_start)
+                return f.read().decode("utf-8", "replace")
+        except OSError:
+            return ""
+
     def _credentials(self, username: str | None, password: str | None) -> tuple[str, str]:
         if username is not None and password is not None:
             return username, password
@@ -290,6 +312,7 @@ class ManagedBroker:
         host = "127.0.0.1" if self.plain_host in _WILDCARD_HOSTS else self.plain_host
         deadline = time.monotonic() + self.startup_timeout_s
         while True:
+            log = self._log_since_start()  # read first: "running" is written before any exit
             if self._proc.poll() is not None:
                 code = self._proc.returncode
                 self._proc = None
@@ -300,12 +323,17 @@ class ManagedBroker:
                         "Debian 12's 2.0.11 is not; scripts/install.sh installs 2.0.21 from "
                         "bookworm-backports)"
                     )
+                log = self._log_since_start()  # now with its last words
+                if taken := re.search(r"on port (\d+)\.\n[^\n]*Address already in use", log):
+                    raise BrokerError(self._taken(int(taken[1])))
                 raise BrokerError(
                     f"mosquitto exited with code {code} during startup{hint}; log tail:\n{self.log_tail()}"
                 )
-            # A CONNACK, not just an open port: something else may hold the port. Mosquitto
-            # opens every listener before it accepts anything, so the TLS one is up too.
-            if broker_answers(host, self.port, self.username, self.password, 0.5):
+            # Our process logged "running" (every listener open: bound, not refused) and a
+            # CONNACK came: another broker on the port cannot pass for ours.
+            if " running\n" in log and broker_answers(
+                host, self.port, self.username, self.password, 0.5
+            ):
                 return
             if time.monotonic() > deadline:
                 self.kill()

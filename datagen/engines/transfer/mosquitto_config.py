@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import base64
 import hashlib
+import ipaddress
 import logging
 import os
 import pwd
@@ -35,6 +36,22 @@ topic readwrite #
 user {monitor}
 topic read datagen/+/live/#
 """
+
+
+def websockets_listener(port: int, host: str) -> list[str]:
+    """The lines of a WebSockets listener bound to ``host`` (an IP address, or ``localhost``)
+    and nothing else. Mosquitto 2.0.21 hands the address to libwebsockets, which binds
+    ``listener PORT 127.0.0.1`` on [::], every interface, unless ``socket_domain`` says the
+    address's family, and binds nothing at all for a name (measured with ``ss -ltn``)."""
+    try:
+        address = ipaddress.ip_address({"localhost": "127.0.0.1", "": "0.0.0.0"}.get(host, host))
+    except ValueError:
+        raise ValueError(
+            f"websockets_host {host!r}: expected an IP address (Mosquitto binds no WebSockets "
+            f"listener to a name)"
+        ) from None
+    domain = "ipv4" if address.version == 4 else "ipv6"
+    return [f"listener {port} {address}", "protocol websockets", f"socket_domain {domain}"]
 
 
 def mosquitto_password_hash(password: str, iterations: int = 101) -> str:
@@ -95,7 +112,8 @@ def write_config(broker: ManagedBroker) -> pwd.struct_passwd | None:
         ]
     if broker.websockets:
         # loopback by default (docs/monitor.md); on an external broker with TLS: docs/deployment.md
-        lines += [f"listener {broker.websockets_port} {broker.websockets_host}", "protocol websockets"]  # fmt: skip
+        assert broker.websockets_port is not None
+        lines += websockets_listener(broker.websockets_port, broker.websockets_host)
     if broker.acl_file is not None or broker.websockets:
         acl = broker.acl_file.read_text(encoding="utf-8") if broker.acl_file is not None else ""
         if broker.websockets:

@@ -15,6 +15,7 @@ from dataclasses import dataclass
 import paho.mqtt.client as mqtt
 
 from datagen.engines.transfer.connection import MqttConnection
+from datagen.engines.transfer.run_binding import RunBinding
 from datagen.engines.transfer.topics import topics
 from datagen.engines.transfer.wire import DEFAULT_MAX_MESSAGE_BYTES, encode_sample
 from datagen.sample import Sample
@@ -71,11 +72,13 @@ class SamplePublisher:
         publish_timeout_s: float = 300.0,
         ca_file: str | None = None,
         secret: bytes | None = None,
+        run: RunBinding | None = None,
     ):
         if window < 1:
             raise ValueError("window must be >= 1")
         self.build_id = build_id
         self.secret = secret  # the build secret: signs every sample under its "sample" key
+        self.run = run  # the run the samples are made in (named in each, and in the key)
         self.topic = topics(build_id).samples
         self.window = window
         self.max_message_bytes = max_message_bytes
@@ -87,7 +90,7 @@ class SamplePublisher:
         self._done: dict[int, int] = {}  # mid -> PUBACK reason code
         self._in_flight: collections.deque[_Sent] = collections.deque()
         self._conn = MqttConnection(broker_url, client_id, ca_file=ca_file)
-        self._conn.client.on_publish = self._handle_puback
+        self._conn.client.on_publish = self._conn.guarded(self._handle_puback)
 
     def __enter__(self) -> SamplePublisher:
         return self
@@ -100,7 +103,7 @@ class SamplePublisher:
 
     def publish(self, sample: Sample) -> None:
         """Encodes and sends one sample; blocks while the in-flight window is full."""
-        payload = encode_sample(self.build_id, sample, self.secret)
+        payload = encode_sample(self.build_id, sample, self.secret, self.run)
         if len(payload) > self.max_message_bytes:
             raise SampleTooLarge(
                 f"sample {sample.key} encodes to {len(payload)} bytes, over the "

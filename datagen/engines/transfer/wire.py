@@ -1,4 +1,4 @@
-"""Binary wire format for one sample (version 1); the spec is docs/wire-format.md.
+"""Binary wire format for one sample (version 2); the spec is docs/wire-format.md.
 
 Layout, little-endian::
 
@@ -7,11 +7,12 @@ Layout, little-endian::
     | [32-byte HMAC-SHA256 of everything before it, when flag SIGNED is set]
     | u32 CRC32 of everything before it
 
-A build signs its samples under the key derived from its secret for the purpose ``sample``
-(HKDF-SHA256, ``envelope.derive_key``), so a writer holding the secret rejects well-formed
-samples that no worker of the build made (forged, of another build, or signed under another
-purpose's key or the raw secret). The MAC covers the header, which names the build, the index
-and the key: a genuine sample cannot be moved into another build or renumbered.
+A build signs its samples under the key derived from its secret for the purpose ``sample`` and
+the run (HKDF-SHA256, ``envelope.derive_key``), so a writer holding the secret rejects
+well-formed samples that no worker of the run made (forged, of another build or another run of
+it, or signed under another purpose's key or the raw secret). The MAC covers the header, which
+names the build, the run, the config's digest, the seed, the index and the key: a genuine
+sample cannot be moved into another build or run, or renumbered.
 
 Nothing here unpickles or evaluates anything: a message from the network is bytes,
 checked field by field, and either becomes a ``Sample`` or raises ``WireError``.
@@ -26,10 +27,12 @@ import struct
 import zlib
 
 from datagen.engines.transfer.envelope import derive_key
+from datagen.engines.transfer.run_binding import RunBinding
+from datagen.safe_json import JsonInputError, loads_bounded
 from datagen.sample import Sample, sample_key, valid_part_name
 
 MAGIC = b"DGS1"
-VERSION = 1
+VERSION = 2  # 1: signed samples named no run
 # magic(4s) version(u16) flags(u16) header_len(u32): 12 bytes
 _PREFIX = struct.Struct("<4sHHI")
 _CRC = struct.Struct("<I")
@@ -37,6 +40,7 @@ MIN_MESSAGE_BYTES = _PREFIX.size + _CRC.size
 FLAG_SIGNED = 0x0001
 KNOWN_FLAGS = FLAG_SIGNED
 MAC_BYTES = 32  # HMAC-SHA256
+MAX_HEADER_BYTES = 2**20  # a header names a few parts; JSON nesting is bounded too (safe_json)
 # Default upper bound for one encoded sample; broker and clients are configured with it.
 DEFAULT_MAX_MESSAGE_BYTES = 64 * 2**20
 
@@ -60,16 +64,21 @@ class WireError(ValueError):
     """A payload is not a valid version-1 sample message; the text says why."""
 
 
-def sample_mac(secret: bytes, signed: bytes | memoryview) -> bytes:
-    """HMAC-SHA256, under the build secret's ``sample`` key, of the bytes before the MAC."""
-    return hmac.new(derive_key(secret, SAMPLE_PURPOSE), signed, hashlib.sha256).digest()
+def sample_mac(secret: bytes, run: str, signed: bytes | memoryview) -> bytes:
+    """HMAC-SHA256, under the ``sample`` key of the build secret in run ``run``, of the bytes
+    before the MAC."""
+    return hmac.new(derive_key(secret, SAMPLE_PURPOSE, run), signed, hashlib.sha256).digest()
 
 
-def encode_sample(build_id: str, sample: Sample, secret: bytes | None = None) -> bytes:
-    """``secret``: the build secret (raw bytes); the message then carries the HMAC-SHA256 of
-    ``sample_mac``."""
+def encode_sample(
+    build_id: str, sample: Sample, secret: bytes | None = None, run: RunBinding | None = None
+) -> bytes:
+    """``secret``: the build secret (raw bytes) and ``run`` the run the sample is made in; the
+    header then names the run, and the message carries the HMAC-SHA256 of ``sample_mac``."""
     if not isinstance(build_id, str) or not build_id:
         raise WireError("build_id must be a non-empty string")
+    if secret and run is None:
+        raise WireError("a signed sample names its run: give the run it was made in")
     if not sample.parts:
         raise WireError(f"sample {sample.key} has no parts")
     for name, data in sample.parts.items():
@@ -81,6 +90,7 @@ def encode_sample(build_id: str, sample: Sample, secret: bytes | None = None) ->
             )
     header = {
         "build_id": build_id,
+        **(run.fields() if run is not None else {}),
         "index": sample.index,
         "key": sample.key,
         "parts": [{"name": name, "size": len(data)} for name, data in sample.parts.items()],
@@ -94,18 +104,22 @@ def encode_sample(build_id: str, sample: Sample, secret: bytes | None = None) ->
             *sample.parts.values(),
         ]
     )
-    if secret:
-        body += sample_mac(secret, body)
+    if secret and run is not None:
+        body += sample_mac(secret, run.run, body)
     return body + _CRC.pack(zlib.crc32(body))
 
 
 def decode_sample(
-    payload: bytes, max_bytes: int | None = None, secret: bytes | None = None
+    payload: bytes,
+    max_bytes: int | None = None,
+    secret: bytes | None = None,
+    run: RunBinding | None = None,
 ) -> tuple[str, Sample]:
     """Checks and decodes one message; returns (build_id, sample) or raises ``WireError``.
 
     With ``secret`` (the build secret, raw bytes), only messages signed under its ``sample`` key
-    are accepted.
+    in the run their header names are accepted; with ``run`` too, only those of that run (its
+    id, config digest and seed).
     """
     payload = bytes(payload)
     n = len(payload)
@@ -117,9 +131,12 @@ def decode_sample(
     if magic != MAGIC:
         raise WireError(f"bad magic {magic!r}, expected {MAGIC!r}")
     if version != VERSION:
-        raise WireError(f"unknown wire version {version}, this decoder reads version {VERSION}")
+        raise WireError(
+            f"unknown wire version {version}, this decoder reads version {VERSION} (the workers "
+            "and writers of a build must run the same datagen)"
+        )
     if flags & ~KNOWN_FLAGS:
-        raise WireError(f"unknown flags 0x{flags:04x} (version 1 defines only 0x0001, signed)")
+        raise WireError(f"unknown flags 0x{flags:04x} (version 2 defines only 0x0001, signed)")
     mac_len = MAC_BYTES if flags & FLAG_SIGNED else 0
     header_end = _PREFIX.size + header_len
     if header_end > n - _CRC.size - mac_len:
@@ -130,17 +147,21 @@ def decode_sample(
     actual = zlib.crc32(memoryview(payload)[: n - _CRC.size])
     if crc != actual:
         raise WireError(f"CRC32 mismatch: message says 0x{crc:08x}, content gives 0x{actual:08x}")
+    build_id, index, parts, claimed = _parse_header(payload[_PREFIX.size : header_end])
     if secret is not None:
         if not mac_len:
             raise WireError(
                 "unsigned sample: this build accepts only samples signed with its secret"
             )
+        if claimed is None:
+            raise WireError("signed sample names no run (header.run): not made by a worker")
         signed_end = n - _CRC.size - mac_len
-        expected = sample_mac(secret, memoryview(payload)[:signed_end])
+        expected = sample_mac(secret, claimed.run, memoryview(payload)[:signed_end])
         if not hmac.compare_digest(expected, payload[signed_end : signed_end + mac_len]):
             raise WireError("signature does not verify: not made by a worker of this build")
-
-    build_id, index, parts = _parse_header(payload[_PREFIX.size : header_end])
+        why = run.mismatch(claimed) if run is not None else None
+        if why is not None:
+            raise WireError(f"a genuine sample of another run of this build, replayed: {why}")
     body_len = n - _CRC.size - mac_len - header_end
     total = sum(size for _, size in parts)
     if total != body_len:
@@ -153,11 +174,11 @@ def decode_sample(
     return build_id, Sample(index=index, parts=data)
 
 
-def _parse_header(raw: bytes) -> tuple[str, int, list[tuple[str, int]]]:
+def _parse_header(raw: bytes) -> tuple[str, int, list[tuple[str, int]], RunBinding | None]:
     try:
-        header = json.loads(raw.decode("utf-8"))
-    except (UnicodeDecodeError, ValueError) as exc:
-        raise WireError(f"header is not UTF-8 JSON: {exc}") from None
+        header = loads_bounded(raw, what="header", max_bytes=MAX_HEADER_BYTES)
+    except JsonInputError as exc:
+        raise WireError(str(exc)) from None
     if not isinstance(header, dict):
         raise WireError(f"header is a JSON {type(header).__name__}, expected an object")
     build_id = header.get("build_id")
@@ -192,7 +213,11 @@ def _parse_header(raw: bytes) -> tuple[str, int, list[tuple[str, int]]]:
             raise WireError(f"header.parts[{i}].size must be a non-negative integer")
         seen.add(name)
         out.append((name, size))
-    return build_id, index, out
+    try:
+        claimed = RunBinding.from_fields(header, "header") if "run" in header else None
+    except ValueError as exc:
+        raise WireError(str(exc)) from None
+    return build_id, index, out, claimed
 
 
 def _is_int(value: object) -> bool:

@@ -23,12 +23,19 @@ function duration(s) {
   return h ? `${h} h ${m} min` : m ? `${m} min ${sec} s` : `${sec} s`;
 }
 
+// The broker, the account and the build come from the server's config.json only: a link's
+// ?broker=&user=&password= would send the monitor's password wherever the link says.
 async function start() {
-  const query = new URLSearchParams(location.search);
+  const ignored = [...new Set(new URLSearchParams(location.search).keys())];
+  if (ignored.length) {
+    $("notice").textContent = `ignored ${ignored.join(", ").slice(0, 200)} in this page's address: ` +
+      "it connects only to the broker its server names (datagen monitor --broker)";
+    $("notice").hidden = false;
+  }
   let config = {};
   try { config = await (await fetch("config.json", { cache: "no-store" })).json(); } catch (e) { /* a plain file server */ }
-  const broker = query.get("broker") || config.broker || "";
-  chosen = query.get("build") || config.build_id || "";
+  const broker = config.broker || "";
+  chosen = config.build_id || "";
   if (!broker) {
     $("connect").hidden = false;
     $("connect").addEventListener("submit", (ev) => {
@@ -38,7 +45,7 @@ async function start() {
     setConnection("no broker given", "off");
     return;
   }
-  connect(broker, query.get("user") || config.username, query.get("password") || config.password);
+  connect(broker, config.username, config.password);
 }
 
 function setConnection(text, cls) {
@@ -48,7 +55,8 @@ function setConnection(text, cls) {
 
 function connect(url, username, password) {
   if (client) client.end(true);
-  const id = "datagen-monitor-" + Math.random().toString(16).slice(2, 10);
+  const random = crypto.getRandomValues(new Uint8Array(16)); // 128 bits: a new id per page load
+  const id = "datagen-monitor-" + [...random].map((b) => b.toString(16).padStart(2, "0")).join("");
   client = mqtt.connect(url, { username, password, clientId: id, protocolVersion: 5, reconnectPeriod: 2000, connectTimeout: 10000 });
   client.on("connect", () => {
     setConnection("connected to " + url, "on");

@@ -1,0 +1,51 @@
+"""``datagen.safe_json``: JSON from outside, refused with one exception type when it is
+malformed or beyond a bound, named by what was being read."""
+
+from __future__ import annotations
+
+import pytest
+
+from datagen.safe_json import JsonInputError, JsonSyntaxError, check_value, loads_bounded
+
+
+def test_ordinary_json_loads_as_json_does():
+    text = '{"a": [1, 2.5, "é", null, true], "b": {"c": "\\u00e9"}}'
+    assert loads_bounded(text.encode(), what="t") == {
+        "a": [1, 2.5, "é", None, True],
+        "b": {"c": "é"},
+    }
+    assert loads_bounded(text, what="t") == loads_bounded(text.encode(), what="t")
+
+
+@pytest.mark.parametrize(
+    ("data", "says"),
+    [
+        (b"[" * 100_000 + b"]" * 100_000, "nested deeper than 64 levels"),  # RecursionError
+        (b"[" * 65 + b"]" * 65, "nested deeper than 64 levels"),  # parses, then too deep
+        (b'{"a": "\\ud800"}', "lone surrogate"),
+        (b'{"\\udfff": 1}', "lone surrogate"),  # in a key too
+        (b'{"pad": "' + b"x" * 300_000 + b'"}', "bytes of JSON, more than the 300000 allowed"),
+    ],
+)
+def test_json_beyond_a_bound_is_refused_naming_what(data, says):
+    with pytest.raises(JsonInputError, match=says) as caught:
+        loads_bounded(data, what="message on topic T", max_bytes=300_000)
+    assert str(caught.value).startswith("message on topic T: ")
+    assert not isinstance(caught.value, JsonSyntaxError)
+
+
+@pytest.mark.parametrize(
+    "data", [b"", b'{"a": 1', b"\xff\xfe", b"NaN", b"[Infinity]", b"1" * 5000, b"{} x"]
+)
+def test_text_that_is_not_json_is_a_syntax_error(data):
+    with pytest.raises(JsonSyntaxError, match=r"^journal J line 3: not valid JSON"):
+        loads_bounded(data, what="journal J line 3")
+
+
+def test_exactly_the_depth_bound_is_accepted_and_check_value_walks_any_depth():
+    assert loads_bounded(b"[" * 64 + b"]" * 64, what="t") is not None
+    deep: list = []
+    for _ in range(100_000):  # built in Python: no JSON text to parse
+        deep = [deep]
+    with pytest.raises(JsonInputError, match="deeper than 64"):
+        check_value(deep, what="t")
