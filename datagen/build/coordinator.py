@@ -124,6 +124,11 @@ class Coordinator:
                 on_ack=self.acks.append,
                 secret=self.secret,
                 run=self.run_binding,
+                # its client id is new every run: the session only has to outlive an outage
+                session_expiry_s=int(
+                    self.config.build.outage_wait_s + self.config.build.broker_timeout_s
+                )
+                + 60,
             ) as collector,
         ):
             self.collector = self.supervisor.collector = collector

@@ -147,7 +147,8 @@ def plan_out_dir(out_dir: Path, config: BuildConfig, overwrite: bool, resume: bo
 
 def _written_by_datagen(name: str) -> bool:
     exports = [fmt.path for fmt in EXPORTS.values()]
-    patterns = (*DATAGEN_FILES, *exports, *(f".{path}.partial" for path in exports))
+    temporary = (f".{path}.{end}" for path in exports for end in ("partial", "old"))
+    patterns = (*DATAGEN_FILES, *exports, *temporary)
     return any(fnmatch.fnmatchcase(name, pattern) for pattern in patterns)
 
 

@@ -19,11 +19,11 @@ Who waits for whom (the round over MQTT statuses): ``datagen.sinks.finalize_roun
 
 from __future__ import annotations
 
-import json
 import logging
 from pathlib import Path
 from typing import Any
 
+from datagen.safe_json import loads_bounded
 from datagen.shards import (
     ShardInfo,
     keys_sha256,
@@ -94,10 +94,10 @@ def write_part(out_dir: str | Path, writer_id: str, round_id: str, **fields: Any
 def read_part(out_dir: str | Path, writer_id: str, round_id: str) -> dict[str, Any]:
     path = part_path(out_dir, writer_id)
     try:
-        doc = json.loads(path.read_text(encoding="utf-8"))
-    except (OSError, ValueError) as exc:
+        doc = loads_bounded(path.read_bytes(), what=str(path))
+    except (OSError, ValueError) as exc:  # JsonInputError is a ValueError
         raise FinalizeError(f"writer {writer_id!r}: cannot read {path.name}: {exc}") from None
-    if doc.get("round") != round_id:
+    if not isinstance(doc, dict) or doc.get("round") != round_id:
         raise FinalizeError(f"writer {writer_id!r}: {path.name} is from another finalize")
     return doc
 

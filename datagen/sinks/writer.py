@@ -357,7 +357,7 @@ class DatasetWriter:
         """Acks every sample durable in the directory again, then says ``ready`` (with the
         announce command's ``announce_id``)."""
         everything = self._keys | others_durable_keys(self.out_dir, self.writer_id)
-        self._seen |= everything
+        self._seen = everything  # a sample removed as changed on disk since may come again
         self._announce(everything)
         counts = {"samples": len(self._keys), "durable": len(everything), **self._report}
         self._status.publish(

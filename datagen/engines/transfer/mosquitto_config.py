@@ -86,10 +86,7 @@ def write_config(broker: ManagedBroker) -> pwd.struct_passwd | None:
         users += f"{broker.monitor_username}:{mosquitto_password_hash(broker.monitor_password)}\n"
     if broker.password_file is not None:  # the operator's users (hashed by mosquitto_passwd)
         users += broker.password_file.read_text(encoding="utf-8").rstrip("\n") + "\n"
-    fd = os.open(d / "passwd", os.O_WRONLY | os.O_CREAT | os.O_TRUNC, 0o600)
-    with os.fdopen(fd, "w", encoding="utf-8") as f:
-        f.write(users)
-    os.chmod(d / "passwd", 0o600)  # an older file keeps its mode through O_CREAT
+    _write_private(d / "passwd", users)
     lines = [
         # password_file and allow_anonymous are global (per_listener_settings false):
         # every listener requires the credentials
@@ -118,7 +115,7 @@ def write_config(broker: ManagedBroker) -> pwd.struct_passwd | None:
         acl = broker.acl_file.read_text(encoding="utf-8") if broker.acl_file is not None else ""
         if broker.websockets:
             acl += MONITOR_ACL.format(user=broker.username, monitor=broker.monitor_username)
-        (d / "acl").write_text(acl, encoding="utf-8")
+        _write_private(d / "acl", acl)  # Mosquitto warns of a readable one
         owned.append(d / "acl")
         lines.append(f"acl_file {d / 'acl'}")
     lines += [
@@ -174,3 +171,11 @@ def _root_user_line(
         # no privileged port to bind first: start it as that user
         return "user mosquitto", entry
     return "user mosquitto", None
+
+
+def _write_private(path: Path, text: str) -> None:
+    """Writes ``text`` readable by its owner only (Mosquitto's password and ACL files)."""
+    fd = os.open(path, os.O_WRONLY | os.O_CREAT | os.O_TRUNC, 0o600)
+    with os.fdopen(fd, "w", encoding="utf-8") as f:
+        f.write(text)
+    os.chmod(path, 0o600)  # an older file keeps its mode through O_CREAT
