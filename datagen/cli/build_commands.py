@@ -305,7 +305,7 @@ def run_build_command(args: argparse.Namespace, config=None) -> int:
     for name, record in read_manifest(out).get("exports", {}).items():
         print(f"datagen: {name} export: {out / record['path']}")
     if not args.no_preview:
-        path = write_preview(out, out / "preview.png")
+        path = write_preview(out)
         print(f"datagen: preview with annotation overlays: {path}")
     return 0
 

@@ -125,6 +125,7 @@ def run_replay(args: argparse.Namespace) -> int:
     import cv2
 
     from datagen.dataset.loader import load
+    from datagen.exports.files import inside, replace_file, written
     from datagen.tools.replay import comparison_report, refusal, replay_differences
 
     if reason := refusal(args.dataset):
@@ -137,8 +138,12 @@ def run_replay(args: argparse.Namespace) -> int:
     lines, picture = comparison_report(args.key, differences)
     for line in lines:
         print(f"datagen: {line}")
-    out = Path(args.out or Path(args.dataset) / f"replay-{args.key}.png")
-    cv2.imwrite(str(out), picture)
+    if args.out:  # the user's path, written as named
+        out = Path(args.out)
+        written(cv2.imwrite(str(out), picture), out, "OpenCV")
+    else:  # in the dataset: a link found at the name is replaced, never written through
+        out = inside(Path(args.dataset), f"replay-{args.key}.png")
+        replace_file(out, lambda tmp: written(cv2.imwrite(str(tmp), picture), out, "OpenCV"))
     print(f"datagen: wrote {out}")
     return 0
 
@@ -193,12 +198,14 @@ def _skip_reporter(command: str):
 def run_inspect(args: argparse.Namespace) -> int:
     import json
 
+    from datagen.exports.files import inside, replace_file, tool_folder
     from datagen.tools.inspection import inspect_dataset
 
     summary, files = inspect_dataset(args.dataset, on_skip=_skip_reporter("inspect"))
     print(summary_table(summary))
-    summary_path = Path(args.dataset) / "inspect" / "summary.json"
-    summary_path.write_text(json.dumps(summary, indent=2))
+    folder = tool_folder(Path(args.dataset), "inspect")
+    text = json.dumps(summary, indent=2)
+    summary_path = replace_file(inside(folder, "summary.json"), lambda tmp: tmp.write_text(text))
     for path in [*files, summary_path]:
         print(f"datagen: wrote {path}")
     return 0
@@ -221,7 +228,7 @@ def summary_table(summary: dict, indent: int = 0) -> str:
 def run_preview(args: argparse.Namespace) -> int:
     from datagen.tools.preview import write_preview
 
-    out = Path(args.out) if args.out else Path(args.dataset) / "preview.png"
+    out = Path(args.out) if args.out else None  # None: DATASET/preview.png, links replaced
     path = write_preview(
         Path(args.dataset), out, count=args.count, on_skip=_skip_reporter("preview")
     )

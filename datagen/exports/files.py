@@ -5,6 +5,11 @@ the dataset: a key, a camera, a look), which refuses a path that resolves outsid
 A library that reports a failed write by returning False is checked with :func:`written`, and
 :func:`disk_full` tells an ENOSPC (or a full disk behind a library's False) from other errors,
 so that the runner can say "disk full" and keep nothing.
+
+The tools write their default outputs inside the dataset the same way: :func:`tool_folder` is a
+tool's folder there (``inspect/``), refused when it is a link or resolves outside the dataset, and
+:func:`replace_file` writes a file under a new temporary name beside it and renames that into
+place, so that a link planted at the name is replaced, never written through.
 """
 
 from __future__ import annotations
@@ -12,6 +17,8 @@ from __future__ import annotations
 import errno
 import io
 import os
+import secrets
+from collections.abc import Callable
 from pathlib import Path
 
 from datagen.dataset.manifest import DatasetError
@@ -27,6 +34,42 @@ def inside(folder: Path, *names: str) -> Path:
     base, parent = folder.resolve(), path.parent.resolve()
     if path.name in ("", ".", "..") or not parent.is_relative_to(base):
         raise DatasetError(f"{folder}: refusing to write {str(path)[:300]!r}, outside this folder")
+    return path
+
+
+def tool_folder(dataset: Path, name: str) -> Path:
+    """``dataset/name``, a tool's default output folder inside the dataset, made if missing;
+    DatasetError if it is a symbolic link or not a folder, or resolves outside ``dataset`` (a
+    link planted in a dataset must not carry the tool's files elsewhere)."""
+    path = inside(dataset, name)
+    if path.is_symlink():
+        raise DatasetError(
+            f"{path}: refusing to write into it: it is a symbolic link (to "
+            f"{os.readlink(path)[:200]!r}), not a folder of this dataset; remove it"
+        )
+    if not path.exists():
+        path.mkdir()
+    if path.is_symlink() or not path.is_dir() or not path.resolve().is_relative_to(dataset.resolve()):  # fmt: skip
+        raise DatasetError(f"{path}: refusing to write into it: not a folder of this dataset")
+    return path
+
+
+def replace_file(path: Path, write: Callable[[Path], object]) -> Path:
+    """``path`` written by ``write(tmp)`` into a new file beside it (``.NAME.*.partial.SUFFIX``:
+    a library picks the format by the suffix), then renamed onto ``path``: whatever is at
+    ``path`` (a link planted there included) is replaced, never followed or written through. A
+    failed write leaves nothing and ``path`` as it was."""
+    tmp = path.with_name(f".{path.name}.{secrets.token_hex(4)}.partial{path.suffix}")
+    os.close(os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_EXCL | os.O_NOFOLLOW, 0o666))
+    try:
+        write(tmp)
+        try:
+            os.replace(tmp, path)
+        except OSError as exc:  # a folder at the name, say: the error names it, not tmp
+            raise OSError(exc.errno, exc.strerror, str(path)) from None
+    except BaseException:
+        tmp.unlink(missing_ok=True)
+        raise
     return path
 
 

@@ -1,6 +1,7 @@
 """USD scene descriptions: ``DIR/usd/<key>.usda``, one per sample of a tabletop scene (grasp
 samples and attempts), built from its metadata by ``datagen/exports/usd_stage.py`` and checked
-with usd-core's validators."""
+with usd-core's validators. A sample that names a user's mesh or picture outside the folders of
+the dataset's config is refused before anything of it is read (``datagen.dataset.assets``)."""
 
 from __future__ import annotations
 
@@ -17,6 +18,7 @@ def export(
 ) -> list[Path]:
     from pxr import Usd
 
+    from datagen.dataset.assets import check_asset_paths
     from datagen.exports.files import inside, written
     from datagen.exports.usd_stage import scene_stage, validation_errors
 
@@ -24,8 +26,10 @@ def export(
     files = []
     for i in range(len(dataset)):
         path = inside(out, f"{dataset.keys[i]}.usda")
+        meta = dataset.metadata(i)
+        check_asset_paths(meta, manifest, dataset.root)  # users' files: the config's folders only
         # textured looks' tiles go to out/textures/; validated from the file, where they resolve
-        stage = scene_stage(dataset.metadata(i), out)  # held: the layer lives as long as it
+        stage = scene_stage(meta, out)  # held: the layer lives as long as it
         written(stage.GetRootLayer().Export(str(path)), path, "USD")
         errors = validation_errors(Usd.Stage.Open(str(path)))
         if errors:

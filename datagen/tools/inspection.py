@@ -25,6 +25,7 @@ import cv2
 import numpy as np
 
 from datagen.dataset.loader import DatasetError, load
+from datagen.exports.files import inside, replace_file, tool_folder, written
 from datagen.grasping.stats import campaign_stats
 from datagen.tools.preview import sample_tile, tile_grid
 from datagen.tools.randomisation_plots import plot_randomisation, randomisation_panels
@@ -169,7 +170,8 @@ def _summarisable(kind: Summary, meta: dict[str, Any]) -> dict[str, Any]:
 def inspect_dataset(
     root: str | Path, on_skip: OnSkip = log_skip
 ) -> tuple[dict[str, Any], list[Path]]:
-    """Summary of the dataset and the picture files written under ``root/inspect/``."""
+    """Summary of the dataset and the picture files written under ``root/inspect/``
+    (DatasetError if that is a link; a link at a file's name is replaced, never followed)."""
     root = Path(root)
     dataset = load(root)
     skipped = Skipped(on_skip)
@@ -197,14 +199,11 @@ def inspect_dataset(
     if attempts:
         summary["campaign"] = dataset.manifest.get("campaign") or campaign_stats(attempts)
     values = kind.distributions(metas)
-    out = root / "inspect"
-    out.mkdir(exist_ok=True)
-    overview = out / "overview.png"
-    cv2.imwrite(str(overview), tile_grid(list(tiles.values())))
-    distributions = out / "distributions.png"
-    _plot_distributions(values, f"{len(metas)} {kind.noun}", distributions)
-    pictures = [overview, distributions]
+    out = tool_folder(root, "inspect")  # refused if a link: its files go nowhere else
+    title, grid = f"{len(metas)} {kind.noun}", tile_grid(list(tiles.values()))
+    overview = inside(out, "overview.png")  # each written beside its name and renamed onto it
+    replace_file(overview, lambda tmp: written(cv2.imwrite(str(tmp), grid), overview, "OpenCV"))
+    pictures = [replace_file(inside(out, "distributions.png"), lambda tmp: _plot_distributions(values, title, tmp))]  # fmt: skip
     if fmt == "datagen.sample/1":
-        pictures.append(out / "randomisation.png")
-        plot_randomisation(metas, f"{len(metas)} {kind.noun}", pictures[-1])
-    return summary, pictures
+        pictures.append(replace_file(inside(out, "randomisation.png"), lambda tmp: plot_randomisation(metas, title, tmp)))  # fmt: skip
+    return summary, [overview, *pictures]

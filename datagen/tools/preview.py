@@ -7,7 +7,6 @@ whose stored values cannot be drawn is reported and left out (``datagen.tools.sa
 
 from __future__ import annotations
 
-import errno
 from pathlib import Path
 from typing import Any
 
@@ -15,6 +14,7 @@ import cv2
 import numpy as np
 
 from datagen.dataset.views import is_sequence, labelled_views
+from datagen.exports.files import inside, replace_file, written
 from datagen.geometry import project
 from datagen.tools.sample_checks import (
     OnSkip,
@@ -279,10 +279,16 @@ def tile_grid(tiles: list[np.ndarray], columns: int = 4, max_width: int = 2400) 
 
 
 def write_preview(
-    dataset_dir: Path, out_path: Path, count: int = 8, columns: int = 4, on_skip: OnSkip = log_skip
+    dataset_dir: Path,
+    out_path: Path | None = None,
+    count: int = 8,
+    columns: int = 4,
+    on_skip: OnSkip = log_skip,
 ) -> Path:
-    """A grid of the first ``count`` samples, drawn by :func:`sample_tile`; a sample that cannot
-    be drawn is reported through ``on_skip`` and left out (DatasetError if none is left)."""
+    """A grid of the first ``count`` samples, drawn by :func:`sample_tile`, written to
+    ``out_path`` as named, or by default to ``dataset_dir/preview.png`` (a link found there is
+    replaced, never written through); a sample that cannot be drawn is reported through
+    ``on_skip`` and left out (DatasetError if none is left)."""
     from datagen.dataset.loader import load
 
     dataset = load(dataset_dir)
@@ -291,7 +297,10 @@ def write_preview(
     tiles = list(each_sample(dataset, indices, lambda i: sample_tile(read_item(dataset, i)), skipped).values())  # fmt: skip
     if not tiles:
         raise no_sample_left(dataset_dir, skipped, "preview")
+    grid = tile_grid(tiles, columns)
+    if out_path is None:
+        out_path = inside(Path(dataset_dir), "preview.png")
+        return replace_file(out_path, lambda tmp: written(cv2.imwrite(str(tmp), grid), out_path, "OpenCV"))  # fmt: skip
     out_path.parent.mkdir(parents=True, exist_ok=True)
-    if not cv2.imwrite(str(out_path), tile_grid(tiles, columns)):
-        raise OSError(errno.EIO, "OpenCV could not write the image", str(out_path))
+    written(cv2.imwrite(str(out_path), grid), out_path, "OpenCV")
     return out_path

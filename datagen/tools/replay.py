@@ -8,7 +8,9 @@ The stage is read as untrusted input (``stored_description``): only a text stage
 no composition arcs is opened, so no other file is read and usd-core's binary (crate) reader,
 which crashes on corrupt files, is never reached; its values must describe the sample (the
 randomisation equal to the sample's metadata, finite poses within reach, finite joint
-positions). Anything else is a ``DatasetError`` naming the file.
+positions). Anything else is a ``DatasetError`` naming the file. A sample whose metadata names
+a user's mesh or picture outside the folders of the dataset's config is refused before its scene
+is built (``datagen.dataset.assets``): nothing outside them is read.
 """
 
 from __future__ import annotations
@@ -174,6 +176,7 @@ def refusal(root: str | Path) -> str | None:
 
 def replay(root: str | Path, key: str) -> dict[str, np.ndarray]:
     """RGB image (H, W, 3) per camera of the replayed scene."""
+    from datagen.dataset.assets import check_asset_paths
     from datagen.dataset.loader import load
     from datagen.engines.sim.render import capture, keep_renderer_alive
     from datagen.tools.sample_checks import read_metadata
@@ -194,6 +197,10 @@ def replay(root: str | Path, key: str) -> dict[str, np.ndarray]:
     meta = read_metadata(dataset, dataset.keys.index(key))
     if not isinstance(meta.get("randomisation"), dict):
         raise DatasetError(f"{root}: sample {key}'s metadata has no 'randomisation' record")
+    try:  # the users' meshes and pictures it names: only from the config's folders
+        check_asset_paths(meta, manifest, root)
+    except DatasetError as exc:
+        raise DatasetError(f"{root}: sample {key}: {exc}") from None
     params, poses, qpos = stored_description(usd_path, meta["randomisation"])
     keep_renderer_alive()
     scene = construct_scene(config, params | {"drop_poses": poses})
