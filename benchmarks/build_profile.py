@@ -29,7 +29,7 @@ import time
 from collections import defaultdict
 from pathlib import Path
 
-# as in every datagen worker (datagen/build/executors/base.py): BLAS threads that busy-wait
+# as in every datagen worker (datagen/pipeline/executors/base.py): BLAS threads that busy-wait
 # would otherwise double the CPU seconds counted for numpy-heavy stages
 os.environ.setdefault("OMP_NUM_THREADS", "1")
 

@@ -85,8 +85,8 @@ def variant_configs(scenes: int, test_scenes: int, views: int) -> dict[str, dict
 
 
 def build(name: str, data: dict, root: Path, workers: int) -> tuple[Path, float]:
-    from datagen.build.run import run_build
     from datagen.config import config_from_dict
+    from datagen.pipeline.run import run_build
 
     config = config_from_dict(data, source=f"dr_ablation:{name}")
     out = root / name

@@ -22,9 +22,9 @@ import threading
 import time
 from pathlib import Path
 
-from datagen.build.run import run_build
 from datagen.config import load_config
 from datagen.dataset.loader import load, verify
+from datagen.pipeline.run import run_build
 
 REPO = Path(__file__).resolve().parents[1]
 

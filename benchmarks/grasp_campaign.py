@@ -20,8 +20,8 @@ import tempfile
 import time
 from pathlib import Path
 
-from datagen.build.run import run_build
 from datagen.config import load_config
+from datagen.pipeline.run import run_build
 
 REPO = Path(__file__).resolve().parents[1]
 

@@ -27,8 +27,8 @@ import webdataset as wds
 from torch.utils.data import DataLoader
 
 import datagen
-from datagen.build.run import run_build
 from datagen.config import load_config
+from datagen.pipeline.run import run_build
 
 REPO = Path(__file__).resolve().parents[1]
 IMAGES = ("rgb.png", "depth.png", "seg.png", "semantic.png")

@@ -24,9 +24,9 @@ from pathlib import Path
 
 import psutil
 
-from datagen.build.run import run_build
 from datagen.config import load_config
 from datagen.config.sections import RenderConfig
+from datagen.pipeline.run import run_build
 
 REPO = Path(__file__).resolve().parents[1]
 MIB = 2**20

@@ -35,9 +35,9 @@ from pathlib import Path
 
 import paho.mqtt.client as mqtt
 
-from datagen.build.live_status import LIVE_ENV
-from datagen.build.run import run_build
 from datagen.config import load_config
+from datagen.pipeline.live_status import LIVE_ENV
+from datagen.pipeline.run import run_build
 
 REPO = Path(__file__).resolve().parents[1]
 

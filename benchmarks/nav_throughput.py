@@ -26,9 +26,9 @@ import tempfile
 import time
 from pathlib import Path
 
-from datagen.build.run import run_build
 from datagen.config import load_config
 from datagen.dataset.loader import load
+from datagen.pipeline.run import run_build
 from datagen.scenes.navigation import produce
 
 REPO = Path(__file__).resolve().parents[1]

@@ -43,9 +43,9 @@ from typing import Any
 
 from tqdm import tqdm
 
-from datagen.build.executors.base import WORKER_ENV_DEFAULTS, default_env
 from datagen.config import BuildConfig, config_from_dict, load_config
 from datagen.errors import ConfigError
+from datagen.pipeline.executors.base import WORKER_ENV_DEFAULTS, default_env
 
 ROOT = Path(__file__).resolve().parent.parent
 RESULTS = ROOT / "benchmarks" / "results" / "pipeline_vs_render.json"
@@ -124,7 +124,7 @@ def run_plain(config: BuildConfig, workers: int) -> dict[str, Any]:
 
 
 def run_pipeline(config: BuildConfig, workers: int) -> dict[str, Any]:
-    from datagen.build.run import run_build
+    from datagen.pipeline.run import run_build
 
     # completion k (1-based) -> the first moment at least k samples were durable
     done_times: list[float] = []

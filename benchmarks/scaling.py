@@ -29,9 +29,9 @@ from pathlib import Path
 
 import ray
 
-from datagen.build.run import run_build
-from datagen.build.worker import STAGE_LOG_ENV
 from datagen.config import load_config
+from datagen.pipeline.run import run_build
+from datagen.pipeline.worker import STAGE_LOG_ENV
 
 REPO = Path(__file__).resolve().parents[1]
 

@@ -79,8 +79,8 @@ def maniskill_fps(
 def datagen_fps(frames: int, width: int, height: int, workers: int, views: int = 1) -> dict:
     import dataclasses
 
-    from datagen.build.run import run_build
     from datagen.config import load_config
+    from datagen.pipeline.run import run_build
 
     base = load_config(REPO / "configs/grasp_tabletop.yaml")
     scenes = -(-frames // views)  # every view is a frame

@@ -269,8 +269,8 @@ EXPORTS: Registry[ExportFormat] = Registry("export format", "datagen.exports", [
 STORE = "webdataset"
 
 EXECUTORS: Registry[Plugin] = Registry("executor", "datagen.executors", [
-    Plugin("local", "datagen.build.executors.local_processes:LocalExecutor"),
-    Plugin("ray", "datagen.build.executors.ray_actors:RayExecutor"),
+    Plugin("local", "datagen.pipeline.executors.local_processes:LocalExecutor"),
+    Plugin("ray", "datagen.pipeline.executors.ray_actors:RayExecutor"),
 ])  # fmt: skip
 
 LAYOUTS: Registry[LayoutKind] = Registry("layout family", "datagen.layouts", [

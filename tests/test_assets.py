@@ -10,13 +10,13 @@ import pytest
 import trimesh
 from pxr import Usd, UsdGeom
 
-from datagen.build.run import run_build
+from datagen.assets.mesh_library import AssetError, load_library
 from datagen.config import BuildConfig as Config
 from datagen.config import config_from_dict
 from datagen.config.sections import ObjectsConfig, RenderConfig
 from datagen.dataset.loader import load, verify
 from datagen.errors import ConfigError
-from datagen.mesh_library import AssetError, load_library
+from datagen.pipeline.run import run_build
 
 
 def _usd_cube(path):

@@ -11,13 +11,13 @@ import cv2
 import numpy as np
 import pytest
 
-from datagen.build.run import run_build
+from datagen.assets.tabletop_layout import TRAY_CENTRE, TRAY_INNER_HALF
 from datagen.config import config_from_dict
 from datagen.dataset.loader import load, read_manifest
 from datagen.engines.sim.render import capture, keep_renderer_alive
+from datagen.pipeline.run import run_build
 from datagen.randomisers import sample_scene
 from datagen.scenes.grasp_tabletop import annotate_scene
-from datagen.tabletop_layout import TRAY_CENTRE, TRAY_INNER_HALF
 from datagen.worlds.tabletop import CLASSES, build_scene, construct_scene
 
 TINY = {"render": {"width": 64, "height": 48}, "objects": {"count": [1, 2]}}

@@ -11,6 +11,14 @@ import re
 import numpy as np
 import pytest
 
+from datagen.assets.shapes import build_geometry
+from datagen.assets.tabletop_layout import (
+    TABLE_HALF,
+    TABLE_TOP,
+    TRAY_CENTRE,
+    TRAY_INNER_HALF,
+    TRAY_WALL,
+)
 from datagen.config import BuildConfig
 from datagen.config.appearance import DistractorsConfig
 from datagen.config.sections import CameraConfig, MaterialsConfig, ObjectsConfig, RenderConfig
@@ -18,14 +26,6 @@ from datagen.randomisers import sample_scene
 from datagen.randomisers.camera import sample_camera
 from datagen.randomisers.distractors import AIR_FRACTION, sample_distractors
 from datagen.seeding import sample_rng
-from datagen.shapes import build_geometry
-from datagen.tabletop_layout import (
-    TABLE_HALF,
-    TABLE_TOP,
-    TRAY_CENTRE,
-    TRAY_INNER_HALF,
-    TRAY_WALL,
-)
 
 MANY = DistractorsConfig(on_table=(3, 3), in_air=(2, 2), background=(3, 3))
 

@@ -11,10 +11,10 @@ import signal
 import psutil
 import pytest
 
-from datagen.build.run import run_build
 from datagen.config import BuildConfig
 from datagen.config.sections import ExecutorConfig, RenderConfig
 from datagen.dataset.loader import load, verify
+from datagen.pipeline.run import run_build
 
 pytestmark = [pytest.mark.sim, pytest.mark.mqtt, pytest.mark.slow]  # real builds
 

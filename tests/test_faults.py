@@ -21,7 +21,6 @@ import psutil
 import pytest
 import yaml
 
-from datagen.build.run import run_build
 from datagen.config import BuildConfig
 from datagen.config.sections import RenderConfig, TransferConfig
 from datagen.dataset.loader import load, verify
@@ -30,6 +29,7 @@ from datagen.engines.transfer.publisher import SamplePublisher
 from datagen.engines.transfer.run_binding import RunBinding, config_digest
 from datagen.engines.transfer.topics import topics
 from datagen.engines.transfer.wire import encode_sample
+from datagen.pipeline.run import run_build
 from datagen.sample import Sample
 
 pytestmark = [pytest.mark.sim, pytest.mark.mqtt, pytest.mark.slow]  # real builds

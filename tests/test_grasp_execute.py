@@ -8,11 +8,11 @@ import numpy as np
 import pytest
 import sapien
 
+from datagen.assets.tabletop_layout import TRAY_CENTRE, TRAY_FLOOR
 from datagen.config import BuildConfig
 from datagen.config.sections import ObjectsConfig
 from datagen.grasping import GraspCandidate
 from datagen.grasping.execute import ExecutionParams, execute_grasp
-from datagen.tabletop_layout import TRAY_CENTRE, TRAY_FLOOR
 from datagen.worlds.tabletop import GraspScene, build_scene
 
 pytestmark = pytest.mark.sim

@@ -6,12 +6,12 @@ import numpy as np
 import pytest
 import trimesh
 
+from datagen.assets.shapes import build_geometry
 from datagen.errors import ConfigError
 from datagen.grasping import PANDA_MAX_WIDTH
 from datagen.grasping.gripper import ConvexBody, collides, gripper_boxes
 from datagen.grasping.samplers import GraspTarget, Obstacles
 from datagen.registries import SAMPLERS
-from datagen.shapes import build_geometry
 
 TABLE = 0.75
 

@@ -1,4 +1,4 @@
-"""Household-like shapes (datagen/household.py, datagen/randomisers/household.py): rebuilt
+"""Household-like shapes (datagen/assets/household.py, datagen/randomisers/household.py): rebuilt
 byte for byte from their stored parameters, convex parts that are really convex and fill the
 smooth visual mesh, and every family settling in the tray of a real SAPIEN scene."""
 
@@ -10,13 +10,13 @@ import numpy as np
 import pytest
 import sapien
 
-from datagen import household
+from datagen.assets import household
+from datagen.assets.shapes import _cached_geometry, build_geometry
+from datagen.assets.tabletop_layout import TRAY_CENTRE, TRAY_FLOOR, TRAY_INNER_HALF
 from datagen.config import BuildConfig
 from datagen.config.appearance import DistractorsConfig
 from datagen.config.sections import HOUSEHOLD_FAMILIES, SHAPE_FAMILIES, ObjectsConfig, RenderConfig
 from datagen.randomisers.objects import sample_shape
-from datagen.shapes import _cached_geometry, build_geometry
-from datagen.tabletop_layout import TRAY_CENTRE, TRAY_FLOOR, TRAY_INNER_HALF
 
 SEEDS = range(4)
 

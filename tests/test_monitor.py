@@ -22,12 +22,12 @@ import numpy as np
 import paho.mqtt.client as mqtt
 import pytest
 
-from datagen.build.live_preview import sample_outcome, thumbnail
-from datagen.build.live_status import campaign_summary
 from datagen.engines.transfer.connection import MqttConnection
 from datagen.engines.transfer.mosquitto import ManagedBroker
 from datagen.engines.transfer.topics import LIVE_STATUS_ALL_BUILDS, topics
 from datagen.monitor.server import PageConfig, page_config
+from datagen.pipeline.live_preview import sample_outcome, thumbnail
+from datagen.pipeline.live_status import campaign_summary
 from datagen.sample import Sample
 
 REPO = Path(__file__).resolve().parents[1]
@@ -228,8 +228,8 @@ def retained_status(broker, build_id: str) -> bytes:
 @pytest.mark.sim
 @pytest.mark.mqtt
 def test_a_finished_build_leaves_its_final_status_retained_for_a_late_monitor(broker, build_id, tmp_path):  # fmt: skip
-    from datagen.build.run import run_build
     from datagen.config import config_from_dict
+    from datagen.pipeline.run import run_build
 
     config = config_from_dict({
         "num_samples": 6, "seed": 3, "render": {"width": 64, "height": 48},
@@ -252,9 +252,9 @@ def test_a_finished_build_leaves_its_final_status_retained_for_a_late_monitor(br
 def test_a_failed_build_leaves_failed_and_why_retained_for_a_late_monitor(broker, build_id, tmp_path):  # fmt: skip
     """A real failure: every sample is larger than transfer.max_sample_mb, and the policy is
     to fail at the first failing sample."""
-    from datagen.build.run import run_build
     from datagen.config import config_from_dict
     from datagen.errors import BuildError
+    from datagen.pipeline.run import run_build
 
     config = config_from_dict({
         "num_samples": 4, "seed": 3, "render": {"width": 320, "height": 240},

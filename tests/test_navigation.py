@@ -14,13 +14,13 @@ import numpy as np
 import pytest
 from pycocotools.coco import COCO
 
-from datagen.build.run import run_build
 from datagen.config import BuildConfig, load_config
 from datagen.config.sections import NavigationConfig, OutputConfig, RenderConfig
 from datagen.dataset.loader import load, load_frames, verify
 from datagen.navigation.episode import plan_episode
 from datagen.navigation.grid import inflate
 from datagen.navigation.planning import footprint_collides
+from datagen.pipeline.run import run_build
 from datagen.scenes.navigation import planar_pose, produce
 from datagen.tools.inspection import inspect_dataset
 from datagen.tools.preview import write_preview

@@ -8,9 +8,9 @@ import nbformat
 import pytest
 from nbclient import NotebookClient
 
-from datagen.build.run import run_build
 from datagen.config import BuildConfig
 from datagen.config.sections import OutputConfig, RenderConfig
+from datagen.pipeline.run import run_build
 
 pytestmark = [pytest.mark.sim, pytest.mark.mqtt, pytest.mark.slow]  # a real build, then a kernel
 

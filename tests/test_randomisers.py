@@ -4,12 +4,12 @@ import json
 
 import numpy as np
 
+from datagen.assets.shapes import build_geometry
 from datagen.config import BuildConfig
 from datagen.config.sections import ObjectsConfig
 from datagen.randomisers import sample_scene
 from datagen.randomisers.objects import sample_objects
 from datagen.seeding import sample_rng
-from datagen.shapes import build_geometry
 
 TRAY = ((0.08, 0.0, 0.76), (0.2, 0.26))
 

@@ -1,6 +1,6 @@
 """Scheduling bookkeeping: nothing lost, nothing issued twice without a reason."""
 
-from datagen.build.schedule import Schedule
+from datagen.pipeline.schedule import Schedule
 
 
 def test_each_worker_gets_at_most_per_worker_unpublished():

@@ -15,7 +15,7 @@ from pycocotools.coco import COCO
 from torch.utils.data import DataLoader
 
 import datagen
-from datagen.build.run import run_build
+from datagen.assets.shapes import build_geometry
 from datagen.config import BuildConfig, config_from_dict
 from datagen.config.sections import OutputConfig, RenderConfig
 from datagen.dataset.loader import load, read_manifest
@@ -23,7 +23,7 @@ from datagen.dataset.pointcloud import read_ply
 from datagen.dataset.views import is_sequence, labelled_views
 from datagen.errors import ConfigError
 from datagen.exports.runner import run_exports
-from datagen.shapes import build_geometry
+from datagen.pipeline.run import run_build
 
 SAMPLES = 8
 CONFIG = BuildConfig(

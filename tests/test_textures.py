@@ -15,13 +15,9 @@ import pytest
 import trimesh
 import yaml
 
-from datagen.config import config_from_dict
-from datagen.errors import ConfigError
-from datagen.image_library import ImageFolderError, check_picture, load_image, load_library
-from datagen.randomisers import sample_scene
-from datagen.seeding import sample_rng
-from datagen.tabletop_layout import TRAY_CENTRE, TRAY_INNER_HALF
-from datagen.textures import (
+from datagen.assets.image_library import ImageFolderError, check_picture, load_image, load_library
+from datagen.assets.tabletop_layout import TRAY_CENTRE, TRAY_INNER_HALF
+from datagen.assets.texture_tiles import (
     TEXTURE_FAMILIES,
     apply_palette,
     pattern,
@@ -29,7 +25,11 @@ from datagen.textures import (
     surface_uv,
     texture_tile,
 )
-from datagen.uv_mapping import box_mapped
+from datagen.assets.uv_mapping import box_mapped
+from datagen.config import config_from_dict
+from datagen.errors import ConfigError
+from datagen.randomisers import sample_scene
+from datagen.seeding import sample_rng
 
 RED = [0.8, 0.1, 0.1, 1.0]
 
@@ -157,9 +157,9 @@ def test_a_folder_without_a_usable_picture_is_refused_naming_what_it_found(tmp_p
 
 
 def test_a_folder_of_too_many_files_is_refused_before_reading_them(tmp_path, monkeypatch):
-    import datagen.image_library
+    import datagen.assets.image_library
 
-    monkeypatch.setattr(datagen.image_library, "MAX_FILES", 5)
+    monkeypatch.setattr(datagen.assets.image_library, "MAX_FILES", 5)
     for k in range(6):
         (tmp_path / f"{k}.txt").write_text("")
     with pytest.raises(ImageFolderError, match="more than 5 files; name a folder of pictures"):

@@ -129,7 +129,7 @@ def main(argv: list[str] | None = None) -> int:
 def _resume_hint(args: argparse.Namespace) -> str:
     """For a build or campaign that failed after it started (its ``DIR/build.json`` exists, so
     what is durable stays): the whole command that finishes it."""
-    from datagen.build.out_dir import BUILD_STATE
+    from datagen.pipeline.out_dir import BUILD_STATE
 
     out = getattr(args, "out", None)
     if (

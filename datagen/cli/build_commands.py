@@ -228,7 +228,7 @@ def _print_campaign(out: Path) -> None:
 
 
 def run_build_command(args: argparse.Namespace, config=None) -> int:
-    from datagen.build.run import run_build
+    from datagen.pipeline.run import run_build
     from datagen.tools.preview import write_preview
 
     config = config or load_config(args.config)
@@ -339,9 +339,9 @@ _PLANS = {
 def check_build(args: argparse.Namespace, config: BuildConfig, out: Path) -> str:
     """What a build with ``args`` would do with ``out`` (a key of ``_PLANS``), after checking
     everything that can be checked before anything starts; raises UserInputError (exit 2)."""
-    from datagen.build.out_dir import plan_out_dir
     from datagen.engines.transfer.broker_url import parse_broker_url
     from datagen.errors import UserInputError
+    from datagen.pipeline.out_dir import plan_out_dir
 
     urls = {}
     for option, env in (("broker", BROKER_URL_ENV), ("worker_broker", WORKER_BROKER_URL_ENV)):

@@ -244,7 +244,7 @@ def _check_mesh_sizes(assets_dir: str, max_faces: int, source: str) -> None:
     """A huge mesh would take minutes to decompose in every worker, and one with a vertex at
     NaN or 1e300 would collapse when normalised: refused before any process starts (the face
     counts from headers first, so a huge file is refused before it is parsed)."""
-    from datagen.mesh_library import MAX_COORDINATE, out_of_range_meshes, oversized_meshes
+    from datagen.assets.mesh_library import MAX_COORDINATE, out_of_range_meshes, oversized_meshes
 
     oversized = oversized_meshes(assets_dir, max_faces)
     if oversized:

@@ -1,7 +1,7 @@
 """Checks of the texture and backdrop settings: texture families by name, and the users'
 picture folders (``materials.textures_dir``, ``background.images_dir``), resolved relative to
 the config file and scanned once: a folder with no usable picture is a config error naming
-the key; single unusable files are skipped with a reason (:mod:`datagen.image_library`)."""
+the key; single unusable files are skipped with a reason (:mod:`datagen.assets.image_library`)."""
 
 from __future__ import annotations
 
@@ -9,9 +9,9 @@ import dataclasses
 from pathlib import Path
 from typing import Any
 
+from datagen.assets.image_library import ImageFolderError, load_library
+from datagen.assets.texture_tiles import TEXTURE_FAMILIES
 from datagen.errors import ConfigError
-from datagen.image_library import ImageFolderError, load_library
-from datagen.textures import TEXTURE_FAMILIES
 
 # (section, key) of every folder of pictures a config may name
 PICTURE_FOLDERS = (("materials", "textures_dir"), ("background", "images_dir"))

@@ -6,7 +6,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from typing import Any
 
-from datagen.textures import TEXTURE_FAMILIES
+from datagen.assets.texture_tiles import TEXTURE_FAMILIES
 
 PRIMITIVE_FAMILIES = ("box", "cylinder", "sphere", "capsule", "convex", "compound")
 HOUSEHOLD_FAMILIES = ("bottle", "can", "mug", "bowl", "lidded_box", "tool")

@@ -18,9 +18,9 @@ from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
+from datagen.assets.texture_tiles import IMAGE_FAMILY
 from datagen.config.pictures import PICTURE_FOLDERS
 from datagen.dataset.manifest import DatasetError
-from datagen.textures import IMAGE_FAMILY
 
 # (section, key) of the config's folders a sample's metadata may name, per kind of file
 CONFIG_FOLDERS = {"mesh": (("objects", "assets_dir"),), "picture": PICTURE_FOLDERS}

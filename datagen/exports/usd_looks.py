@@ -14,9 +14,9 @@ import numpy as np
 import trimesh
 from pxr import Gf, Sdf, UsdGeom, UsdShade, Vt
 
+from datagen.assets.texture_tiles import surface_uv, texture_tile
+from datagen.assets.uv_mapping import box_mapped
 from datagen.exports.files import inside, written
-from datagen.textures import surface_uv, texture_tile
-from datagen.uv_mapping import box_mapped
 
 
 def texture_asset(key: str, look: str) -> str:

@@ -25,10 +25,10 @@ import numpy as np
 import trimesh
 from pxr import Gf, Usd, UsdGeom, UsdLux, UsdValidation, Vt
 
+from datagen.assets.backdrop import wall_boxes
+from datagen.assets.shapes import build_geometry
+from datagen.assets.tabletop_layout import TABLE_HALF, TABLE_TOP, TRAY_CENTRE, tray_boxes
 from datagen.exports import usd_looks
-from datagen.room_layout import wall_boxes
-from datagen.shapes import build_geometry
-from datagen.tabletop_layout import TABLE_HALF, TABLE_TOP, TRAY_CENTRE, tray_boxes
 
 APERTURE_PER_PIXEL = 0.01  # USD camera aperture units per image pixel (only ratios matter)
 FLOOR_HALF = 5.0  # metres

@@ -18,11 +18,11 @@ from typing import Any
 import numpy as np
 import sapien
 
+from datagen.assets.backdrop import wall_boxes
 from datagen.config.appearance import BackgroundConfig
 from datagen.config.sections import MaterialsConfig
 from datagen.randomisers.materials import random_material
 from datagen.randomisers.textures import sample_picture, sample_texture, surface_entity
-from datagen.room_layout import wall_boxes
 
 WALL_SATURATION = (0.0, 0.4)  # HSV: painted walls are muted
 WALL_VALUE = (0.3, 0.95)

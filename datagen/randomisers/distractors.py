@@ -25,14 +25,8 @@ from typing import Any
 import numpy as np
 import sapien
 
-from datagen.config.appearance import DistractorsConfig
-from datagen.config.sections import SHAPE_FAMILIES, MaterialsConfig
-from datagen.geometry import random_quaternion
-from datagen.randomisers.materials import random_material
-from datagen.randomisers.objects import render_shape, sample_shape
-from datagen.randomisers.textures import maybe_texture
-from datagen.shapes import ObjectGeometry, build_geometry
-from datagen.tabletop_layout import (
+from datagen.assets.shapes import ObjectGeometry, build_geometry
+from datagen.assets.tabletop_layout import (
     ROBOT_BASE,
     TABLE_HALF,
     TABLE_TOP,
@@ -40,6 +34,12 @@ from datagen.tabletop_layout import (
     TRAY_INNER_HALF,
     TRAY_WALL,
 )
+from datagen.config.appearance import DistractorsConfig
+from datagen.config.sections import SHAPE_FAMILIES, MaterialsConfig
+from datagen.geometry import random_quaternion
+from datagen.randomisers.materials import random_material
+from datagen.randomisers.objects import render_shape, sample_shape
+from datagen.randomisers.textures import maybe_texture
 
 PLACEMENTS = ("table", "air", "background")
 ROBOT_CLEARANCE = 0.3  # metres around the robot base kept free of table distractors

@@ -1,5 +1,5 @@
 """Household-like shape families: sampled parameters of bottles, cans, mugs, bowls, boxes with
-lids and tools, as the part lists :mod:`datagen.household` and :mod:`datagen.shapes` build.
+lids and tools, as the part lists :mod:`datagen.assets.household` and :mod:`datagen.assets.shapes` build.
 
 Every family's largest extent is about ``size`` (metres); the object frame's origin is near the
 middle of the object and a vessel's axis is z.

@@ -8,12 +8,12 @@ import numpy as np
 import sapien
 import trimesh
 
+from datagen.assets.shapes import ObjectGeometry, build_geometry
 from datagen.config.sections import HOUSEHOLD_FAMILIES, ObjectsConfig
 from datagen.geometry import random_quaternion
 from datagen.randomisers.household import sample_household_parts
 from datagen.randomisers.materials import render_material
 from datagen.randomisers.textures import textured_mesh_shape
-from datagen.shapes import ObjectGeometry, build_geometry
 
 
 def _uniform(rng: np.random.Generator, bounds: tuple[float, float]) -> float:
@@ -72,7 +72,7 @@ def sample_asset_shape(rng: np.random.Generator, assets_dir: str, size: float) -
     """A user mesh (``objects.source: folder``), scaled so its largest extent is ``size``; the
     family is its class folder. The convex parts are stored with the sample, so the collision
     shape can be rebuilt from the metadata alone; the visual mesh is read from ``asset.path``."""
-    from datagen.mesh_library import load_library
+    from datagen.assets.mesh_library import load_library
 
     library = load_library(assets_dir)
     asset = library.assets[int(rng.integers(len(library.assets)))]

@@ -1,7 +1,7 @@
 """Texture randomiser: which surfaces are textured and with what (stream ``textures``), and the
 apply step that turns stored texture values into SAPIEN textures and textured meshes.
 
-The stored values are those of :mod:`datagen.textures`; a picture from a user's folder is
+The stored values are those of :mod:`datagen.assets.texture_tiles`; a picture from a user's folder is
 ``{"family": "image", "root", "path", "sha256", "aspect", "scale_m", "rotation_deg"}``.
 """
 
@@ -15,9 +15,8 @@ import numpy as np
 import sapien
 import trimesh
 
-from datagen.config.sections import MaterialsConfig
-from datagen.image_library import load_library
-from datagen.textures import (
+from datagen.assets.image_library import load_library
+from datagen.assets.texture_tiles import (
     IMAGE_FAMILY,
     height_normal_map,
     sample_texture,
@@ -25,7 +24,8 @@ from datagen.textures import (
     texture_tile,
     tile_key,
 )
-from datagen.uv_mapping import UVMesh, box_mapped
+from datagen.assets.uv_mapping import UVMesh, box_mapped
+from datagen.config.sections import MaterialsConfig
 
 SURFACES = ("table", "tray", "floor")  # the room's surfaces in materials, after the objects
 MIPMAP_LEVELS = 8  # 128 px tiles down to 1 px: far and slanted surfaces are filtered, not aliased

@@ -13,6 +13,13 @@ from typing import Any
 import numpy as np
 import trimesh
 
+from datagen.assets.tabletop_layout import (
+    TABLE_TOP,
+    TRAY_CENTRE,
+    TRAY_INNER_HALF,
+    TRAY_WALL,
+    tray_boxes,
+)
 from datagen.config import BuildConfig
 from datagen.dataset.loader import load
 from datagen.engines.sim.render import keep_renderer_alive
@@ -25,7 +32,6 @@ from datagen.registries import SAMPLERS
 from datagen.sample import Sample
 from datagen.scenes.grasp_tabletop import annotate_scene, to_sample
 from datagen.seeding import sample_rng
-from datagen.tabletop_layout import TABLE_TOP, TRAY_CENTRE, TRAY_INNER_HALF, TRAY_WALL, tray_boxes
 from datagen.worlds.tabletop import GraspScene, SceneObject, build_scene
 
 MIN_VISIBLE_FRACTION = 0.3  # targets are objects the camera sees well enough to learn from

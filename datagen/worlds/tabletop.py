@@ -14,6 +14,16 @@ from typing import Any
 import numpy as np
 import sapien
 
+from datagen.assets.shapes import ObjectGeometry
+from datagen.assets.tabletop_layout import (
+    ROBOT_BASE,
+    TABLE_HALF,
+    TABLE_TOP,
+    TRAY_CENTRE,
+    TRAY_FLOOR,
+    TRAY_INNER_HALF,
+    tray_boxes,
+)
 from datagen.config import BuildConfig
 from datagen.config.sections import SHAPE_FAMILIES
 from datagen.randomisers import sample_scene
@@ -25,16 +35,6 @@ from datagen.randomisers.materials import render_material
 from datagen.randomisers.objects import add_objects
 from datagen.randomisers.robot import apply_robot
 from datagen.randomisers.textures import surface_entity
-from datagen.shapes import ObjectGeometry
-from datagen.tabletop_layout import (
-    ROBOT_BASE,
-    TABLE_HALF,
-    TABLE_TOP,
-    TRAY_CENTRE,
-    TRAY_FLOOR,
-    TRAY_INNER_HALF,
-    tray_boxes,
-)
 from datagen.worlds.robots import PANDA, load_robot, maniskill_asset
 from datagen.worlds.settle import settle
 
@@ -55,7 +55,7 @@ def grasp_classes(config: BuildConfig) -> tuple[str, ...]:
     """Semantic classes of a build: the shape families, or the class folders of the user's
     meshes (``objects.source: folder``), after the surfaces."""
     if config.objects.source == "folder":
-        from datagen.mesh_library import load_library
+        from datagen.assets.mesh_library import load_library
 
         meshes = load_library(config.objects.assets_dir).classes
         return (*STUFF_CLASSES, *meshes, DISTRACTOR_CLASS, WALL_CLASS)

@@ -19,9 +19,9 @@ import pytest
 
 from adversarial.test_cli_input import cli, refused, snapshot
 from adversarial.tiny_build import REPO, N, build_command, journalled_samples, tiny_config
-from datagen.build.out_dir import prepare_out_dir
 from datagen.config import BuildConfig
 from datagen.dataset.loader import load, verify
+from datagen.pipeline.out_dir import prepare_out_dir
 from datagen.shards import MANIFEST
 
 pytestmark = [pytest.mark.adversarial]

@@ -16,10 +16,10 @@ from pathlib import Path
 
 import pytest
 
-from datagen.build.out_dir import BUILD_STATE, prepare_out_dir
 from datagen.cli import main
 from datagen.config import BuildConfig
 from datagen.errors import OutDirError
+from datagen.pipeline.out_dir import BUILD_STATE, prepare_out_dir
 
 pytestmark = [pytest.mark.adversarial]
 REPO = Path(__file__).resolve().parents[2]

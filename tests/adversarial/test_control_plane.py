@@ -12,13 +12,13 @@ import time
 import paho.mqtt.client as mqtt
 import pytest
 
-from datagen.build.run import run_build
 from datagen.config import config_from_dict
 from datagen.dataset.loader import check_complete
 from datagen.engines.transfer.broker_url import parse_broker_url
 from datagen.engines.transfer.envelope import Opener, Sealer, hkdf_sha256
 from datagen.engines.transfer.topics import topics
 from datagen.engines.transfer.wire import SECRET_ENV
+from datagen.pipeline.run import run_build
 
 pytestmark = [pytest.mark.adversarial]
 SECRET = bytes(range(32))

@@ -19,7 +19,6 @@ from pathlib import Path
 import pytest
 
 import datagen
-from datagen.build.run import run_build
 from datagen.config import config_from_dict
 from datagen.dataset.loader import DatasetError, load, load_frames, verify
 from datagen.engines.transfer.collector import AckCollector
@@ -29,6 +28,7 @@ from datagen.engines.transfer.publisher import SamplePublisher
 from datagen.engines.transfer.run_binding import RunBinding
 from datagen.engines.transfer.topics import topics
 from datagen.engines.transfer.wire import SECRET_ENV, encode_sample
+from datagen.pipeline.run import run_build
 from datagen.sample import Sample
 from datagen.shards import scan_members
 

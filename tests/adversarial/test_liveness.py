@@ -22,14 +22,14 @@ from typing import Any
 import pytest
 import trimesh
 
-from datagen.build.liveness import Attempt, Silence, WorkerWatch, timed_out
-from datagen.build.run import run_build
+from datagen.assets.mesh_library import face_count
 from datagen.config import BuildConfig, config_from_dict
 from datagen.dataset.loader import check_complete
 from datagen.engines.transfer.mosquitto import ManagedBroker
 from datagen.engines.transfer.wire import SECRET_ENV
 from datagen.errors import BuildError, ConfigError
-from datagen.mesh_library import face_count
+from datagen.pipeline.liveness import Attempt, Silence, WorkerWatch, timed_out
+from datagen.pipeline.run import run_build
 
 pytestmark = [pytest.mark.adversarial]
 

@@ -19,7 +19,6 @@ from pathlib import Path
 import paho.mqtt.client as mqtt
 import pytest
 
-from datagen.build.run import run_build
 from datagen.config import config_from_dict
 from datagen.dataset.loader import check_complete, verify
 from datagen.engines.transfer import envelope, wire
@@ -29,6 +28,7 @@ from datagen.engines.transfer.connection import MqttConnection
 from datagen.engines.transfer.publisher import SamplePublisher
 from datagen.engines.transfer.topics import topics
 from datagen.engines.transfer.wire import SECRET_ENV, WireError, decode_sample, encode_sample
+from datagen.pipeline.run import run_build
 from datagen.sample import Sample
 from datagen.sinks.journal import journal_path, recover
 from datagen.sinks.journal_lines import JournalError

@@ -17,7 +17,6 @@ import time
 import paho.mqtt.client as mqtt
 import pytest
 
-from datagen.build.run import run_build
 from datagen.config import config_from_dict
 from datagen.dataset.loader import load, verify
 from datagen.engines.transfer.broker_url import parse_broker_url
@@ -27,6 +26,7 @@ from datagen.engines.transfer.publisher import SamplePublisher
 from datagen.engines.transfer.run_binding import RunBinding, client_id, writer_client_id
 from datagen.engines.transfer.topics import topics
 from datagen.engines.transfer.wire import SECRET_ENV
+from datagen.pipeline.run import run_build
 from datagen.sample import Sample
 
 pytestmark = [pytest.mark.adversarial]

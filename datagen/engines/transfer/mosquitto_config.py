@@ -18,10 +18,7 @@ import secrets
 import shutil
 import stat
 from pathlib import Path
-from typing import TYPE_CHECKING
-
-if TYPE_CHECKING:
-    from datagen.engines.transfer.mosquitto import ManagedBroker
+from typing import Protocol
 
 log = logging.getLogger(__name__)
 
@@ -74,7 +71,39 @@ def _traversable(directory: Path, uid: int, gid: int) -> bool:
     return True
 
 
-def write_config(broker: ManagedBroker) -> pwd.struct_passwd | None:
+class BrokerSettings(Protocol):
+    """What ``write_config`` reads of a broker (``mosquitto.ManagedBroker`` has it all), so this
+    module does not import the one that calls it."""
+
+    dir: Path | None
+    host: str
+    port: int | None
+    tls_port: int | None
+    tls_cert: Path | None
+    tls_key: Path | None
+    username: str
+    password: str
+    password_file: Path | None
+    acl_file: Path | None
+    websockets: bool
+    websockets_host: str
+    websockets_port: int | None
+    monitor_username: str
+    monitor_password: str | None
+    max_message_bytes: int
+    max_queued_messages: int
+    max_queued_bytes: int
+    max_inflight_messages: int
+    autosave_interval_s: float
+
+    @property
+    def tls(self) -> bool: ...
+
+    @property
+    def plain_host(self) -> str: ...
+
+
+def write_config(broker: BrokerSettings) -> pwd.struct_passwd | None:
     """Writes ``broker``'s files into ``broker.dir``; returns user ``mosquitto``'s entry when
     the broker should be started as that user (as root, with no privileged port to bind)."""
     assert broker.dir is not None
@@ -146,7 +175,7 @@ def write_config(broker: ManagedBroker) -> pwd.struct_passwd | None:
 
 
 def _root_user_line(
-    broker: ManagedBroker, paths: list[Path]
+    broker: BrokerSettings, paths: list[Path]
 ) -> tuple[str, pwd.struct_passwd | None]:
     # Mosquitto started as root drops to user "mosquitto": its files must be that user's,
     # and it must be able to reach them.

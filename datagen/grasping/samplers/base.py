@@ -9,10 +9,10 @@ from typing import Protocol
 import numpy as np
 import trimesh
 
+from datagen.assets.shapes import ObjectGeometry
 from datagen.config.sections import CampaignConfig
 from datagen.grasping import GraspCandidate
 from datagen.grasping.gripper import ConvexBody
-from datagen.shapes import ObjectGeometry
 
 TABLE_Z = 0.75  # metres, the grasping scene's table top
 

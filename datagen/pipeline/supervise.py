@@ -23,9 +23,6 @@ import time
 from collections.abc import Callable
 from typing import Any
 
-from datagen.build.liveness import Silence
-from datagen.build.local_writer import LOCAL_WRITER_ID, LocalWriter
-from datagen.build.result import Observer
 from datagen.config import BuildConfig
 from datagen.engines.transfer.broker_url import parse_broker_url
 from datagen.engines.transfer.broker_watch import PROBE_INTERVAL_S, BrokerWatch
@@ -33,9 +30,12 @@ from datagen.engines.transfer.collector import AckCollector
 from datagen.engines.transfer.mosquitto import ManagedBroker
 from datagen.engines.transfer.run_binding import client_id
 from datagen.errors import BuildError
+from datagen.pipeline.liveness import Silence
+from datagen.pipeline.local_writer import LOCAL_WRITER_ID, LocalWriter
+from datagen.pipeline.result import Observer
 from datagen.sinks.writer import EXIT_DISK_FULL
 
-log = logging.getLogger("datagen.build.coordinator")
+log = logging.getLogger("datagen.pipeline.coordinator")
 MAX_RESTARTS = 10  # of each kind (worker, writer, broker) before the build gives up
 WRITER_READY_TIMEOUT_S = 60.0  # a (re)started writer's time to recover its shards and announce
 MISSED_PROBE_S = PROBE_INTERVAL_S + 1.0  # no answer for this long: at least one probe failed

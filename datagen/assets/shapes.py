@@ -2,7 +2,7 @@
 
 Every shape is a list of convex parts in the object's frame (metres). Collision uses the parts
 as convex meshes; the visual mesh is their concatenation, except for the household kinds of
-:mod:`datagen.household` (revolved and swept parts: drawn smooth, colliding as their convex
+:mod:`datagen.assets.household` (revolved and swept parts: drawn smooth, colliding as their convex
 parts). A shape is fully described by its JSON parameters, so a sample's metadata is enough to
 rebuild its objects.
 """
@@ -17,7 +17,7 @@ from typing import Any
 import numpy as np
 import trimesh
 
-from datagen import household
+from datagen.assets import household
 
 
 @dataclass(frozen=True)
@@ -85,7 +85,7 @@ def _cached_geometry(shape_json: str) -> ObjectGeometry:
     # revolved and swept parts are drawn smooth, their convex parts only approximate them
     visual_is_parts = not any(p["kind"] in household.COMPOSITE_KINDS for p in shape["parts"])
     if "asset" in shape:  # a user's mesh: drawn as itself, collides as its convex parts
-        from datagen.mesh_library import load_library
+        from datagen.assets.mesh_library import load_library
 
         asset = shape["asset"]
         found = load_library(asset["root"]).find(asset["path"])

@@ -7,7 +7,7 @@ samples are durable, then the manifest.
 
 The coordinator supervises what it started: a worker that died, fell silent or ran past the
 time limit of one sample is killed, replaced and its samples issued again; a writer or broker
-that exited or stopped answering is restarted (``datagen/build/supervise.py``; an external one
+that exited or stopped answering is restarted (``datagen/pipeline/supervise.py``; an external one
 is reported, then waited for, then the build stops: docs/liveness.md); a sample not
 acknowledged in time is issued again (writers deduplicate by key). A sample whose production
 failed (or timed out) on every attempt the config allows (``build.on_sample_error: retry``) is
@@ -25,27 +25,27 @@ from collections import deque
 from pathlib import Path
 from typing import Any
 
-from datagen.build.executors.base import WorkerSpec
-from datagen.build.live_status import LiveStatus
-from datagen.build.liveness import Attempt, WorkerWatch, timed_out
-from datagen.build.local_writer import LOCAL_WRITER_ID, LocalWriter
-from datagen.build.manifest import build_manifest
-from datagen.build.out_dir import BuildIdentity
-from datagen.build.production import Task
-from datagen.build.result import BuildResult, Observer, ProgressCallback
-from datagen.build.schedule import Schedule
-from datagen.build.supervise import (
-    MAX_RESTARTS,
-    WRITER_READY_TIMEOUT_S,
-    Supervisor,
-    writer_ended,
-)
 from datagen.config import BuildConfig
 from datagen.dataset.loader import DatasetError, check_complete
 from datagen.engines.transfer.collector import AckCollector
 from datagen.engines.transfer.mosquitto import ManagedBroker
 from datagen.engines.transfer.run_binding import RunBinding
 from datagen.errors import BuildError
+from datagen.pipeline.executors.base import WorkerSpec
+from datagen.pipeline.live_status import LiveStatus
+from datagen.pipeline.liveness import Attempt, WorkerWatch, timed_out
+from datagen.pipeline.local_writer import LOCAL_WRITER_ID, LocalWriter
+from datagen.pipeline.manifest import build_manifest
+from datagen.pipeline.out_dir import BuildIdentity
+from datagen.pipeline.production import Task
+from datagen.pipeline.result import BuildResult, Observer, ProgressCallback
+from datagen.pipeline.schedule import Schedule
+from datagen.pipeline.supervise import (
+    MAX_RESTARTS,
+    WRITER_READY_TIMEOUT_S,
+    Supervisor,
+    writer_ended,
+)
 from datagen.registries import EXECUTORS
 
 log = logging.getLogger(__name__)

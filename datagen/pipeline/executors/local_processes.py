@@ -8,16 +8,16 @@ import time
 from multiprocessing.connection import wait as wait_connections
 from typing import Any
 
-from datagen.build.executors.base import WORKER_ENV_DEFAULTS, Event, WorkerSpec, default_env
-from datagen.build.production import Task
-from datagen.build.worker import worker_main
+from datagen.pipeline.executors.base import WORKER_ENV_DEFAULTS, Event, WorkerSpec, default_env
+from datagen.pipeline.production import Task
+from datagen.pipeline.worker import worker_main
 
 log = logging.getLogger(__name__)
 
 
 class LocalExecutor:
     """Workers as processes of this machine ("spawn": SAPIEN, Vulkan and paho are not
-    fork-safe), each with its own duplex pipe (see datagen/build/worker.py)."""
+    fork-safe), each with its own duplex pipe (see datagen/pipeline/worker.py)."""
 
     def __init__(self, spec: WorkerSpec):
         self.spec = spec

@@ -184,7 +184,7 @@ def texture_tile(values: dict[str, Any]) -> np.ndarray:
 def _tile(key: str) -> np.ndarray:
     values = json.loads(key)
     if values["family"] == IMAGE_FAMILY:
-        from datagen.image_library import file_sha256, load_image
+        from datagen.assets.image_library import file_sha256, load_image
 
         if file_sha256(values["root"], values["path"]) != values["sha256"]:
             raise ValueError(

@@ -1,5 +1,5 @@
 """``run_build``: the entry point of a build. It prepares the output directory, starts (or
-joins) the broker, lets the :class:`~datagen.build.coordinator.Coordinator` drive workers and
+joins) the broker, lets the :class:`~datagen.pipeline.coordinator.Coordinator` drive workers and
 writers until exactly N samples are durable, then adds the family's summary to the manifest and
 runs the exports."""
 
@@ -12,14 +12,14 @@ import time
 from collections.abc import Callable, Iterator
 from pathlib import Path
 
-from datagen.build.coordinator import Coordinator
-from datagen.build.out_dir import prepare_out_dir
-from datagen.build.result import BuildResult, Observer, ProgressCallback
-from datagen.build.worker import die_with_parent
 from datagen.config import BuildConfig
 from datagen.engines.transfer.mosquitto import ManagedBroker
 from datagen.errors import BuildError
 from datagen.exports.runner import ExportProgress, run_exports
+from datagen.pipeline.coordinator import Coordinator
+from datagen.pipeline.out_dir import prepare_out_dir
+from datagen.pipeline.result import BuildResult, Observer, ProgressCallback
+from datagen.pipeline.worker import die_with_parent
 from datagen.registries import FAMILIES, resolve
 from datagen.shards import MANIFEST, write_manifest
 

@@ -19,10 +19,10 @@ from typing import Any
 import ray
 from ray.exceptions import GetTimeoutError, RayActorError, RayTaskError
 
-from datagen.build.executors.base import Event, WorkerSpec, worker_env
-from datagen.build.live_preview import PreviewFeed, sample_outcome
-from datagen.build.production import Task
-from datagen.build.worker import HEARTBEAT_S
+from datagen.pipeline.executors.base import Event, WorkerSpec, worker_env
+from datagen.pipeline.live_preview import PreviewFeed, sample_outcome
+from datagen.pipeline.production import Task
+from datagen.pipeline.worker import HEARTBEAT_S
 
 log = logging.getLogger(__name__)
 CLOSE_TIMEOUT_S = 30.0
@@ -58,7 +58,7 @@ class SceneWorker:
 
     def produce(self, task: Task) -> dict[str, Any]:
         """``{"index", "attempt", "failures", "published"}``; raises if the build must stop."""
-        from datagen.build.production import SampleFailed, produce_with_policy
+        from datagen.pipeline.production import SampleFailed, produce_with_policy
 
         def started(attempt: int, failures: list[str]) -> None:
             self.working = {"index": task.index, "attempt": attempt, "failures": failures}
@@ -220,7 +220,7 @@ class RayExecutor:
 
 
 def _produced(result: dict[str, Any]) -> list[tuple[str, Any]]:
-    """A produce call's result as the events a local worker sends (see datagen/build/worker.py)."""
+    """A produce call's result as the events a local worker sends (see datagen/pipeline/worker.py)."""
     index, failures = result["index"], result["failures"]
     if not result["published"]:
         return [("failed", {"index": index, "failures": failures})]

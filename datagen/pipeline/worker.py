@@ -2,7 +2,7 @@
 
 Each worker has its own duplex pipe to the coordinator (not a queue shared by all workers: a
 worker killed while reading a shared queue would leave its lock held and stall the others).
-Messages to the worker: a :class:`~datagen.build.production.Task`, or ``None`` to finish. From
+Messages to the worker: a :class:`~datagen.pipeline.production.Task`, or ``None`` to finish. From
 the worker: ``("heartbeat", None)`` every ``HEARTBEAT_S`` from a thread of its own, from the
 moment it starts (the coordinator kills a worker silent for ``build.worker_timeout_s``),
 ``("ready", None)`` once its start-up (the renderer's warm-up, the broker connection) is over,
@@ -29,13 +29,13 @@ import traceback
 from multiprocessing.connection import Connection
 from typing import Any
 
-from datagen.build.live_preview import PreviewFeed, sample_outcome
-from datagen.build.production import SampleFailed, Task, produce_with_policy
 from datagen.config import config_from_dict
 from datagen.engines.sim.render import keep_renderer_alive
 from datagen.engines.sim.stage_clock import take
 from datagen.engines.transfer.publisher import SamplePublisher, SampleTooLarge
 from datagen.engines.transfer.run_binding import RunBinding, client_id
+from datagen.pipeline.live_preview import PreviewFeed, sample_outcome
+from datagen.pipeline.production import SampleFailed, Task, produce_with_policy
 
 log = logging.getLogger(__name__)
 _PR_SET_PDEATHSIG = 1

@@ -8,9 +8,9 @@ import subprocess
 import sys
 from pathlib import Path
 
-from datagen.build.worker import die_with_parent
 from datagen.config import BuildConfig
 from datagen.engines.transfer.wire import SECRET_ENV
+from datagen.pipeline.worker import die_with_parent
 
 LOCAL_WRITER_ID = "0"
 

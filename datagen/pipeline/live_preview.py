@@ -8,7 +8,7 @@ cost.
 
 A preview is a thumbnail: the colour image with instance masks blended in and 2-D boxes
 (``datagen inspect`` draws the full annotations), or a navigation episode's top-down map.
-Unsigned, like the live status: see ``datagen/build/live_status.py``.
+Unsigned, like the live status: see ``datagen/pipeline/live_status.py``.
 """
 
 from __future__ import annotations
@@ -20,11 +20,11 @@ from typing import Any
 import cv2
 import numpy as np
 
-from datagen.build.live_status import live_enabled
 from datagen.dataset.views import labelled_views
 from datagen.engines.transfer.connection import MqttConnectError, MqttConnection
 from datagen.engines.transfer.run_binding import client_id
 from datagen.engines.transfer.topics import topics
+from datagen.pipeline.live_status import live_enabled
 from datagen.sample import Sample
 
 log = logging.getLogger(__name__)

@@ -8,10 +8,10 @@ import platform
 from importlib import metadata
 from typing import Any
 
-from datagen.build.out_dir import DATASET_FORMAT, now_utc
 from datagen.config import BuildConfig
 from datagen.config.pictures import picture_report
 from datagen.engines.transfer.wire import VERSION as WIRE_VERSION
+from datagen.pipeline.out_dir import DATASET_FORMAT, now_utc
 from datagen.registries import FAMILIES
 
 _VERSIONED_PACKAGES = (
@@ -56,6 +56,6 @@ def build_manifest(config: BuildConfig, build_id: str, workers: int) -> dict[str
 def _asset_report(config: BuildConfig) -> dict[str, Any]:
     if config.objects.source != "folder":
         return {}
-    from datagen.mesh_library import load_library  # parses every mesh: only when used
+    from datagen.assets.mesh_library import load_library  # parses every mesh: only when used
 
     return {"assets": load_library(config.objects.assets_dir).report()}

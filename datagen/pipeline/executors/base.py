@@ -5,7 +5,7 @@ The coordinator talks to both through the same six calls and never sees processe
 ``start(id)``, ``send(id, task)``, ``retire(id)`` (finish what it holds, then stop), ``poll``
 (events ``(id, kind, payload)`` with kind ``heartbeat``, ``ready`` (start-up over), ``started``
 (payload: index, attempt, failures), ``published`` (payload: index), ``done``, ``lost`` (it
-died; payload: why) or ``error`` (payload: message); see datagen/build/worker.py), ``kill(id)``
+died; payload: why) or ``error`` (payload: message); see datagen/pipeline/worker.py), ``kill(id)``
 (a worker that stopped answering: at once, whatever its state) and ``stop(graceful)``.
 """
 
@@ -16,10 +16,10 @@ import os
 from dataclasses import dataclass, field
 from typing import Any, Protocol
 
-from datagen.build.production import Task
 from datagen.engines.transfer.run_binding import RunBinding
+from datagen.pipeline.production import Task
 
-Event = tuple[int, str, Any]  # (worker id, kind, payload); kinds: see datagen/build/worker.py
+Event = tuple[int, str, Any]  # (worker id, kind, payload); kinds: see datagen/pipeline/worker.py
 # One worker per core: OpenMP/BLAS thread pools in each worker would oversubscribe the cores
 # (measured: +12-20 % frames/s for a local worker with 1 thread). Ray sets the same itself.
 # A value the user exported wins.

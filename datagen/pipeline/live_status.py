@@ -16,16 +16,24 @@ import os
 import time
 from collections import Counter, defaultdict
 from collections.abc import Iterable
-from typing import TYPE_CHECKING, Any
+from typing import Any, Protocol
 
 from datagen.engines.transfer.connection import MqttConnectError, MqttConnection
 from datagen.engines.transfer.run_binding import client_id
 from datagen.engines.transfer.topics import topics
 from datagen.errors import BuildError
+from datagen.pipeline.result import BuildResult, Observer
+from datagen.pipeline.schedule import Schedule
 
-if TYPE_CHECKING:
-    from datagen.build.coordinator import Coordinator
-    from datagen.build.result import Observer
+
+class BuildProgress(Protocol):
+    """What the live status reads of the coordinator (which starts it: no import back)."""
+
+    schedule: Schedule | None
+    failed: dict[int, list[str]]
+    restarts: dict[str, int]
+    result: BuildResult
+
 
 log = logging.getLogger(__name__)
 LIVE_ENV = "DATAGEN_LIVE"  # "0": no live status, no previews
@@ -48,7 +56,7 @@ class LiveStatus:
         self.topic = topics(build_id).live_status
         self.enabled = live_enabled()
         self.conn: MqttConnection | None = None
-        self.coordinator: Coordinator | None = None
+        self.coordinator: BuildProgress | None = None
         self.started = time.time()
         self.last_sent = 0.0
         self.history: list[tuple[float, int]] = []
@@ -73,7 +81,7 @@ class LiveStatus:
         return observe
 
     def on_event(self, worker_id: int, kind: str, payload: Any) -> None:
-        """A worker's event (``datagen/build/worker.py``)."""
+        """A worker's event (``datagen/pipeline/worker.py``)."""
         if kind == "done":  # recycled or stopped: off the table (a lost one stays, with why)
             self.workers.pop(worker_id, None)
             return
@@ -104,7 +112,7 @@ class LiveStatus:
         )
 
     # --- publishing -------------------------------------------------------------------------
-    def start(self, url: str, coordinator: Coordinator) -> None:
+    def start(self, url: str, coordinator: BuildProgress) -> None:
         self.coordinator = coordinator
         if not self.enabled:
             return
@@ -172,6 +180,7 @@ class LiveStatus:
             durable = self.total
         self._record(now - self.started, durable)
         rate = self._rate()
+        collector = getattr(c, "collector", None)  # set once the collector is connected
         status = {
             "v": 1,
             "build_id": self.build_id,
@@ -189,15 +198,15 @@ class LiveStatus:
             "eta_s": round((self.total - durable) / rate, 1) if rate > 0 else None,
             "history": [[round(t, 2), d] for t, d in self.history],
             "workers": [self.workers[k] for k in sorted(self.workers)],
-            "writers": {w: s.get("state") for w, s in c.collector.latest_status().items()}
-            if hasattr(c, "collector")
+            "writers": {w: s.get("state") for w, s in collector.latest_status().items()}
+            if collector is not None
             else {},
             "restarts": dict(c.restarts),
-            "rejected": dict(c.collector.rejected) if hasattr(c, "collector") else {},
+            "rejected": dict(collector.rejected) if collector is not None else {},
         }
         return status | campaign_summary(self.outcomes.values())
 
-    def _state(self, c: Coordinator) -> str:
+    def _state(self, c: BuildProgress) -> str:
         if self.state == "running" and c.schedule is not None and c.schedule.done:
             return "finalizing"
         return self.state
