@@ -109,7 +109,10 @@ class Registry(Mapping[str, T], Generic[T]):
     def __init__(self, kind: str, group: str, records: list[T]):
         self.kind, self.group = kind, group
         self.record_type = type(records[0])
-        self._records = {r.name: r for r in records}  # type: ignore[attr-defined]
+        names = [r.name for r in records]  # type: ignore[attr-defined]
+        if twice := sorted({n for n in names if names.count(n) > 1}):
+            raise ValueError(f"{kind} registry: {', '.join(twice)} listed more than once")
+        self._records = dict(zip(names, records, strict=True))
         self._builtins = frozenset(self._records)
         self._plugins_loaded = False
         self.failures: dict[str, PluginFailure] = {}  # entry point name -> why it was skipped
