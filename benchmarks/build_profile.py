@@ -43,8 +43,7 @@ STAGES = (
     ("sample_scene", "sample the randomised values"),
     ("Scene", "sapien.Scene()"),
     ("add_ground", "ground plane"),
-    ("_add_table", "table (5 static boxes)"),
-    ("_add_tray", "tray (static boxes)"),
+    ("box_entity", "table and tray (static boxes)"),
     ("load_panda", "Panda articulation"),
     ("apply_robot", "robot joint pose"),
     ("add_objects", "objects (geometry, collision, render meshes)"),
@@ -91,7 +90,7 @@ def _settle_full_time(scene, bodies, radii, robot, max_steps, settle_velocity) -
 
 def _instrument(table: dict, side: dict) -> None:
     """Timers around the stages; ``side`` holds the Panda loader and the settle in use."""
-    from datagen.randomisers import objects as objects_module
+    from datagen.worlds import realise as objects_module
     from datagen.worlds import tabletop
 
     sapien.Scene.add_ground = _timed(table, "add_ground", sapien.Scene.add_ground)

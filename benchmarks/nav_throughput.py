@@ -29,7 +29,7 @@ from pathlib import Path
 from datagen.config import load_config
 from datagen.dataset.loader import load
 from datagen.pipeline.run import run_build
-from datagen.scenes.navigation import produce
+from datagen.scenes.navigation_episodes import produce
 
 REPO = Path(__file__).resolve().parents[1]
 FAMILIES = ("rooms", "corridor", "maze")

@@ -5,6 +5,8 @@ from __future__ import annotations
 import numpy as np
 import transforms3d.quaternions as tq
 
+from datagen.records import PoseRecord
+
 # SAPIEN's camera entity frame is x forward, y left, z up; OpenCV's camera frame is
 # x right, y down, z forward. This maps OpenCV camera coordinates to SAPIEN camera coordinates.
 CV_TO_SAPIEN_CAMERA = np.array([[0, 0, 1, 0], [-1, 0, 0, 0], [0, -1, 0, 0], [0, 0, 0, 1]], float)
@@ -37,7 +39,7 @@ def world_to_cv_camera(camera_pose_world: np.ndarray) -> np.ndarray:
     return np.linalg.inv(camera_pose_world @ CV_TO_SAPIEN_CAMERA)
 
 
-def pose_record(transform: np.ndarray) -> dict[str, list]:
+def pose_record(transform: np.ndarray) -> PoseRecord:
     """A JSON record of a (4, 4) transform: the matrix plus position and quaternion (w, x, y, z)."""
     return {
         "matrix": np.round(transform, 7).tolist(),
@@ -67,3 +69,20 @@ def project(
     OpenCV's drawing functions take them (``image_points`` - 0.5), and depth (N,)."""
     uv, depth = image_points(points_world, intrinsics, extrinsics)
     return uv - 0.5, depth
+
+
+def undistorted_normalised(plane: np.ndarray, intrinsics, distortion) -> np.ndarray:
+    """Distorted image-plane points (N, 2), in :func:`image_points`' convention, -> normalised
+    camera coordinates (N, 2) (x / z, y / z): OpenCV's lens model (k1, k2, p1, p2, k3) inverted
+    by iteration. The one undistortion of the lens maps and of the point clouds."""
+    import cv2  # here: most users of this module never undistort
+
+    criteria = (cv2.TERM_CRITERIA_COUNT | cv2.TERM_CRITERIA_EPS, 40, 1e-10)
+    return cv2.undistortPointsIter(
+        np.asarray(plane, np.float64).reshape(-1, 1, 2),
+        np.asarray(intrinsics, np.float64),
+        np.asarray(distortion, np.float64),
+        None,
+        None,
+        criteria,
+    ).reshape(-1, 2)

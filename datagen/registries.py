@@ -23,11 +23,18 @@ import re
 from collections.abc import Callable, Iterator, Mapping
 from dataclasses import dataclass
 from importlib import metadata
-from typing import Any, Generic, TypeVar
+from typing import Any, Generic, Protocol, TypeVar
 
 from datagen.errors import ConfigError
+from datagen.records import ExportFunction
 
-T = TypeVar("T")
+
+class _Named(Protocol):
+    @property
+    def name(self) -> str: ...
+
+
+T = TypeVar("T", bound=_Named)
 PLUGIN_LOG = logging.getLogger("datagen.plugins")  # one warning per plug-in skipped
 
 
@@ -63,8 +70,11 @@ class ExportFormat:
 
     name: str
     path: str  # file or folder in the dataset directory
-    export: str  # (dataset, manifest, out, on_progress) -> list of files written
+    export: str  # a datagen.records.ExportFunction
     worlds: tuple[str, ...] | None = None  # the scene worlds it can describe; None: any
+
+    def load(self) -> ExportFunction:
+        return resolve(self.export)
 
 
 @dataclass(frozen=True)
@@ -109,7 +119,7 @@ class Registry(Mapping[str, T], Generic[T]):
     def __init__(self, kind: str, group: str, records: list[T]):
         self.kind, self.group = kind, group
         self.record_type = type(records[0])
-        names = [r.name for r in records]  # type: ignore[attr-defined]
+        names = [r.name for r in records]
         if twice := sorted({n for n in names if names.count(n) > 1}):
             raise ValueError(f"{kind} registry: {', '.join(twice)} listed more than once")
         self._records = dict(zip(names, records, strict=True))
@@ -142,7 +152,7 @@ class Registry(Mapping[str, T], Generic[T]):
         expected = self.record_type.__name__
         if not isinstance(record, self.record_type):
             raise _Unusable(f"{entry.value} is not a {expected} but a {type(record).__name__}")
-        name = record.name  # type: ignore[attr-defined]
+        name = record.name
         if not isinstance(name, str) or not name.strip():
             raise _Unusable(f"{entry.value}: its {expected} has no name")
         if name in self._builtins:
@@ -252,7 +262,7 @@ FAMILIES: Registry[SceneFamily] = Registry("scene family", "datagen.families", [
     ),
     SceneFamily(
         "navigation", "Fetch driving expert paths through rooms, corridors and mazes",
-        produce="datagen.scenes.navigation:produce", classes="datagen.worlds.floorplan:navigation_classes",
+        produce="datagen.scenes.navigation_episodes:produce", classes="datagen.worlds.floorplan:navigation_classes",
         section="navigation", metadata_format="datagen.nav_episode/1", world="floorplan",
     ),
 ])  # fmt: skip

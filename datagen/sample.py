@@ -10,7 +10,8 @@ from __future__ import annotations
 import json
 import re
 from dataclasses import dataclass, field
-from typing import Any
+
+from datagen.records import SampleMetadata
 
 KEY_DIGITS = 9
 _PART_NAME = re.compile(r"^[a-z0-9_]+(\.[a-z0-9_]+)*$")
@@ -37,7 +38,7 @@ class Sample:
         return sample_key(self.index)
 
     @property
-    def metadata(self) -> dict[str, Any]:
+    def metadata(self) -> SampleMetadata:
         return json.loads(self.parts["json"])
 
     @property

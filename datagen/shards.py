@@ -27,7 +27,7 @@ import re
 import stat
 import tarfile
 import zlib
-from collections.abc import Callable, Iterable
+from collections.abc import Callable, Iterable, Mapping
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import Any, NamedTuple
@@ -105,7 +105,7 @@ def keys_sha256(keys: Iterable[str]) -> str:
 
 
 def write_manifest(
-    out_dir: str | Path, doc: dict[str, Any], name: str = MANIFEST, mode: int = 0o644
+    out_dir: str | Path, doc: Mapping[str, Any], name: str = MANIFEST, mode: int = 0o644
 ) -> Path:
     """Writes ``doc`` as JSON atomically and durably (temp file, fsync, rename, fsync dir); on
     failure the old file is intact and the temp file removed."""

@@ -9,5 +9,11 @@ echo "[test] ruff format --check, ruff check, lint-imports (import contracts in 
 .venv/bin/ruff format --check --quiet .
 .venv/bin/ruff check --quiet .
 .venv/bin/lint-imports --no-cache >/dev/null || .venv/bin/lint-imports --no-cache
+echo "[test] mypy (typed boundaries)"
+.venv/bin/mypy
+echo "[test] mkdocs build --strict (the documentation site, built outside the tree)"
+SITE="$(mktemp -d)"
+.venv/bin/mkdocs build --strict --quiet -d "$SITE"
+rm -rf "$SITE"
 echo "[test] pytest"
 exec .venv/bin/pytest "$@"

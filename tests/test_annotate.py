@@ -12,8 +12,9 @@ import trimesh
 from datagen.engines.sim.annotate import LabelledObject, label_maps, object_view_records
 from datagen.engines.sim.render import Frame, capture, keep_renderer_alive
 from datagen.geometry import image_points, look_at, project, random_quaternion, world_to_cv_camera
-from datagen.randomisers.materials import render_material
-from datagen.randomisers.objects import add_objects, render_shape, sample_shape
+from datagen.randomisers.objects import sample_shape
+from datagen.worlds.realise import add_objects
+from datagen.worlds.surfaces import render_material, render_shape
 
 
 def frame_looking_down(width=64, height=48, f=50.0):

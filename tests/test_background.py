@@ -142,7 +142,7 @@ def test_a_build_with_picture_folders_lists_skips_exports_tiles_and_replays(tmp_
     dataset = load(out)
     key = dataset.keys[0]
     stage = Usd.Stage.Open(str(out / "usd" / f"{key}.usda"))
-    table = UsdGeom.PrimvarsAPI(stage.GetPrimAtPath("/World/Table/top")).GetPrimvar("st")
+    table = UsdGeom.PrimvarsAPI(stage.GetPrimAtPath("/World/Table/top/part_0")).GetPrimvar("st")
     assert table and len(table.Get()) == 12 * 3  # face-varying: a coordinate per corner
     tile = UsdShade.Shader(stage.GetPrimAtPath("/World/Looks/table/tile"))
     asset = tile.GetInput("file").Get().path

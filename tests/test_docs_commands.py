@@ -1,12 +1,15 @@
-"""Commands printed in docs/testing.md, run exactly as printed; and every block the docs tag
+"""Commands printed in docs/testing.md, run exactly as printed; every block the docs tag
 ``<!-- test: TAG -->`` is one a test runs (README's snippets, docs/deployment.md's ACL
-commands: tests/adversarial/test_acl.py)."""
+commands: tests/adversarial/test_acl.py); the README is a front page of at most 250 lines; and
+the documentation site (mkdocs.yml, docs/) builds with ``--strict``, its configuration
+reference generated from the config schema with every key."""
 
 from __future__ import annotations
 
 import os
 import re
 import subprocess
+import sys
 from pathlib import Path
 
 import pytest
@@ -14,6 +17,8 @@ import pytest
 REPO = Path(__file__).resolve().parents[1]
 # Set for the command's own pytest: it must not run this test again (pytest inside pytest).
 GUARD = "DATAGEN_DOCS_COMMAND_RUNNING"
+HOOK = REPO / "docs" / "hooks" / "config_reference.py"
+MKDOCS = Path(sys.executable).parent / "mkdocs"
 
 
 def printed_command(tag: str) -> str:
@@ -47,3 +52,57 @@ def test_every_block_tagged_for_a_test_is_run_by_one():
     for doc in [REPO / "README.md", *sorted((REPO / "docs").glob("*.md"))]:
         for tag in re.findall(r"<!-- test: ([\w-]+) -->", doc.read_text()):
             assert f'"{tag}"' in tests, f"{doc.name}: no test runs the block tagged {tag!r}"
+
+
+def test_the_readme_is_a_front_page_of_at_most_250_lines():
+    lines = (REPO / "README.md").read_text().splitlines()
+    assert len(lines) <= 250, f"README.md has {len(lines)} lines; move sections into docs/"
+
+
+def test_the_generated_configuration_reference_has_every_config_key():
+    """docs/hooks/config_reference.py (an MkDocs hook) renders the reference from the schema:
+    every key of ``BuildConfig``, its default and range, so the page cannot drift."""
+    import dataclasses
+    import importlib.util
+    import typing
+
+    from datagen.config import BuildConfig
+
+    spec = importlib.util.spec_from_file_location("config_reference", HOOK)
+    hook = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(hook)
+    page = hook.render()
+
+    def keys(cls, prefix=""):
+        hints = typing.get_type_hints(cls)
+        for f in dataclasses.fields(cls):
+            if dataclasses.is_dataclass(hints[f.name]):
+                yield from keys(hints[f.name], f"{prefix}{f.name}.")
+            else:
+                yield f"{prefix}{f.name}", f
+
+    for key, f in keys(BuildConfig):
+        row = next((line for line in page.splitlines() if line.startswith(f"| `{key}` |")), None)
+        assert row, f"the generated reference has no row for {key}"
+        if "min" in f.metadata:
+            assert f"{hook._number(f.metadata['min'])} .. {hook._number(f.metadata['max'])}" in row
+    assert hook.MARKER in (REPO / "docs" / "configuration.md").read_text()
+    assert "docs/hooks/config_reference.py" in (REPO / "mkdocs.yml").read_text()
+
+
+@pytest.mark.skipif(not MKDOCS.exists(), reason="mkdocs (the dev extras, scripts/install.sh)")
+def test_the_site_builds_strictly_outside_the_tree(tmp_path):
+    """What scripts/test.sh runs: a broken link, a missing page or a page outside the nav fails."""
+    result = subprocess.run(
+        [str(MKDOCS), "build", "--strict", "--quiet", "-d", str(tmp_path / "site")],
+        cwd=REPO,
+        capture_output=True,
+        text=True,
+        timeout=300,
+    )
+    assert result.returncode == 0, result.stdout + result.stderr
+    config_page = (tmp_path / "site" / "configuration" / "index.html").read_text()
+    assert (
+        "objects.max_mesh_faces" in config_page and "<!-- config-reference -->" not in config_page
+    )
+    assert not (REPO / "site").exists()

@@ -57,9 +57,10 @@ def test_page_config_takes_a_websockets_url_apart_and_refuses_an_mqtt_one():
         page_config("wss://host", None)
 
 
-def test_campaign_summary_counts_each_sample_once_by_sampler_family_and_failure_mode():
+def test_campaign_summary_counts_each_sample_once_per_sampler_family_and_failure_mode():
     outcomes = {
-        0: {"kind": "grasp", "success": True, "sampler": "antipodal", "family": "box"},
+        0: {"kind": "grasp", "success": True, "sampler": "antipodal", "family": "box",
+            "failure_mode": None},
         1: {"kind": "grasp", "success": False, "sampler": "antipodal", "family": "mug",
             "failure_mode": "slipped"},
         2: {"kind": "grasp", "success": False, "sampler": "top_down", "family": "box",
@@ -69,8 +70,10 @@ def test_campaign_summary_counts_each_sample_once_by_sampler_family_and_failure_
     summary = campaign_summary(outcomes.values())
     assert summary["campaign"]["attempts"] == 3
     assert summary["campaign"]["success_rate"] == round(2 / 3, 4)
-    assert summary["campaign"]["by_sampler"]["antipodal"] == {"attempts": 2, "success_rate": 0.5}
-    assert summary["campaign"]["by_family"]["box"] == {"attempts": 2, "success_rate": 1.0}
+    assert summary["campaign"]["per_sampler"]["antipodal"] == {
+        "attempts": 2, "successes": 1, "success_rate": 0.5}  # fmt: skip
+    assert summary["campaign"]["per_family"]["box"] == {
+        "attempts": 2, "successes": 2, "success_rate": 1.0}  # fmt: skip
     assert summary["campaign"]["failure_modes"] == {"slipped": 1}
     nav = campaign_summary([{"kind": "navigation", "success": True, "spl": 0.8},
                             {"kind": "navigation", "success": False, "spl": 0.0}])  # fmt: skip

@@ -21,7 +21,7 @@ from datagen.navigation.episode import plan_episode
 from datagen.navigation.grid import inflate
 from datagen.navigation.planning import footprint_collides
 from datagen.pipeline.run import run_build
-from datagen.scenes.navigation import planar_pose, produce
+from datagen.scenes.navigation_episodes import planar_pose, produce
 from datagen.tools.inspection import inspect_dataset
 from datagen.tools.preview import write_preview
 from datagen.worlds.floorplan import NAV_CLASS_ID

@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 import sapien
 
-from datagen.randomisers.robot import apply_robot
+from datagen.worlds.realise import apply_robot
 from datagen.worlds.settle import CHECK_EVERY, REST_CHECKS, at_rest, settle, surface_speeds
 from datagen.worlds.tabletop import load_panda
 

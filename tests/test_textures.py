@@ -268,7 +268,7 @@ def test_sample_streams_do_not_depend_on_texture_draws():
 
 def test_navigation_floors_walls_and_doors_are_textured_from_their_own_stream():
     from datagen.navigation.episode import plan_episode
-    from datagen.randomisers.navigation import TEXTURED_SURFACES, sample_nav_scene
+    from datagen.randomisers.floorplan_scene import TEXTURED_SURFACES, sample_nav_scene
 
     def values(probability):
         config = config_from_dict(

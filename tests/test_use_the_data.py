@@ -1,5 +1,6 @@
-"""Training code's side: ``datagen.collate`` batches for a torch DataLoader, and the README's
-"Use the data" recipes run exactly as printed on a small dataset (synthetic shards)."""
+"""Training code's side: ``datagen.collate`` batches for a torch DataLoader, and the recipes of
+docs/using-the-data.md (and the README's copy) run exactly as printed, each alone in a fresh
+namespace as if pasted by itself, on a small dataset (synthetic shards)."""
 
 from __future__ import annotations
 
@@ -14,7 +15,16 @@ from torch.utils.data import DataLoader
 import datagen
 
 REPO = Path(__file__).resolve().parents[1]
-README_PATH = "datasets/grasp_tabletop"  # the dataset the README's recipes name
+README_PATH = "datasets/grasp_tabletop"  # the dataset the recipes name
+RECIPES = REPO / "docs" / "using-the-data.md"
+
+
+def tagged_python(doc: Path, tag: str) -> str | None:
+    """The ```python block right after ``<!-- test: TAG -->`` in ``doc``, or None."""
+    found = re.search(
+        rf"<!-- test: {re.escape(tag)} -->\n```python\n(.*?)\n```\n", doc.read_text(), re.S
+    )
+    return found[1] if found else None
 
 
 @pytest.fixture
@@ -22,17 +32,24 @@ def dataset(tmp_path, make_dataset, make_sample) -> Path:
     return make_dataset(tmp_path / "ds", [make_sample(i) for i in range(10)], shard_size=3)
 
 
-def run_recipe(tag: str, dataset: Path, namespace: dict) -> dict:
-    """Runs the ```python block after ``<!-- test: TAG -->`` in the README, with the dataset path
-    it names replaced by ``dataset``; returns its namespace."""
-    readme = (REPO / "README.md").read_text()
-    found = re.search(rf"<!-- test: {re.escape(tag)} -->\n```python\n(.*?)\n```\n", readme, re.S)
-    assert found, f"README.md has no python block tagged <!-- test: {tag} -->"
-    code = found[1]
+def run_recipe(tag: str, dataset: Path) -> dict:
+    """Runs the ```python block after ``<!-- test: TAG -->`` in docs/using-the-data.md alone (a
+    fresh namespace: no imports from another block), with the dataset path it names replaced by
+    ``dataset``; returns its namespace."""
+    code = tagged_python(RECIPES, tag)
+    assert code, f"docs/using-the-data.md has no python block tagged <!-- test: {tag} -->"
     assert f'"{README_PATH}"' in code
     code = code.replace(f'"{README_PATH}"', repr(str(dataset)))
-    exec(compile(code, f"README.md <!-- test: {tag} -->", "exec"), namespace)
+    namespace: dict = {}
+    exec(compile(code, f"docs/using-the-data.md <!-- test: {tag} -->", "exec"), namespace)
     return namespace
+
+
+@pytest.mark.parametrize("tag", ["map-style", "streaming", "webdataset"])
+def test_a_recipe_the_readme_prints_is_the_tested_one(tag):
+    """The README's front page repeats some recipes: each copy is the block tested here."""
+    printed = tagged_python(REPO / "README.md", tag)
+    assert printed is None or printed == tagged_python(RECIPES, tag)
 
 
 def assert_batches_match(batches: list[dict], items: dict[str, dict], size: int) -> None:
@@ -79,9 +96,9 @@ def test_collate_keeps_what_it_cannot_stack_as_lists():
 
 def test_the_readme_dataloader_recipes_run_as_printed(dataset):
     items = {item["key"]: item for item in datagen.load(dataset)}
-    namespace = run_recipe("map-style", dataset, {})
+    namespace = run_recipe("map-style", dataset)
     assert_batches_match(list(namespace["loader"]), items, 8)
-    namespace = run_recipe("streaming", dataset, namespace)  # it follows the map-style block
+    namespace = run_recipe("streaming", dataset)  # alone: it has its own imports
     batches = list(namespace["loader"])
     assert sorted(k for b in batches for k in b["key"]) == sorted(items)
     assert all(b["semantic"].dtype == torch.uint8 and b["rgb"].ndim == 4 for b in batches)
@@ -89,7 +106,7 @@ def test_the_readme_dataloader_recipes_run_as_printed(dataset):
 
 @pytest.mark.adversarial  # issue 14: the recipe lost 16-bit depth
 def test_the_readme_webdataset_recipe_keeps_16_bit_depth(dataset):
-    namespace = run_recipe("webdataset", dataset, {"datagen": datagen})
+    namespace = run_recipe("webdataset", dataset)
     loaded = datagen.load(dataset)
     samples = list(namespace["web"])
     assert [s["__key__"] for s in samples] == loaded.keys

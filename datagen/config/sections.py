@@ -6,10 +6,10 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from typing import Any
 
+from datagen.assets.household import HOUSEHOLD_FAMILIES
 from datagen.assets.texture_tiles import TEXTURE_FAMILIES
 
 PRIMITIVE_FAMILIES = ("box", "cylinder", "sphere", "capsule", "convex", "compound")
-HOUSEHOLD_FAMILIES = ("bottle", "can", "mug", "bowl", "lidded_box", "tool")
 SHAPE_FAMILIES = (*PRIMITIVE_FAMILIES, *HOUSEHOLD_FAMILIES)
 SAMPLE_ERROR_POLICIES = ("fail", "retry")
 

@@ -21,6 +21,7 @@ from typing import Any
 from datagen.assets.texture_tiles import IMAGE_FAMILY
 from datagen.config.pictures import PICTURE_FOLDERS
 from datagen.dataset.manifest import DatasetError
+from datagen.records import Manifest, SampleMetadata
 
 # (section, key) of the config's folders a sample's metadata may name, per kind of file
 CONFIG_FOLDERS = {"mesh": (("objects", "assets_dir"),), "picture": PICTURE_FOLDERS}
@@ -35,7 +36,7 @@ def _real(path: str) -> str | None:
         return None
 
 
-def config_folders(manifest: dict[str, Any], root: str | Path) -> dict[str, dict[str, str]]:
+def config_folders(manifest: Manifest, root: str | Path) -> dict[str, dict[str, str]]:
     """Per kind, the folders the manifest's config names (``"materials.textures_dir"`` -> the
     folder resolved; a relative one from ``root``, as replay reads the config)."""
     config = manifest.get("config")
@@ -66,7 +67,7 @@ def asset_records(meta: Any) -> Iterator[tuple[str, Any, str]]:
             stack.extend((f"{where}[{i}]", v) for i, v in enumerate(value))
 
 
-def check_asset_paths(meta: dict[str, Any], manifest: dict[str, Any], root: str | Path) -> None:
+def check_asset_paths(meta: SampleMetadata, manifest: Manifest, root: str | Path) -> None:
     """DatasetError naming the first key of ``meta`` whose file is not in a folder that the
     config of ``manifest`` (the dataset in ``root``) names for its kind; nothing is read."""
     folders = config_folders(manifest, root)

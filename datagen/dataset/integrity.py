@@ -14,9 +14,9 @@ import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
 
 from datagen.dataset.manifest import DatasetError, read_manifest
+from datagen.records import Manifest, ShardRecord
 from datagen.sample import sample_key
 from datagen.shards import MAX_MEMBER_BYTES, keys_sha256, read_shard, shards_by_writer
 
@@ -29,7 +29,7 @@ class Verification:
     """What ``verify_dataset`` found; ``problems`` is empty when the dataset is intact."""
 
     root: Path
-    manifest: dict[str, Any]
+    manifest: Manifest
     per_sample: bool  # the manifest lists a digest per sample
     samples: int = 0  # samples found once, intact
     shards: int = 0
@@ -51,7 +51,7 @@ def verify_dataset(
     root: str | Path,
     expected: int | None = None,
     build_id: str | None = None,
-    manifest: dict[str, Any] | None = None,
+    manifest: Manifest | None = None,
     on_sample: Callable[[], None] | None = None,
 ) -> Verification:
     """Checks ``root`` against its manifest (``manifest``: already read): each sample it lists,
@@ -100,7 +100,7 @@ def _wanted(report: Verification, listed: dict[str, str], expected: int | None) 
     return keys if digest is None or digest == keys_sha256(keys) else None
 
 
-def _listed_digests(records: list[dict], report: Verification) -> dict[str, str]:
+def _listed_digests(records: list[ShardRecord], report: Verification) -> dict[str, str]:
     listed: dict[str, str] = {}
     twice: list[str] = []
     for record in records:
@@ -124,7 +124,7 @@ def _keys(keys: list[str]) -> str:
 
 
 def _read(
-    root: Path, record: dict, report: Verification, on_sample: Callable[[], None] | None
+    root: Path, record: ShardRecord, report: Verification, on_sample: Callable[[], None] | None
 ) -> list[tuple[str, str]]:
     """The (key, digest) of each sample in one listed shard; its shard-level problems. A member
     that is no sample's part, or larger than the whole shard as listed, is one (its samples are

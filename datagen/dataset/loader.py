@@ -17,13 +17,14 @@ import sys
 from collections.abc import Iterator
 from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
-from typing import Any
+from typing import Any, cast
 
 import cv2
 import numpy as np
 
 from datagen.dataset.integrity import verify_dataset
 from datagen.dataset.manifest import DatasetError, read_manifest
+from datagen.records import SampleMetadata
 from datagen.safe_json import JsonInputError, loads_bounded
 from datagen.shards import member_key, open_regular, read_members
 
@@ -97,7 +98,7 @@ def decode_parts(parts: dict[str, bytes]) -> dict[str, Any]:
     return item
 
 
-def metadata_of(data: bytes, what: str) -> dict[str, Any]:
+def metadata_of(data: bytes, what: str) -> SampleMetadata:
     """A sample's ``json`` part as a dict (``loads_bounded``), or DatasetError naming ``what``."""
     try:
         meta = loads_bounded(data, what=what)
@@ -105,7 +106,7 @@ def metadata_of(data: bytes, what: str) -> dict[str, Any]:
         raise DatasetError(str(exc)) from None
     if not isinstance(meta, dict):
         raise DatasetError(f"{what}: a JSON {type(meta).__name__}, expected an object")
-    return meta
+    return cast(SampleMetadata, meta)  # a reader checks the keys it uses
 
 
 _pool: tuple[int, ThreadPoolExecutor | None] | None = None
@@ -214,7 +215,7 @@ class ShardDataset:
         """(shard number, byte offset) of item ``i``'s first member: its place in storage."""
         return min(member[:2] for member in self._members[i])
 
-    def metadata(self, i: int) -> dict[str, Any]:
+    def metadata(self, i: int) -> SampleMetadata:
         """Only the JSON metadata of item ``i`` (no image decoding)."""
         for shard, offset, size, part in self._members[i]:
             if part == "json":
@@ -277,7 +278,7 @@ class FrameDataset:
         return len(self.index)
 
     @functools.lru_cache(maxsize=8)  # noqa: B019 - a handful of episodes' JSON, per process
-    def _episode_meta(self, i: int) -> dict[str, Any]:
+    def _episode_meta(self, i: int) -> SampleMetadata:
         return self.episodes.metadata(i)
 
     def __getitem__(self, j: int) -> dict[str, Any]:

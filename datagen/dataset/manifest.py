@@ -6,8 +6,9 @@ from __future__ import annotations
 
 import re
 from pathlib import Path
-from typing import Any
+from typing import Any, cast
 
+from datagen.records import Manifest
 from datagen.safe_json import JsonInputError, loads_bounded
 from datagen.shards import (
     DATASET_FORMAT,
@@ -23,7 +24,7 @@ MAX_MANIFEST_BYTES = 2**30
 __all__ = ["DatasetError", "format_problem", "read_manifest"]
 
 
-def read_manifest(root: str | Path) -> dict[str, Any]:
+def read_manifest(root: str | Path) -> Manifest:
     """``root/manifest.json``, checked to be a datagen manifest of a format this datagen reads:
     a ``shards`` list of records naming files in ``root``, a ``samples`` count. Raises
     DatasetError naming the path."""
@@ -37,8 +38,8 @@ def read_manifest(root: str | Path) -> dict[str, Any]:
     except OSError as exc:
         raise DatasetError(f"{exc.filename or path}: cannot read it: {exc.strerror}") from None
     if found is not None:
-        found = "not a directory" if found else "no such directory"
-        raise DatasetError(f"{root}: {found}; expected a dataset directory (with {MANIFEST})")
+        what = "not a directory" if found else "no such directory"
+        raise DatasetError(f"{root}: {what}; expected a dataset directory (with {MANIFEST})")
     if data is None:
         raise DatasetError(f"{root} is not a datagen dataset: no {MANIFEST} (not finalized?)")
     try:
@@ -57,7 +58,7 @@ def read_manifest(root: str | Path) -> dict[str, Any]:
     samples = manifest.get("samples")
     if samples is not None and (type(samples) is not int or samples < 0):
         raise DatasetError(f"{path}: 'samples' is {repr(samples)[:60]}, expected a count")
-    return manifest
+    return cast(Manifest, manifest)  # the keys a reader uses, checked above
 
 
 def format_problem(dataset_format: Any) -> str | None:

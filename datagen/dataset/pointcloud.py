@@ -6,12 +6,14 @@ from __future__ import annotations
 
 import errno
 from pathlib import Path
-from typing import Any
+from typing import Literal, overload
 
 import numpy as np
 
 from datagen.dataset.loader import decode_parts
 from datagen.dataset.views import labelled_views
+from datagen.geometry import undistorted_normalised
+from datagen.records import SampleMetadata
 
 _IMAGE_PARTS = ("rgb.png", "depth.png", "seg.png", "semantic.png")
 
@@ -41,19 +43,28 @@ def _rays(u: np.ndarray, v: np.ndarray, intrinsics: np.ndarray, distortion) -> n
     """(3, N) camera-frame directions with z = 1 through image-plane points (u, v)."""
     if distortion is None or not any(distortion):
         return np.linalg.inv(intrinsics) @ np.stack([u, v, np.ones_like(u)])
-    import cv2
-
-    points = np.stack([u, v], -1).reshape(-1, 1, 2).astype(np.float64)
-    criteria = (cv2.TERM_CRITERIA_COUNT | cv2.TERM_CRITERIA_EPS, 40, 1e-10)
-    normalised = cv2.undistortPointsIter(
-        points, intrinsics, np.asarray(distortion, float), None, None, criteria
-    ).reshape(-1, 2)
+    normalised = undistorted_normalised(np.stack([u, v], -1), intrinsics, distortion)
     return np.vstack([normalised.T, np.ones(len(normalised))])
 
 
+PointCloud = dict[str, np.ndarray]  # array name -> one value per point
+
+
+@overload
 def sample_point_cloud(
-    raw: dict[str, bytes], meta: dict[str, Any], stride: int = 1, fuse: bool = True
-) -> dict[str, np.ndarray] | list[dict[str, np.ndarray]]:
+    raw: dict[str, bytes], meta: SampleMetadata, stride: int = 1, fuse: Literal[True] = True
+) -> PointCloud: ...
+
+
+@overload
+def sample_point_cloud(
+    raw: dict[str, bytes], meta: SampleMetadata, stride: int = 1, *, fuse: Literal[False]
+) -> list[PointCloud]: ...
+
+
+def sample_point_cloud(
+    raw: dict[str, bytes], meta: SampleMetadata, stride: int = 1, fuse: bool = True
+) -> PointCloud | list[PointCloud]:
     """The labelled cloud of every view of one stored sample (``dataset.raw(i)`` and its
     metadata): fused into one (``fuse``) or one per view. Arrays: positions (N, 3) float32
     metres (world), colors (N, 3) uint8, instance (N,) int32, semantic (N,) int32, view (N,)

@@ -13,10 +13,10 @@ then any other camera by name.
 from __future__ import annotations
 
 from collections.abc import Callable, Iterator
-from dataclasses import dataclass, field
-from typing import Any
+from dataclasses import dataclass
 
 from datagen.dataset.loader import DatasetError
+from datagen.records import CameraRecord, FrameRecord, LabelledInstance, SampleMetadata, ViewRecord
 
 # Classes that are surfaces, not countable instances: left out of instance annotations.
 STUFF = frozenset({"background", "floor", "wall", "table", "tray", "robot"})
@@ -26,18 +26,23 @@ STUFF = frozenset({"background", "floor", "wall", "table", "tray", "robot"})
 class LabelledView:
     name: str  # "" for a sample's main (workspace) camera, else "wrist", "f0003", ...
     prefix: str  # part-name prefix of its images: "" or "wrist." or "f0003."
-    instances: list[dict[str, Any]]  # instance_id, class, bbox_xyxy (inclusive), extras
-    camera: dict[str, Any]  # intrinsics, extrinsics_world_to_camera, width, height, ...
+    instances: list[LabelledInstance]
+    camera: CameraRecord  # with this view's extrinsics_world_to_camera
+    record: ViewRecord | FrameRecord  # its own metadata record (a frame's)
     time_index: int | None = None  # a sequence's frame number; None for a camera of a sample
-    record: dict[str, Any] = field(default_factory=dict)  # its own metadata record (a frame's)
 
 
-def camera_views(meta: dict[str, Any]) -> Iterator[LabelledView]:
+def camera_views(meta: SampleMetadata) -> Iterator[LabelledView]:
     """``datagen.sample/1``: one view per camera, in :func:`camera_order`."""
     for name in sorted(meta["views"], key=camera_order):
         view = meta["views"][name]
-        instances = [
-            {k: o[k] for k in ("instance_id", "class", "bbox_xyxy", "visible_fraction")}
+        instances: list[LabelledInstance] = [
+            {
+                "instance_id": o["instance_id"],
+                "class": o["class"],
+                "bbox_xyxy": o["bbox_xyxy"],  # type: ignore[typeddict-item]  # visible: a box
+                "visible_fraction": o["visible_fraction"],
+            }
             for o in view["objects"]
             if o["visible"]
         ]
@@ -56,7 +61,7 @@ def camera_order(name: str) -> tuple[int, int, str]:
     return (2, 0, name)
 
 
-def sequence_views(meta: dict[str, Any]) -> Iterator[LabelledView]:
+def sequence_views(meta: SampleMetadata) -> Iterator[LabelledView]:
     """``datagen.nav_episode/1``: one view per frame, in time order, of the shared camera."""
     for record in meta["frames"]:
         name = f"f{record['frame']:04d}"
@@ -64,20 +69,20 @@ def sequence_views(meta: dict[str, Any]) -> Iterator[LabelledView]:
             "extrinsics_world_to_camera": record["extrinsics_world_to_camera"]
         }
         yield LabelledView(
-            name, f"{name}.", list(record["things"]), camera, record["frame"], record
+            name, f"{name}.", list(record["things"]), camera, record, record["frame"]
         )
 
 
 # metadata format -> its views; a new format is one reader here
-VIEW_READERS: dict[str, Callable[[dict[str, Any]], Iterator[LabelledView]]] = {
+VIEW_READERS: dict[str, Callable[[SampleMetadata], Iterator[LabelledView]]] = {
     "datagen.sample/1": camera_views,
     "datagen.nav_episode/1": sequence_views,
 }
 
 
-def labelled_views(meta: dict[str, Any]) -> list[LabelledView]:
+def labelled_views(meta: SampleMetadata) -> list[LabelledView]:
     """Every labelled view of one sample, from its stored metadata (``meta["format"]``)."""
-    reader = VIEW_READERS.get(meta.get("format"))  # type: ignore[arg-type]
+    reader = VIEW_READERS.get(meta.get("format"))
     if reader is None:
         raise DatasetError(
             f"sample {meta.get('key')}: unknown metadata format {meta.get('format')!r}; "

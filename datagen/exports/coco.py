@@ -11,7 +11,6 @@ values in ``semantic.png``.
 from __future__ import annotations
 
 import json
-from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
@@ -21,6 +20,7 @@ from pycocotools import mask as mask_utils
 
 from datagen.dataset.views import labelled_views, thing_classes
 from datagen.exports.files import inside
+from datagen.records import ExportedDataset, Manifest, SampleProgress
 
 
 def _rle(mask: np.ndarray) -> dict[str, Any]:
@@ -29,17 +29,18 @@ def _rle(mask: np.ndarray) -> dict[str, Any]:
 
 
 def export(
-    dataset,
-    manifest: dict[str, Any],
+    dataset: ExportedDataset,
+    manifest: Manifest,
     out: Path,
-    on_progress: Callable[[int, int], None] | None = None,
+    on_progress: SampleProgress | None = None,
 ) -> list[Path]:
     """Writes into ``out`` (a fresh directory); returns the files written."""
     images_dir = out / "images"
     images_dir.mkdir(parents=True)
     classes = dataset.metadata(0)["classes"] if len(dataset) else manifest.get("classes", [])
     categories = thing_classes(classes)
-    images, annotations = [], []
+    images: list[dict[str, object]] = []  # COCO's records
+    annotations: list[dict[str, object]] = []
     for i in range(len(dataset)):
         key, meta = dataset.keys[i], dataset.metadata(i)
         views = labelled_views(meta)

@@ -18,7 +18,7 @@ and the outcome attributes; an ``attempt`` adds ``grasp/`` and its outcome.
 from __future__ import annotations
 
 import json
-from collections.abc import Callable
+from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
@@ -28,6 +28,8 @@ import numpy as np
 from datagen.dataset.loader import decode_parts
 from datagen.dataset.views import LabelledView, is_sequence, labelled_views
 from datagen.exports.files import FailureRecordingFile
+from datagen.outcomes import grasp_outcome, sample_outcome
+from datagen.records import ExportedDataset, Manifest, SampleProgress
 
 FORMAT = "datagen.hdf5/1"
 _IMAGES = (
@@ -64,9 +66,10 @@ def _sequence(group: h5py.Group, raw: dict[str, bytes], views: list[LabelledView
     decoded = [_view_images(raw, view.prefix) for view in views]
     stacks = {n: np.stack([d[n] for d in decoded]) for n in _IMAGES if all(n in d for d in decoded)}  # fmt: skip
     _images(group, stacks, stacked=True)
+    records: list[Mapping[str, Any]] = [view.record for view in views]  # a field by its name
     for name, dtype in _FRAME_FIELDS.items():
-        if all(name in view.record for view in views):
-            group.create_dataset(name, data=np.array([v.record[name] for v in views], dtype=dtype))  # fmt: skip
+        if all(name in record for record in records):
+            group.create_dataset(name, data=np.array([r[name] for r in records], dtype=dtype))
 
 
 def _cameras(group: h5py.Group, raw: dict[str, bytes]) -> None:
@@ -90,13 +93,12 @@ def _episode(group: h5py.Group, episode: dict[str, Any], raw: dict[str, bytes]) 
         group.create_dataset("map", data=pictures["map"], compression="gzip", compression_opts=1)
     if "occupancy" in pictures:
         group.create_dataset("occupancy", data=pictures["occupancy"], compression="gzip")
-    for name in ("success", "path_length_m", "shortest_path_m", "spl"):
+    for name in ("path_length_m", "shortest_path_m", "spl"):
         group.attrs[name] = episode[name]
 
 
 def _attempt(group: h5py.Group, attempt: dict[str, Any]) -> None:
-    group.attrs["success"] = attempt["outcome"]["success"]
-    group.attrs["failure_mode"] = attempt["outcome"]["failure_mode"] or ""
+    group.attrs["failure_mode"] = grasp_outcome(attempt)["failure_mode"] or ""
     if attempt["grasp"] is not None:
         grasp = group.create_group("grasp")
         grasp.create_dataset("pose_world", data=np.asarray(attempt["grasp"]["pose_world"]))
@@ -104,10 +106,10 @@ def _attempt(group: h5py.Group, attempt: dict[str, Any]) -> None:
 
 
 def export(
-    dataset,
-    manifest: dict[str, Any],
+    dataset: ExportedDataset,
+    manifest: Manifest,
     out: Path,
-    on_progress: Callable[[int, int], None] | None = None,
+    on_progress: SampleProgress | None = None,
 ) -> list[Path]:
     target = FailureRecordingFile(out)  # HDF5 never sees a failed write (it would crash)
     try:
@@ -119,7 +121,7 @@ def export(
     return [out]
 
 
-def _write(target, dataset, manifest: dict[str, Any], on_progress) -> None:
+def _write(target, dataset: ExportedDataset, manifest: Manifest, on_progress) -> None:
     keys, success, frames = [], [], []
     with h5py.File(target, "w") as f:
         f.attrs["format"] = FORMAT
@@ -142,8 +144,9 @@ def _write(target, dataset, manifest: dict[str, Any], on_progress) -> None:
             if meta.get("attempt"):
                 _attempt(group, meta["attempt"])
             keys.append(key)
-            if "success" in group.attrs:
-                success.append(bool(group.attrs["success"]))
+            if (outcome := sample_outcome(meta)) is not None:
+                group.attrs["success"] = outcome["success"]
+                success.append(outcome["success"])
             if on_progress:
                 on_progress(i + 1, len(dataset))
         index = f.create_group("index")

@@ -4,22 +4,21 @@ across its views (every camera of a sample; every frame of a sequence, every
 
 from __future__ import annotations
 
-from collections.abc import Callable
 from pathlib import Path
-from typing import Any
 
 from datagen.dataset.pointcloud import sample_point_cloud, write_ply
 from datagen.dataset.views import is_sequence, labelled_views
 from datagen.exports.files import inside
+from datagen.records import ExportedDataset, Manifest, SampleProgress
 
 SEQUENCE_STRIDE = 4  # pixels: a sequence's many frames would make clouds of millions of points
 
 
 def export(
-    dataset,
-    manifest: dict[str, Any],
+    dataset: ExportedDataset,
+    manifest: Manifest,
     out: Path,
-    on_progress: Callable[[int, int], None] | None = None,
+    on_progress: SampleProgress | None = None,
 ) -> list[Path]:
     out.mkdir(parents=True)
     files = []

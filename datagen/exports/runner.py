@@ -20,12 +20,13 @@ import shutil
 import time
 from collections.abc import Callable
 from pathlib import Path
-from typing import Any, NoReturn
+from typing import NoReturn
 
 from datagen.dataset.manifest import DatasetError, read_manifest
 from datagen.errors import BuildError
 from datagen.exports.files import disk_full, fsync_tree, inside
-from datagen.registries import EXPORTS, FAMILIES, STORE, ExportFormat, resolve
+from datagen.records import ExportedDataset, ExportRecord, Manifest
+from datagen.registries import EXPORTS, FAMILIES, STORE, ExportFormat
 from datagen.shards import fsync_dir, write_manifest
 
 log = logging.getLogger(__name__)
@@ -50,7 +51,7 @@ def _remove(path: Path) -> None:
         path.unlink(missing_ok=True)
 
 
-def check_world(fmt: ExportFormat, manifest: dict[str, Any], root: Path) -> None:
+def check_world(fmt: ExportFormat, manifest: Manifest, root: Path) -> None:
     """Raises DatasetError unless ``fmt`` can describe the dataset's scenes (its ``worlds``)."""
     if fmt.worlds is None:
         return
@@ -70,7 +71,7 @@ def run_exports(
     sinks,
     force: bool = False,
     on_progress: ExportProgress | None = None,
-) -> dict[str, dict[str, Any]]:
+) -> dict[str, ExportRecord]:
     """Exports each of ``sinks`` (other than the webdataset store) not yet recorded in the
     manifest or no longer there, or every one with ``force``; returns the manifest's
     ``exports`` record."""
@@ -97,7 +98,14 @@ def run_exports(
     return done
 
 
-def _export(root: Path, fmt: ExportFormat, dataset, manifest, done, on_progress) -> dict:
+def _export(
+    root: Path,
+    fmt: ExportFormat,
+    dataset: ExportedDataset,
+    manifest: Manifest,
+    done: dict[str, ExportRecord],
+    on_progress: ExportProgress | None,
+) -> ExportRecord:
     """Writes one format into place and records it in the manifest, or leaves nothing."""
     final = inside(root, fmt.path)
     tmp, aside = inside(root, f".{fmt.path}.partial"), inside(root, f".{fmt.path}.old")
@@ -111,14 +119,14 @@ def _export(root: Path, fmt: ExportFormat, dataset, manifest, done, on_progress)
             on_progress(fmt.name, count, total)
 
     try:
-        resolve(fmt.export)(dataset, manifest, tmp, on_progress=progress)
+        fmt.load()(dataset, manifest, tmp, on_progress=progress)
         fsync_tree(tmp)
     except BaseException as exc:
         _fail(exc, root, fmt, tmp, dataset.keys[exported[0] :][:1])
     if final.exists() or final.is_symlink():
         os.replace(final, aside)
     os.replace(tmp, final)
-    record = {"path": fmt.path, "bytes": _size(final), "seconds": round(time.monotonic() - start, 3)}  # fmt: skip
+    record: ExportRecord = {"path": fmt.path, "bytes": _size(final), "seconds": round(time.monotonic() - start, 3)}  # fmt: skip
     try:
         write_manifest(root, read_manifest(root) | {"exports": done | {fmt.name: record}})
     except BaseException as exc:  # as it was: the older copy back in place

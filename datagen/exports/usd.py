@@ -5,16 +5,16 @@ the dataset's config is refused before anything of it is read (``datagen.dataset
 
 from __future__ import annotations
 
-from collections.abc import Callable
 from pathlib import Path
-from typing import Any
+
+from datagen.records import ExportedDataset, Manifest, SampleProgress
 
 
 def export(
-    dataset,
-    manifest: dict[str, Any],
+    dataset: ExportedDataset,
+    manifest: Manifest,
     out: Path,
-    on_progress: Callable[[int, int], None] | None = None,
+    on_progress: SampleProgress | None = None,
 ) -> list[Path]:
     from pxr import Usd
 
@@ -29,7 +29,7 @@ def export(
         meta = dataset.metadata(i)
         check_asset_paths(meta, manifest, dataset.root)  # users' files: the config's folders only
         # textured looks' tiles go to out/textures/; validated from the file, where they resolve
-        stage = scene_stage(meta, out)  # held: the layer lives as long as it
+        stage = scene_stage(meta, out)  # type: ignore[arg-type]  # usd_stage: not typed yet
         written(stage.GetRootLayer().Export(str(path)), path, "USD")
         errors = validation_errors(Usd.Stage.Open(str(path)))
         if errors:

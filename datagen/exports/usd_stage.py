@@ -3,9 +3,11 @@
 ``/World`` (z up, metres; ``customData.datagen``: key, seed, scene, and every randomised value as
 JSON) holds ``Looks/`` (UsdPreviewSurface materials with the sampled colour, roughness and
 metallic; a textured look reads its tile from ``textures/<key>/<look>.png`` beside the stage:
-:mod:`datagen.exports.usd_looks`), ``Floor``, ``Table``, ``Tray``, ``Objects/object_<k>`` (an
-Xform at the object's world pose, one Mesh per convex part, class and physical values in
-customData), ``Background/`` (backdrop walls, ceiling and room lights, when the sample has a
+:mod:`datagen.exports.usd_looks`), ``Floor``, ``Table/top``, ``Table/leg_<k>``, ``Tray`` (the
+static geometry the simulator builds, from the one description
+:func:`datagen.assets.tabletop_layout.static_parts`: an Xform per part, a Mesh ``part_<j>`` per
+box), ``Objects/object_<k>`` (an Xform at the object's world pose, one Mesh per convex part,
+class and physical values in customData), ``Background/`` (backdrop walls, ceiling and room lights, when the sample has a
 room), ``Distractors/distractor_<k>`` (when it has distractors: its visual Mesh at its static
 pose), ``Robot`` (an Xform at
 the base pose; its description file and joint positions in customData), ``Lights/`` (a DomeLight
@@ -27,11 +29,10 @@ from pxr import Gf, Usd, UsdGeom, UsdLux, UsdValidation, Vt
 
 from datagen.assets.backdrop import wall_boxes
 from datagen.assets.shapes import build_geometry
-from datagen.assets.tabletop_layout import TABLE_HALF, TABLE_TOP, TRAY_CENTRE, tray_boxes
+from datagen.assets.tabletop_layout import static_parts
 from datagen.exports import usd_looks
 
 APERTURE_PER_PIXEL = 0.01  # USD camera aperture units per image pixel (only ratios matter)
-FLOOR_HALF = 5.0  # metres
 _CV_TO_USD_CAMERA = np.diag(
     [1.0, -1.0, -1.0, 1.0]
 )  # OpenCV (x right, y down, z fwd) -> USD (-z fwd, y up)
@@ -103,6 +104,22 @@ def _centred(centre) -> np.ndarray:
     return trimesh.transformations.translation_matrix(-np.asarray(centre, float))
 
 
+def _static_parts(stage, key: str, materials: dict[str, Any], out_dir: Path | None) -> None:
+    """The floor, table and tray as the simulator builds them: ``/World/<Surface>[/<part>]``,
+    an Xform at the part's position with one box Mesh per box, the surface's look on each."""
+    looks = {}
+    for part in static_parts():
+        if part.surface not in looks:
+            looks[part.surface] = usd_looks.material(stage, key, part.surface, materials[part.surface], out_dir)  # fmt: skip
+        path = f"/World/{part.surface.capitalize()}"
+        if part.name:
+            _xform(stage, path)
+            path = f"{path}/{part.name}"
+        _xform(stage, path, trimesh.transformations.translation_matrix(part.position))
+        for j, (half, offset) in enumerate(part.boxes):
+            usd_looks.mesh(stage, f"{path}/part_{j}", _box_mesh(half, offset), looks[part.surface], materials[part.surface], _centred(offset))  # fmt: skip
+
+
 def _background(stage, key: str, values: dict[str, Any], out_dir: Path | None) -> None:
     """Backdrop walls (and ceiling) as meshes, room lights as SphereLights."""
     _xform(stage, "/World/Background")
@@ -135,14 +152,7 @@ def scene_stage(meta: dict[str, Any], out_dir: str | Path | None = None) -> Usd.
     world.GetPrim().SetCustomDataByKey("datagen:scene", meta["scene"])
     world.GetPrim().SetCustomDataByKey("datagen:randomisation", json.dumps(meta["randomisation"], sort_keys=True))  # fmt: skip
     materials = meta["randomisation"]["materials"]
-    looks = {n: usd_looks.material(stage, key, n, materials[n], out_dir) for n in ("floor", "table", "tray")}  # fmt: skip
-    floor_centre, top_centre = [0, 0, -0.005], [0, 0, TABLE_TOP - 0.015]
-    usd_looks.mesh(stage, "/World/Floor", _box_mesh([FLOOR_HALF, FLOOR_HALF, 0.005], floor_centre), looks["floor"], materials["floor"], _centred(floor_centre))  # fmt: skip
-    _xform(stage, "/World/Table")
-    usd_looks.mesh(stage, "/World/Table/top", _box_mesh([*TABLE_HALF, 0.015], top_centre), looks["table"], materials["table"], _centred(top_centre))  # fmt: skip
-    _xform(stage, "/World/Tray", np.asarray(trimesh.transformations.translation_matrix(TRAY_CENTRE)))  # fmt: skip
-    for j, (half, offset) in enumerate(tray_boxes()):
-        usd_looks.mesh(stage, f"/World/Tray/part_{j}", _box_mesh(half, offset), looks["tray"], materials["tray"], _centred(offset))  # fmt: skip
+    _static_parts(stage, key, materials, out_dir)
     _xform(stage, "/World/Objects")
     for obj, material in zip(meta["objects"], materials["objects"], strict=True):
         path = f"/World/Objects/object_{obj['instance_id']}"

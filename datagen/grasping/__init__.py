@@ -13,7 +13,9 @@ from typing import Any
 
 import numpy as np
 
-PANDA_MAX_WIDTH = 0.08  # metres between the finger pads, fully open
+from datagen.robot_specs.panda import PANDA
+
+PANDA_MAX_WIDTH = PANDA.gripper.max_width  # metres between the finger pads, fully open
 FAILURE_MODES = ("missed", "slipped", "collision", "unreachable", "no_candidate")
 
 

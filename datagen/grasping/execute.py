@@ -18,10 +18,10 @@ import sapien
 
 from datagen.grasping import PANDA_MAX_WIDTH, GraspCandidate, GraspOutcome
 from datagen.grasping.planner import make_planner, plan_straight, plan_transit, remove_obstacles
+from datagen.robot_specs.panda import PANDA
 from datagen.worlds.tabletop import GraspScene
 
-N_ARM = 7
-FINGERS = ("panda_leftfinger", "panda_rightfinger")
+N_ARM = PANDA.arm_joints
 
 
 @dataclass(frozen=True)
@@ -48,9 +48,9 @@ class _Runner:
         self.dt = self.scene.get_timestep()
         self.joints = self.robot.get_active_joints()
         links = {link.get_name(): link for link in self.robot.get_links()}
-        self.tcp = links["panda_hand_tcp"]
+        self.tcp = links[PANDA.gripper.tcp_link]
         self.robot_ids = {link.entity.per_scene_id for link in links.values()}
-        self.finger_ids = [links[name].entity.per_scene_id for name in FINGERS]
+        self.finger_ids = [links[name].entity.per_scene_id for name in PANDA.gripper.finger_links]
         self.target = next(o.entity for o in scene.objects if o.instance_id == target_id)
         self.steps = 0
         for i, joint in enumerate(self.joints):

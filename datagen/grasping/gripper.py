@@ -1,9 +1,9 @@
 """The Panda gripper as boxes in the TCP frame, and exact box-vs-convex collision checks.
 
-Boxes are from ManiSkill's ``panda_v2.urdf``: the TCP is 0.1034 m in front of ``panda_hand``,
-the fingers slide along +-y from 0.0584 m in front of it. Each finger is its rubber pad (the
-URDF's tip box, 17.5 x 15.2 x 18.5 mm, inner face at y = +-width/2) and one box around its
-diagonal and screw mount; the hand is the bounding box of ``meshes/collision/hand.stl``.
+Boxes are from ManiSkill's ``panda_v2.urdf`` (their sizes: :mod:`datagen.robot_specs.panda`):
+the TCP is in front of ``panda_hand``, the fingers slide along +-y. Each finger is its rubber
+pad (the URDF's tip box, inner face at y = +-width/2) and one box around its diagonal and screw
+mount; the hand is the bounding box of ``meshes/collision/hand.stl``.
 The arm behind the hand is not modelled (reachability belongs to the motion planner).
 
 Collision is a separating-axis test between each (oriented) box and each obstacle, taken as a
@@ -20,13 +20,16 @@ from dataclasses import dataclass
 import numpy as np
 import trimesh
 
-TCP_FROM_HAND = 0.1034  # metres along the hand's z
-FINGER_ORIGIN = 0.0584  # finger joints, metres along the hand's z
-PAD = (0.0175, 0.0152, 0.0185)  # rubber tip box (x, y thickness, z length), metres
-PAD_Z = FINGER_ORIGIN + 0.04525 - TCP_FROM_HAND  # pad centre in the TCP frame (~0.0003)
-FINGER_BODY = (0.022, 0.022, 0.038)  # diagonal + screw mount, y from width/2 + 0.004
-FINGER_BODY_Z = FINGER_ORIGIN + 0.001 + 0.019 - TCP_FROM_HAND  # its centre (z from 0.0594)
-HAND_BOUNDS = ((-0.0317, -0.1040, -0.0260), (0.0317, 0.1005, 0.0660))  # hand.stl, hand frame
+from datagen.robot_specs.panda import PANDA
+
+_GRIPPER = PANDA.gripper
+TCP_FROM_HAND = _GRIPPER.tcp_from_hand
+PAD = _GRIPPER.pad
+PAD_Z = _GRIPPER.finger_origin + _GRIPPER.pad_centre - TCP_FROM_HAND  # in the TCP frame (~0.0003)
+FINGER_BODY = _GRIPPER.finger_body
+FINGER_BODY_Z = (  # its centre in the TCP frame
+    _GRIPPER.finger_origin + _GRIPPER.finger_body_start + FINGER_BODY[2] / 2 - TCP_FROM_HAND
+)
 
 
 @dataclass(frozen=True)
@@ -68,9 +71,9 @@ def gripper_boxes(
     for side in (1.0, -1.0):
         pad_y = side * (width / 2 + PAD[1] / 2)
         boxes.append(((0.0, pad_y, PAD_Z), PAD))
-        body_y = side * (width / 2 + 0.004 + FINGER_BODY[1] / 2)
+        body_y = side * (width / 2 + _GRIPPER.finger_body_gap + FINGER_BODY[1] / 2)
         boxes.append(((0.0, body_y, FINGER_BODY_Z), FINGER_BODY))
-    lo, hi = np.asarray(HAND_BOUNDS)
+    lo, hi = np.asarray(_GRIPPER.hand_bounds)
     boxes.append(((lo + hi) / 2 - (0, 0, TCP_FROM_HAND), tuple(hi - lo)))
     out = []
     for centre, extents in boxes:

@@ -18,12 +18,12 @@ import numpy as np
 import sapien
 from mplib.pymp.collision_detection import fcl
 
-from datagen.randomisers.robot import READY_POSE
+from datagen.robot_specs.panda import PANDA
 from datagen.worlds.tabletop import SceneObject, panda_urdf
 
 log = logging.getLogger(__name__)
 
-MOVE_GROUP = "panda_hand_tcp"
+MOVE_GROUP = PANDA.gripper.tcp_link
 N_RANDOM_IK_SEEDS = 12
 INTERP_STEP = 0.02  # radians between collision checks on a straight joint-space path
 
@@ -74,13 +74,13 @@ def remove_obstacles(planner: mplib.Planner) -> None:
 def _ik_seeds(planner: mplib.Planner, qpos: np.ndarray) -> list[np.ndarray]:
     lo, hi = np.asarray(planner.joint_limits, float).reshape(-1, 2).T
     ready = qpos.copy()
-    ready[: len(READY_POSE)] = READY_POSE
+    ready[: len(PANDA.ready_pose)] = PANDA.ready_pose
     rng = np.random.default_rng(0)  # a fixed list, not a source of randomness between runs
     randoms = [
         np.where(np.isfinite(lo + hi), rng.uniform(lo, hi), qpos) for _ in range(N_RANDOM_IK_SEEDS)
     ]
     for q in randoms:
-        q[len(READY_POSE) :] = qpos[len(READY_POSE) :]
+        q[len(PANDA.ready_pose) :] = qpos[len(PANDA.ready_pose) :]
     return [qpos.copy(), ready, *randoms]
 
 

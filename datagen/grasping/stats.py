@@ -1,9 +1,10 @@
-"""Campaign statistics from attempt records (the ``attempt`` block of each sample's metadata)."""
+"""Campaign statistics from grasp outcomes (:mod:`datagen.outcomes`): the ``campaign`` of the
+manifest, of ``datagen inspect`` and of the live status, one spelling for all."""
 
 from __future__ import annotations
 
 from collections import Counter, defaultdict
-from collections.abc import Iterable
+from collections.abc import Iterable, Mapping
 from typing import Any
 
 
@@ -12,25 +13,26 @@ def _rate(successes: int, attempts: int) -> float:
 
 
 def campaign_stats(
-    attempts: Iterable[dict[str, Any]], seconds: float | None = None
+    outcomes: Iterable[Mapping[str, Any]], seconds: float | None = None
 ) -> dict[str, Any]:
-    """Success rates overall, per sampler and per shape family, and failure-mode counts."""
+    """Success rates overall, per sampler and per shape family, and failure-mode counts, of
+    grasp outcomes (each sample counted once)."""
     total, successes = 0, 0
     by_sampler: dict[str, list[int]] = defaultdict(lambda: [0, 0])
     by_family: dict[str, list[int]] = defaultdict(lambda: [0, 0])
     failures: Counter[str] = Counter()
-    for attempt in attempts:
-        success = bool(attempt["outcome"]["success"])
+    for outcome in outcomes:
+        success = bool(outcome["success"])
         total += 1
         successes += success
         for table, key in (
-            (by_sampler, attempt["sampler"]),
-            (by_family, attempt["target"]["class"]),
+            (by_sampler, outcome["sampler"]),
+            (by_family, outcome["family"]),
         ):
             table[key][0] += 1
             table[key][1] += success
         if not success:
-            failures[attempt["outcome"]["failure_mode"]] += 1
+            failures[outcome["failure_mode"]] += 1
 
     def rows(table):
         return {

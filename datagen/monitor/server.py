@@ -18,6 +18,7 @@ from importlib.resources import files
 from pathlib import Path
 from urllib.parse import unquote, urlsplit
 
+from datagen.engines.transfer.broker_url import redact
 from datagen.monitor.request_checks import (
     WILDCARD_HOSTS,
     RefusedRequest,
@@ -51,7 +52,7 @@ def page_config(broker_url: str | None, build_id: str | None) -> PageConfig:
     parts = urlsplit(broker_url)
     if parts.scheme not in WEBSOCKET_SCHEMES:
         raise ValueError(
-            f"--broker {_redacted(broker_url)}: expected a WebSockets URL, ws://host:port or "
+            f"--broker {redact(broker_url)}: expected a WebSockets URL, ws://host:port or "
             f"wss://host:port (the broker's websockets listener, not its mqtt:// port)"
         )
     try:
@@ -59,19 +60,12 @@ def page_config(broker_url: str | None, build_id: str | None) -> PageConfig:
     except ValueError:
         port = None
     if not parts.hostname or port is None:
-        raise ValueError(f"--broker {_redacted(broker_url)}: expected ws[s]://host:port")
+        raise ValueError(f"--broker {redact(broker_url)}: expected ws[s]://host:port")
     host = f"[{parts.hostname}]" if ":" in parts.hostname else parts.hostname
     url = f"{parts.scheme}://{host}:{port}{parts.path}"
     return PageConfig(
         url, unquote(parts.username or ""), unquote(parts.password or ""), build_id or ""
     )
-
-
-def _redacted(url: str) -> str:
-    parts = urlsplit(url)
-    if parts.password is None:
-        return url
-    return url.replace(f":{parts.password}@", ":***@", 1)
 
 
 CONTENT_TYPES = {

@@ -15,16 +15,18 @@ from __future__ import annotations
 
 import logging
 import time
-from typing import Any
+from typing import cast
 
 import cv2
 import numpy as np
 
+from datagen import outcomes
 from datagen.dataset.views import labelled_views
 from datagen.engines.transfer.connection import MqttConnectError, MqttConnection
 from datagen.engines.transfer.run_binding import client_id
 from datagen.engines.transfer.topics import topics
 from datagen.pipeline.live_status import live_enabled
+from datagen.records import SampleOutcome
 from datagen.sample import Sample
 
 log = logging.getLogger(__name__)
@@ -34,31 +36,11 @@ PREVIEW_WIDTH = 240  # pixels; the height keeps the aspect ratio
 JPEG_QUALITY = 80
 
 
-def sample_outcome(sample: Sample) -> dict[str, Any] | None:
-    """``{"index", "kind": "grasp", "success", "sampler", "family", "failure_mode"}`` for a
-    grasp attempt, ``{"index", "kind": "navigation", "success", "spl"}`` for an episode, else
-    None."""
-    meta = sample.metadata
-    if isinstance(meta.get("attempt"), dict):
-        attempt = meta["attempt"]
-        outcome = attempt.get("outcome") or {}
-        return {
-            "index": sample.index,
-            "kind": "grasp",
-            "success": bool(outcome.get("success")),
-            "sampler": attempt.get("sampler"),
-            "family": (attempt.get("target") or {}).get("class"),
-            "failure_mode": outcome.get("failure_mode"),
-        }
-    if isinstance(meta.get("episode"), dict):
-        episode = meta["episode"]
-        return {
-            "index": sample.index,
-            "kind": "navigation",
-            "success": bool(episode.get("success")),
-            "spl": episode.get("spl"),
-        }
-    return None
+def sample_outcome(sample: Sample) -> SampleOutcome | None:
+    """The sample's outcome (:func:`datagen.outcomes.sample_outcome`) with its ``index``, for
+    the live status; None for a sample without one."""
+    outcome = outcomes.sample_outcome(sample.metadata)
+    return cast(SampleOutcome, {"index": sample.index, **outcome}) if outcome is not None else None
 
 
 def thumbnail(sample: Sample, width: int = PREVIEW_WIDTH) -> np.ndarray | None:
@@ -67,15 +49,14 @@ def thumbnail(sample: Sample, width: int = PREVIEW_WIDTH) -> np.ndarray | None:
     decoding the PNGs."""
     wanted = {"rgb.png": "rgb", "seg.png": "seg", "map.png": "map"}
     item = {field: _decoded(sample.parts[name]) for name, field in wanted.items() if name in sample.parts}  # fmt: skip
-    if "json" in sample.parts:
-        item["meta"] = sample.metadata
+    meta = sample.metadata if "json" in sample.parts else None
     # cv2.imdecode gives the stored RGB PNGs in BGR order, which is what cv2.imencode expects
     if "map" in item:
         return _scaled(item["map"], width)
     if "rgb" not in item:
         return None
     image = _scaled(item["rgb"], width)
-    instances = labelled_views(item["meta"])[0].instances if "meta" in item else []
+    instances = labelled_views(meta)[0].instances if meta is not None else []
     if "seg" not in item or not instances:
         return image
     scale = image.shape[1] / item["rgb"].shape[1]
@@ -107,7 +88,8 @@ def _scaled(image: np.ndarray, width: int) -> np.ndarray:
 def _colour(instance_id: int) -> tuple[int, int, int]:
     """A stable BGR colour per instance id (golden-ratio hue steps)."""
     hue = int((instance_id * 0.618033988749895 % 1.0) * 179)
-    return tuple(int(c) for c in cv2.cvtColor(np.uint8([[[hue, 200, 255]]]), cv2.COLOR_HSV2BGR)[0, 0])  # fmt: skip
+    b, g, r = cv2.cvtColor(np.array([[[hue, 200, 255]]], np.uint8), cv2.COLOR_HSV2BGR)[0, 0]
+    return int(b), int(g), int(r)
 
 
 class PreviewFeed:
@@ -133,14 +115,16 @@ class PreviewFeed:
         if self.conn is None or start < self.next_at:
             return
         cpu = time.thread_time()  # its CPU time: waiting for a busy core costs the build nothing
+        jpeg = None
         try:
             image = thumbnail(sample)
-            ok, jpeg = (False, None) if image is None else cv2.imencode(".jpg", image, [cv2.IMWRITE_JPEG_QUALITY, JPEG_QUALITY])  # fmt: skip
+            if image is not None:
+                ok, encoded = cv2.imencode(".jpg", image, [cv2.IMWRITE_JPEG_QUALITY, JPEG_QUALITY])
+                jpeg = encoded.tobytes() if ok else None
         except Exception as exc:  # a preview must never fail a sample
             log.warning("no preview of sample %d: %s", sample.index, exc)
-            ok = False
-        if ok:
-            self.conn.publish(self.topic, jpeg.tobytes(), qos=0)
+        if jpeg is not None:
+            self.conn.publish(self.topic, jpeg, qos=0)
         spent = time.thread_time() - cpu
         self.next_at = start + max(PREVIEW_PERIOD_S, spent / PREVIEW_BUDGET)
 

@@ -14,7 +14,6 @@ from __future__ import annotations
 import logging
 import os
 import time
-from collections import Counter, defaultdict
 from collections.abc import Iterable
 from typing import Any, Protocol
 
@@ -22,6 +21,7 @@ from datagen.engines.transfer.connection import MqttConnectError, MqttConnection
 from datagen.engines.transfer.run_binding import client_id
 from datagen.engines.transfer.topics import topics
 from datagen.errors import BuildError
+from datagen.grasping.stats import campaign_stats
 from datagen.pipeline.result import BuildResult, Observer
 from datagen.pipeline.schedule import Schedule
 
@@ -225,38 +225,21 @@ class LiveStatus:
 
 
 def campaign_summary(outcomes: Iterable[dict[str, Any]]) -> dict[str, Any]:
-    """Success rates of the samples' outcomes so far (see ``live_preview.sample_outcome``):
-    ``campaign`` for grasp attempts (overall, by sampler, by family, failure modes),
+    """Success rates of the samples' outcomes so far (:mod:`datagen.outcomes`): ``campaign`` for
+    grasp attempts (:func:`datagen.grasping.stats.campaign_stats`, as in the manifest),
     ``navigation`` for episodes (success rate, mean SPL); only those present."""
     outcomes = list(outcomes)
     grasps = [o for o in outcomes if o.get("kind") == "grasp"]
     episodes = [o for o in outcomes if o.get("kind") == "navigation"]
     summary: dict[str, Any] = {}
     if grasps:
-        failures = Counter(str(o.get("failure_mode")) for o in grasps if not o.get("success"))
-        summary["campaign"] = {
-            **_rate_row(grasps),
-            "by_sampler": _rates_by(grasps, "sampler"),
-            "by_family": _rates_by(grasps, "family"),
-            "failure_modes": dict(sorted(failures.items())),
-        }
+        summary["campaign"] = campaign_stats(grasps)
     if episodes:
+        successes = sum(bool(o["success"]) for o in episodes)
         spl = sum(float(o.get("spl") or 0.0) for o in episodes) / len(episodes)
         summary["navigation"] = {
             "episodes": len(episodes),
-            "success_rate": _rate_row(episodes)["success_rate"],
+            "success_rate": round(successes / len(episodes), 4),
             "spl": round(spl, 4),
         }
     return summary
-
-
-def _rate_row(outcomes: list[dict[str, Any]]) -> dict[str, Any]:
-    successes = sum(bool(o.get("success")) for o in outcomes)
-    return {"attempts": len(outcomes), "success_rate": round(successes / len(outcomes), 4)}
-
-
-def _rates_by(outcomes: list[dict[str, Any]], key: str) -> dict[str, dict[str, Any]]:
-    groups: dict[str, list[dict[str, Any]]] = defaultdict(list)
-    for o in outcomes:
-        groups[str(o.get(key))].append(o)
-    return {name: _rate_row(group) for name, group in sorted(groups.items())}

@@ -12,7 +12,8 @@ Either way the coordinator kills it; only a stuck attempt counts against the sam
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Any
+
+from datagen.records import AttemptRecord
 
 STARTUP_GRACE_S = 60.0
 
@@ -52,8 +53,8 @@ class WorkerWatch:
         if worker in self.heard:
             self.heard[worker] = now
 
-    def started(self, worker: int, payload: dict[str, Any], now: float) -> None:
-        """A ``started`` event: ``{"index", "attempt", "failures"}``."""
+    def started(self, worker: int, payload: AttemptRecord, now: float) -> None:
+        """A ``started`` event."""
         failures = tuple(payload.get("failures", ()))
         self.working[worker] = Attempt(payload["index"], payload["attempt"], failures, now)
 

@@ -13,7 +13,6 @@ carrying the failures so far.
 
 from __future__ import annotations
 
-import json
 import logging
 import traceback
 from collections.abc import Callable
@@ -86,6 +85,6 @@ def produce_with_policy(
 
 
 def _with_production_record(sample: Sample, attempt: int, failures: list[str]) -> Sample:
-    metadata = json.loads(sample.parts["json"])
+    metadata = sample.metadata
     metadata["production"] = {"attempt": attempt, "failures": failures}
     return Sample(sample.index, sample.parts | {"json": metadata_bytes(metadata)})

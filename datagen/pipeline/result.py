@@ -7,6 +7,8 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+from datagen.records import ProductionRecord
+
 
 @dataclass
 class BuildResult:
@@ -17,7 +19,7 @@ class BuildResult:
     resumed_from: int = 0  # samples already durable when the build (re)started
     reissued: int = 0
     restarts: dict[str, int] = field(default_factory=dict)
-    retried: dict[int, dict[str, Any]] = field(default_factory=dict)  # index -> attempt, failures
+    retried: dict[int, ProductionRecord] = field(default_factory=dict)  # index -> its retries
     rejected: dict[str, int] = field(default_factory=dict)  # control messages dropped, by reason
     # samples a resumed build found changed on disk since they were made durable: made again
     changed: int = 0

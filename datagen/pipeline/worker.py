@@ -36,6 +36,7 @@ from datagen.engines.transfer.publisher import SamplePublisher, SampleTooLarge
 from datagen.engines.transfer.run_binding import RunBinding, client_id
 from datagen.pipeline.live_preview import PreviewFeed, sample_outcome
 from datagen.pipeline.production import SampleFailed, Task, produce_with_policy
+from datagen.records import WorkerEventKind, WorkerPayload
 
 log = logging.getLogger(__name__)
 _PR_SET_PDEATHSIG = 1
@@ -52,7 +53,7 @@ class Channel:
         self._lock = threading.Lock()
         self._stop = threading.Event()
 
-    def send(self, kind: str, payload: Any) -> None:
+    def send(self, kind: WorkerEventKind, payload: WorkerPayload) -> None:
         with self._lock:
             self.conn.send((kind, payload))
 

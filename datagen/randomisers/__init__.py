@@ -1,5 +1,6 @@
-"""Domain randomisation. Each randomiser is a pure sampler (rng in, JSON values out) plus an
-apply step; :func:`sample_scene` draws them all, each from its own (seed, index, name) stream."""
+"""Domain randomisation: pure samplers (rng and config in, JSON values out; no simulator, an
+import contract keeps it so). :func:`sample_scene` draws a tabletop scene's values, each from
+its own (seed, index, name) stream; :mod:`datagen.worlds` builds what they describe."""
 
 from __future__ import annotations
 

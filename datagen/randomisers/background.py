@@ -8,7 +8,8 @@ Stored values (``randomisation.background``), world metres, the table centred on
      "walls": {"x_min": material, "x_max": ..., "y_min": ..., "y_max": ..., "ceiling": ...},
      "lights": [{"position": [x, y, z], "colour": [r, g, b], "intensity": i}, ...]}
 
-Walls and ceiling are drawn only (no collision) and labelled with the stuff class ``wall``.
+Walls and ceiling are drawn only (no collision) and labelled with the stuff class ``wall``;
+where they stand: :mod:`datagen.assets.backdrop`; built by :mod:`datagen.worlds.realise`.
 """
 
 from __future__ import annotations
@@ -16,13 +17,12 @@ from __future__ import annotations
 from typing import Any
 
 import numpy as np
-import sapien
 
-from datagen.assets.backdrop import wall_boxes
+from datagen.assets.texture_tiles import sample_texture
 from datagen.config.appearance import BackgroundConfig
 from datagen.config.sections import MaterialsConfig
 from datagen.randomisers.materials import random_material
-from datagen.randomisers.textures import sample_picture, sample_texture, surface_entity
+from datagen.randomisers.textures import sample_picture
 
 WALL_SATURATION = (0.0, 0.4)  # HSV: painted walls are muted
 WALL_VALUE = (0.3, 0.95)
@@ -78,35 +78,3 @@ def sample_background(
         "lights": lights,
         "target": [float(v) for v in target],
     }
-
-
-def add_background(scene: sapien.Scene, values: dict[str, Any] | None) -> list[sapien.Entity]:
-    """Apply step: the walls (and ceiling) as drawn-only entities, and the room lights; nothing
-    for ``None`` (background off)."""
-    entities: list[sapien.Entity] = []
-    if values is None:
-        return entities
-    for name, (half_size, centre) in wall_boxes(values).items():
-        entity = surface_entity(
-            scene, f"wall_{name}", [(half_size, [0, 0, 0])], values["walls"][name], collide=False
-        )
-        entity.set_pose(sapien.Pose(centre))
-        entities.append(entity)
-    for light in values["lights"]:
-        # point radiance falls off with the squared distance: intensity is the radiance at the tray
-        distance_sq = float(np.sum((np.asarray(light["position"]) - values["target"]) ** 2))
-        colour = np.asarray(light["colour"]) * light["intensity"] * distance_sq
-        scene.add_point_light(light["position"], colour.tolist(), shadow=False)
-    return entities
-
-
-def lit_by_room(lighting: dict[str, Any], values: dict[str, Any] | None) -> dict[str, Any]:
-    """The lighting values to apply under this room: with a ceiling, the key light's shadow
-    casters stop 5 cm below it (``shadow_near``, metres along the light from its shadow centre
-    at z = 1 m), so the ceiling does not shade the whole scene; unchanged without one."""
-    if not values or not values["ceiling"]:
-        return lighting
-    centre_z = lighting.get("shadow_centre", [0, 0, 1])[2]
-    default_near = -2.0 * lighting.get("shadow_half_extent", 1.5)  # as apply_lighting's
-    near = max(-(values["room"]["height"] - centre_z - 0.05), default_near)
-    return {**lighting, "shadow_near": near}

@@ -23,9 +23,8 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
-import sapien
 
-from datagen.assets.shapes import ObjectGeometry, build_geometry
+from datagen.assets.shapes import build_geometry
 from datagen.assets.tabletop_layout import (
     ROBOT_BASE,
     TABLE_HALF,
@@ -38,7 +37,7 @@ from datagen.config.appearance import DistractorsConfig
 from datagen.config.sections import SHAPE_FAMILIES, MaterialsConfig
 from datagen.geometry import random_quaternion
 from datagen.randomisers.materials import random_material
-from datagen.randomisers.objects import render_shape, sample_shape
+from datagen.randomisers.objects import sample_shape
 from datagen.randomisers.textures import maybe_texture
 
 PLACEMENTS = ("table", "air", "background")
@@ -202,21 +201,3 @@ def sample_distractors(
                 }
             )
     return distractors
-
-
-def add_distractors(
-    scene: sapien.Scene, distractors: list[dict[str, Any]]
-) -> list[tuple[sapien.Entity, ObjectGeometry]]:
-    """Apply step: one static, visual-only entity per distractor (no collision shape)."""
-    added = []
-    for i, spec in enumerate(distractors):
-        geometry = build_geometry(spec["shape"])
-        render_body = sapien.render.RenderBodyComponent()
-        render_body.attach(render_shape(geometry.visual, spec["material"]))
-        entity = sapien.Entity()
-        entity.name = f"distractor_{i + 1}"
-        entity.add_component(render_body)
-        entity.set_pose(sapien.Pose(spec["pose"]["position"], spec["pose"]["quat_wxyz"]))
-        scene.add_entity(entity)
-        added.append((entity, geometry))
-    return added

@@ -7,7 +7,6 @@ from __future__ import annotations
 from typing import Any
 
 import numpy as np
-import sapien
 
 from datagen.config.sections import LightingConfig
 
@@ -48,41 +47,3 @@ def sample_lighting(
         lights.append(light)
     ambient = round(float(rng.uniform(*cfg.ambient)), 6)
     return {"ambient": ambient, "target": [float(x) for x in target], "lights": lights}
-
-
-def apply_lighting(scene: sapien.Scene, values: dict[str, Any], shadow_map_size: int) -> None:
-    scene.set_ambient_light([values["ambient"]] * 3)
-    for light in values["lights"]:
-        colour = np.asarray(light["colour"]) * light["intensity"]
-        if light["type"] == "directional":
-            # the shadow volume (metres around its centre) must cover what the cameras see;
-            # the default covers the table, the tray and the robot
-            scale = values.get("shadow_half_extent", 1.5)
-            scene.add_directional_light(
-                light["direction"],
-                colour.tolist(),
-                shadow=light["shadow"],
-                position=values.get("shadow_centre", [0, 0, 1]),
-                shadow_scale=scale,
-                shadow_near=values.get("shadow_near", -2.0 * scale),  # a room's ceiling
-                shadow_far=2.0 * scale,
-                shadow_map_size=shadow_map_size,
-            )
-        elif light["type"] == "point":
-            # radiance falls off with the squared distance: intensity means the same at 2 m
-            scene.add_point_light(light["position"], (colour * 4.0).tolist(), shadow=False)
-        else:
-            # spot radiance falls off with the squared distance: scale so intensity means the same at the target
-            distance_sq = float(np.sum((np.asarray(light["position"]) - values["target"]) ** 2))
-            outer = np.deg2rad(light["outer_fov_deg"])
-            scene.add_spot_light(
-                light["position"],
-                light["direction"],
-                inner_fov=outer * 0.6,
-                outer_fov=outer,
-                color=(colour * distance_sq).tolist(),
-                shadow=light["shadow"],
-                shadow_near=0.1,
-                shadow_far=5.0,
-                shadow_map_size=shadow_map_size,
-            )

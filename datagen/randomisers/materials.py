@@ -7,10 +7,8 @@ import colorsys
 from typing import Any
 
 import numpy as np
-import sapien
 
 from datagen.config.sections import MaterialsConfig
-from datagen.randomisers.textures import surface_material
 
 # Surfaces of the room keep plausible colour ranges (HSV value), objects span the config's.
 _SURFACE_VALUE = {"table": (0.35, 0.85), "tray": (0.2, 0.9), "floor": (0.25, 0.75)}
@@ -41,9 +39,3 @@ def sample_materials(
     }
     objects = [random_material(rng, cfg, cfg.saturation, cfg.value) for _ in range(num_objects)]
     return {"objects": objects, **surfaces}
-
-
-def render_material(values: dict[str, Any]) -> sapien.render.RenderMaterial:
-    """Apply step: sampled values -> a SAPIEN material (a texture, if it has one, maps only
-    onto meshes with texture coordinates: :mod:`datagen.randomisers.textures`)."""
-    return surface_material(values)

@@ -5,15 +5,10 @@ from __future__ import annotations
 from typing import Any
 
 import numpy as np
-import sapien
-import trimesh
 
-from datagen.assets.shapes import ObjectGeometry, build_geometry
 from datagen.config.sections import HOUSEHOLD_FAMILIES, ObjectsConfig
 from datagen.geometry import random_quaternion
-from datagen.randomisers.household import sample_household_parts
-from datagen.randomisers.materials import render_material
-from datagen.randomisers.textures import textured_mesh_shape
+from datagen.randomisers.household_parts import sample_household_parts
 
 
 def _uniform(rng: np.random.Generator, bounds: tuple[float, float]) -> float:
@@ -103,49 +98,3 @@ def sample_objects(rng: np.random.Generator, cfg: ObjectsConfig) -> list[dict[st
             }
         )
     return objects
-
-
-def render_shape(mesh: trimesh.Trimesh, material: dict[str, Any]) -> sapien.render.RenderShape:
-    """A trimesh as a SAPIEN render shape with its own material: box-mapped texture
-    coordinates when the material has a texture, none otherwise (drawn as before textures)."""
-    if "texture" in material:
-        return textured_mesh_shape(mesh, material)
-    return sapien.render.RenderShapeTriangleMesh(
-        np.asarray(mesh.vertices, np.float32),
-        np.asarray(mesh.faces, np.uint32),
-        np.asarray(mesh.vertex_normals, np.float32),
-        np.zeros((len(mesh.vertices), 2), np.float32),
-        render_material(material),
-    )
-
-
-def add_objects(
-    scene: sapien.Scene,
-    objects: list[dict[str, Any]],
-    poses: list[dict[str, Any]],
-    materials: list[dict[str, Any]],
-) -> list[tuple[sapien.Entity, ObjectGeometry]]:
-    """Apply step: one dynamic actor per object, convex collision parts, its own material."""
-    added = []
-    for i, (obj, pose, material) in enumerate(zip(objects, poses, materials, strict=True)):
-        geometry = build_geometry(obj["shape"])
-        physx_material = sapien.physx.PhysxMaterial(
-            obj["friction"], obj["friction"], obj["restitution"]
-        )
-        body = sapien.physx.PhysxRigidDynamicComponent()
-        for part in geometry.parts:
-            shape = sapien.physx.PhysxCollisionShapeConvexMesh(
-                np.asarray(part.vertices, np.float32), np.ones(3, np.float32), physx_material
-            )
-            shape.set_density(obj["density"])
-            body.attach(shape)
-        render_body = sapien.render.RenderBodyComponent()
-        render_body.attach(render_shape(geometry.visual, material))
-        entity = sapien.Entity()
-        entity.name = f"object_{i + 1}"
-        entity.add_component(body)
-        entity.add_component(render_body)
-        entity.set_pose(sapien.Pose(pose["position"], pose["quat_wxyz"]))
-        scene.add_entity(entity)
-        added.append((entity, geometry))
-    return added

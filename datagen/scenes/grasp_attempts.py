@@ -28,6 +28,7 @@ from datagen.grasping import GraspOutcome
 from datagen.grasping.execute import ExecutionParams, execute_grasp
 from datagen.grasping.samplers import GraspTarget, Obstacles
 from datagen.grasping.stats import campaign_stats
+from datagen.outcomes import sample_outcome
 from datagen.registries import SAMPLERS
 from datagen.sample import Sample
 from datagen.scenes.grasp_tabletop import annotate_scene, to_sample
@@ -143,6 +144,6 @@ def produce(config: BuildConfig, seed: int, index: int, attempt: int = 0) -> Sam
 def campaign_summary(out_dir: Path, made: int, seconds: float) -> dict[str, Any]:
     """Campaign statistics for the manifest (the writers know nothing of grasps)."""
     dataset = load(out_dir)
-    stats = campaign_stats(dataset.metadata(i)["attempt"] for i in range(len(dataset)))
+    stats = campaign_stats(sample_outcome(dataset.metadata(i)) for i in range(len(dataset)))
     stats["attempts_per_s"] = round(made / seconds, 4) if seconds else None
     return {"campaign": stats}

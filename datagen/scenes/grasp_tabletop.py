@@ -26,6 +26,7 @@ from datagen.engines.sim.encode import DEFAULT_PNG_LEVEL, View, encode_view, met
 from datagen.engines.sim.render import DEPTH_SCALE, capture, keep_renderer_alive
 from datagen.engines.sim.view_effects import apply_view_effects
 from datagen.geometry import pose_record
+from datagen.robot_specs.panda import PANDA
 from datagen.sample import Sample, sample_key
 from datagen.seeding import sample_rng
 from datagen.worlds.tabletop import GraspScene, build_scene, grasp_classes
@@ -173,8 +174,8 @@ def annotate_scene(
         "objects": objects_meta,
         "views": view_meta,
         "robot": {
-            "name": "panda",
-            "description": "mani_skill/assets/robots/panda/panda_v2.urdf",
+            "name": PANDA.name,
+            "description": PANDA.description_path,
             "base_pose": pose_record(
                 np.asarray(scene.robot.root_pose.to_transformation_matrix(), float)
             ),

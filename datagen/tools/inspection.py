@@ -27,6 +27,8 @@ import numpy as np
 from datagen.dataset.loader import DatasetError, load
 from datagen.exports.files import inside, replace_file, tool_folder, written
 from datagen.grasping.stats import campaign_stats
+from datagen.outcomes import grasp_outcome, navigation_outcome
+from datagen.records import SampleMetadata
 from datagen.tools.preview import sample_tile, tile_grid
 from datagen.tools.randomisation_plots import plot_randomisation, randomisation_panels
 from datagen.tools.sample_checks import (
@@ -44,7 +46,7 @@ GRID_SAMPLES = 12
 
 
 # name -> the values of one sample; a name whose fields a family's metadata lacks is left out
-_SAMPLE_VALUES: dict[str, Callable[[dict[str, Any]], list[float]]] = {
+_SAMPLE_VALUES: dict[str, Callable[[SampleMetadata], list[float]]] = {
     "objects per scene": lambda m: [len(m["objects"])],
     "object mass (kg)": lambda m: [o["mass"] for o in m["objects"]],
     "object friction": lambda m: [o["friction"] for o in m["objects"]],
@@ -58,7 +60,7 @@ _SAMPLE_VALUES: dict[str, Callable[[dict[str, Any]], list[float]]] = {
 }
 
 
-def _sample_distributions(metas: list[dict[str, Any]]) -> dict[str, list[float]]:
+def _sample_distributions(metas: list[SampleMetadata]) -> dict[str, list[float]]:
     values = {}
     for name, of_sample in _SAMPLE_VALUES.items():
         try:
@@ -71,7 +73,7 @@ def _sample_distributions(metas: list[dict[str, Any]]) -> dict[str, list[float]]
     return values
 
 
-def _navigation_distributions(metas: list[dict[str, Any]]) -> dict[str, list[float]]:
+def _navigation_distributions(metas: list[SampleMetadata]) -> dict[str, list[float]]:
     episodes = [m["episode"] for m in metas]
     return {
         "path length (m)": [e["path_length_m"] for e in episodes],
@@ -108,7 +110,7 @@ def _histogram(values: list[float], bins: int = 5) -> dict[str, int]:
     }
 
 
-def _sample_summary(metas: list[dict[str, Any]]) -> dict[str, Any]:
+def _sample_summary(metas: list[SampleMetadata]) -> dict[str, Any]:
     classes = Counter(o["class"] for m in metas for o in m["objects"])
     visible = [o["visible_fraction"] for m in metas for o in m["views"]["workspace"]["objects"]]
     panels = randomisation_panels(metas)
@@ -122,14 +124,16 @@ def _sample_summary(metas: list[dict[str, Any]]) -> dict[str, Any]:
     }
 
 
-def _navigation_summary(metas: list[dict[str, Any]]) -> dict[str, Any]:
+def _navigation_summary(metas: list[SampleMetadata]) -> dict[str, Any]:
     episodes = [m["episode"] for m in metas]
     things = Counter(t["class"] for m in metas for f in m["frames"] for t in f["things"])
     return {
         "episodes": len(episodes),
         "frames": sum(e["frames"] for e in episodes),
         "families": dict(Counter(m["family"] for m in metas)),
-        "success_rate": round(float(np.mean([e["success"] for e in episodes])), 4),
+        "success_rate": round(
+            float(np.mean([navigation_outcome(e)["success"] for e in episodes])), 4
+        ),
         "mean_path_length_m": round(float(np.mean([e["path_length_m"] for e in episodes])), 3),
         "mean_shortest_path_m": round(float(np.mean([e["shortest_path_m"] for e in episodes])), 3),
         "mean_spl": round(float(np.mean([e["spl"] for e in episodes])), 4),
@@ -143,8 +147,8 @@ def _navigation_summary(metas: list[dict[str, Any]]) -> dict[str, Any]:
 class Summary:
     """How ``inspect`` summarises the samples of one metadata format."""
 
-    summary: Callable[[list[dict[str, Any]]], dict[str, Any]]
-    distributions: Callable[[list[dict[str, Any]]], dict[str, list[float]]]
+    summary: Callable[[list[SampleMetadata]], dict[str, Any]]
+    distributions: Callable[[list[SampleMetadata]], dict[str, list[float]]]
     noun: str  # what one sample is called in the plots' title
 
 
@@ -155,7 +159,7 @@ SUMMARIES: dict[str, Summary] = {
 }
 
 
-def _summarisable(kind: Summary, meta: dict[str, Any]) -> dict[str, Any]:
+def _summarisable(kind: Summary, meta: SampleMetadata) -> SampleMetadata:
     """``meta`` if the summary, the plots and the campaign statistics can take it (numbers
     finite, names text), else the error of the first that cannot."""
     check_plottable(kind.summary([meta]), "its summary")
@@ -163,7 +167,7 @@ def _summarisable(kind: Summary, meta: dict[str, Any]) -> dict[str, Any]:
     if meta.get("format") == "datagen.sample/1":
         check_plottable(randomisation_panels([meta]), "its randomisation")
     if "attempt" in meta:
-        check_plottable(campaign_stats([meta["attempt"]]), "its grasp attempt")
+        check_plottable(campaign_stats([grasp_outcome(meta["attempt"])]), "its grasp attempt")
     return meta
 
 
@@ -195,7 +199,7 @@ def inspect_dataset(
     summary = kind.summary(metas)
     if skipped:
         summary["skipped_samples"] = len(dataset) - len(metas)
-    attempts = [m["attempt"] for m in metas if "attempt" in m]
+    attempts = [grasp_outcome(m["attempt"]) for m in metas if "attempt" in m]
     if attempts:
         summary["campaign"] = dataset.manifest.get("campaign") or campaign_stats(attempts)
     values = kind.distributions(metas)

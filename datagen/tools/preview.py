@@ -16,6 +16,8 @@ import numpy as np
 from datagen.dataset.views import is_sequence, labelled_views
 from datagen.exports.files import inside, replace_file, written
 from datagen.geometry import project
+from datagen.outcomes import grasp_outcome, navigation_outcome
+from datagen.records import CameraRecord, ViewRecord
 from datagen.tools.sample_checks import (
     OnSkip,
     Skipped,
@@ -65,7 +67,7 @@ def put_label(image: np.ndarray, text: str, origin: tuple[int, int], scale: floa
 
 
 def draw_annotations(
-    rgb: np.ndarray, instance: np.ndarray, view: dict[str, Any], where: str = "views.workspace"
+    rgb: np.ndarray, instance: np.ndarray, view: ViewRecord, where: str = "views.workspace"
 ) -> np.ndarray:
     """BGR image: masks blended in, 3D oriented boxes, 2D boxes and class labels on top.
     ``where`` names the view record in the sample's metadata, for a BadSample's message."""
@@ -123,7 +125,7 @@ def depth_colour(depth_mm: np.ndarray) -> np.ndarray:
     return image
 
 
-def draw_grasp(image: np.ndarray, attempt: dict[str, Any], camera: dict[str, Any]) -> None:
+def draw_grasp(image: np.ndarray, attempt: dict[str, Any], camera: CameraRecord) -> None:
     """The gripper as two fingers and the approach, projected into the (BGR) image, green for a
     successful attempt, red for a failed one."""
     grasp = attempt["grasp"]
@@ -142,12 +144,13 @@ def draw_grasp(image: np.ndarray, attempt: dict[str, Any], camera: dict[str, Any
     uv = pixels(project(points, K, E)[0])
     if uv is None:
         return
-    colour = SUCCESS_BGR if attempt["outcome"]["success"] else FAILURE_BGR
+    outcome = grasp_outcome(attempt)
+    colour = SUCCESS_BGR if outcome["success"] else FAILURE_BGR
     for a, b in ((0, 2), (1, 3), (2, 3)):
         cv2.line(image, tuple(uv[a]), tuple(uv[b]), colour, 2, cv2.LINE_AA)
     palm = (uv[2] + uv[3]) // 2
     cv2.line(image, tuple(palm), tuple(uv[4]), colour, 2, cv2.LINE_AA)
-    label = "success" if attempt["outcome"]["success"] else attempt["outcome"]["failure_mode"]
+    label = "success" if outcome["success"] else outcome["failure_mode"]
     put_label(image, label, (int(uv[4][0]) + 4, int(uv[4][1])), 0.45)
 
 
@@ -173,7 +176,7 @@ def _fit(image: np.ndarray, height: int, width: int) -> np.ndarray:
 
 
 def draw_navigation_frame(
-    frame: dict[str, Any], classes: list[str], camera: dict[str, Any], path_xy: np.ndarray
+    frame: dict[str, Any], classes: list[str], camera: CameraRecord, path_xy: np.ndarray
 ) -> np.ndarray:
     """BGR: semantic classes blended in, the expert path projected onto the floor, 2-D boxes of
     the labelled things, and the frame's state (distance to goal, command, collision)."""
@@ -221,7 +224,7 @@ def sequence_tile(item: dict[str, Any]) -> np.ndarray:
     )
     put_label(image, f"{item['key']} f{k}/{len(frames)} {meta['family']}", (6, 18), 0.5)
     overview = _fit(cv2.cvtColor(item["map"], cv2.COLOR_RGB2BGR), *image.shape[:2])
-    outcome = "success" if episode["success"] else "failure"
+    outcome = "success" if navigation_outcome(episode)["success"] else "failure"
     summary = (
         f"{outcome} {episode['path_length_m']:.1f} m (shortest {episode['shortest_path_m']:.1f} m)"
     )

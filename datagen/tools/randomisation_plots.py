@@ -10,7 +10,9 @@ from __future__ import annotations
 
 from collections import Counter
 from pathlib import Path
-from typing import Any
+from typing import Any, TypedDict
+
+from datagen.records import SampleMetadata, ViewRecord
 
 CAMERA_EFFECTS = (
     "exposure_ev",
@@ -41,12 +43,29 @@ def _texture_name(material: dict[str, Any]) -> str:
     return texture.get("family", "picture")
 
 
-def _views(metas: list[dict[str, Any]]) -> list[dict[str, Any]]:
+def _views(metas: list[SampleMetadata]) -> list[ViewRecord]:
     return [v for m in metas for v in m.get("views", {}).values()]
 
 
-def randomisation_panels(metas: list[dict[str, Any]]) -> dict[str, Counter | list[float]]:
-    """Panel title -> a Counter (bar chart) or a list of numbers (histogram); empty if absent."""
+# panel title -> a Counter (bar chart) or a list of numbers (histogram); empty if absent
+Panels = TypedDict(
+    "Panels",
+    {
+        "surface textures": Counter[str],
+        "object families": Counter[str],
+        "distractors per scene": list[float],
+        "room width x (m)": list[float],
+        "camera effects (share of views)": Counter[str],
+        "exposure (EV)": list[float],
+        "lens k1": list[float],
+        "depth noise b (1/m)": list[float],
+        "projector baseline (m)": list[float],
+    },
+)
+
+
+def randomisation_panels(metas: list[SampleMetadata]) -> Panels:
+    """The panels of the appearance randomisation plot."""
     randomisations = [m.get("randomisation", {}) for m in metas]
     views = _views(metas)
     effects = [v["camera_effects"] for v in views if "camera_effects" in v]
@@ -73,7 +92,7 @@ def randomisation_panels(metas: list[dict[str, Any]]) -> dict[str, Counter | lis
     }
 
 
-def plot_randomisation(metas: list[dict[str, Any]], title: str, path: Path) -> None:
+def plot_randomisation(metas: list[SampleMetadata], title: str, path: Path) -> None:
     from matplotlib.figure import Figure  # no pyplot: leaves the caller's backend alone
 
     panels = randomisation_panels(metas)

@@ -13,12 +13,13 @@ from __future__ import annotations
 
 import logging
 from collections.abc import Callable, Iterable, Mapping
-from typing import Any, TypeVar
+from typing import Any, TypeVar, cast
 
 import cv2
 import numpy as np
 
 from datagen.dataset.loader import DatasetError, ShardDataset
+from datagen.records import SampleMetadata
 from datagen.safe_json import JsonInputError, loads_bounded
 
 log = logging.getLogger(__name__)
@@ -77,7 +78,7 @@ def describe(error: Exception) -> str:
     return text if len(text) <= 300 else text[:297] + "..."
 
 
-def read_metadata(dataset: ShardDataset, i: int) -> dict[str, Any]:
+def read_metadata(dataset: ShardDataset, i: int) -> SampleMetadata:
     """Sample ``i``'s JSON part, decoded with bounds (depth, size, no NaN)."""
     raw = dataset.raw(i, {"json"}).get("json")
     if raw is None:
@@ -85,7 +86,7 @@ def read_metadata(dataset: ShardDataset, i: int) -> dict[str, Any]:
     meta = loads_bounded(raw, what="its json part", max_bytes=MAX_METADATA_BYTES)
     if not isinstance(meta, dict):
         raise BadSample(f"its json part is a JSON {type(meta).__name__}, expected an object")
-    return meta
+    return cast(SampleMetadata, meta)  # a tool checks the keys it uses
 
 
 def read_item(dataset: ShardDataset, i: int) -> dict[str, Any]:

@@ -17,10 +17,9 @@ import sapien
 
 from datagen.config import BuildConfig
 from datagen.navigation.episode import Episode
-from datagen.randomisers.lighting import apply_lighting
-from datagen.randomisers.materials import render_material
-from datagen.randomisers.textures import surface_entity
+from datagen.worlds.realise import apply_lighting
 from datagen.worlds.robots import FETCH, load_robot
+from datagen.worlds.surfaces import box_entity, render_material
 
 # Semantic classes; 0 is background (nothing rendered).
 NAV_CLASSES = ("background", "floor", "wall", "door", "obstacle", "goal_marker", "robot")
@@ -81,12 +80,10 @@ class NavScene:
         return self.instance_lut[ids], self.class_lut[ids]
 
 
-def _static(scene, name, material, boxes=(), cylinders=(), spheres=()) -> sapien.Entity:
-    """A visual-only static entity. boxes: (centre, half sizes); cylinders (z axis): (centre,
-    radius, height); spheres: (centre, radius); metres."""
+def _static(scene, name, material, cylinders=(), spheres=()) -> sapien.Entity:
+    """A visual-only static entity. cylinders (z axis): (centre, radius, height); spheres:
+    (centre, radius); metres."""
     builder = scene.create_actor_builder()
-    for centre, half in boxes:
-        builder.add_box_visual(sapien.Pose(centre), half_size=half, material=material)
     for centre, radius, height in cylinders:
         pose = sapien.Pose(centre) * _X_TO_Z
         builder.add_cylinder_visual(pose, radius=radius, half_length=height / 2, material=material)
@@ -96,30 +93,27 @@ def _static(scene, name, material, boxes=(), cylinders=(), spheres=()) -> sapien
 
 
 def _surface(scene, name, values, boxes) -> sapien.Entity:
-    """Like :func:`_static` with boxes, from material values: textured boxes get their own
-    texture coordinates (:func:`datagen.randomisers.textures.surface_entity`)."""
-    if "texture" not in values:
-        return _static(scene, name, render_material(values), boxes=boxes)
-    halves = [(half, centre) for centre, half in boxes]
-    return surface_entity(scene, name, halves, values, collide=False)
+    """A visual-only static entity of boxes (half size, centre; world metres)."""
+    return box_entity(scene, name, boxes, values, collide=False)
 
 
-def _rect_centre_half(rect, z0: float, z1: float) -> tuple[list[float], list[float]]:
+def _rect_box(rect, z0: float, z1: float) -> tuple[list[float], list[float]]:
+    """(half size, centre) of the box over ``rect`` (x0, y0, x1, y1) from z0 to z1."""
     x0, y0, x1, y1 = rect
-    return [(x0 + x1) / 2, (y0 + y1) / 2, (z0 + z1) / 2], [(x1 - x0) / 2, (y1 - y0) / 2, (z1 - z0) / 2]  # fmt: skip
+    return [(x1 - x0) / 2, (y1 - y0) / 2, (z1 - z0) / 2], [(x0 + x1) / 2, (y0 + y1) / 2, (z0 + z1) / 2]  # fmt: skip
 
 
 def _walls_and_doors(scene, episode: Episode, values) -> tuple[list[sapien.Entity], list[Thing]]:
     layout, h, top = episode.layout, values["wall_height"], values["door_top"]
     wall_material, door_material = values["materials"]["walls"], values["materials"]["doors"]
     walls = [
-        _surface(scene, f"wall_{i}", wall_material, boxes=[_rect_centre_half(rect, 0.0, h)])
+        _surface(scene, f"wall_{i}", wall_material, boxes=[_rect_box(rect, 0.0, h)])
         for i, rect in enumerate(layout.walls)
     ]
     doors = []
     for i, rect in enumerate(layout.doors):
-        lintel = _rect_centre_half(rect, top, h)
-        threshold = _rect_centre_half(rect, 0.0, THRESHOLD_HEIGHT)
+        lintel = _rect_box(rect, top, h)
+        threshold = _rect_box(rect, 0.0, THRESHOLD_HEIGHT)
         entity = _surface(scene, f"door_{i}", door_material, boxes=[lintel, threshold])
         doors.append(Thing(0, "door", f"door_{i}", [entity]))
     return walls, doors
@@ -129,12 +123,12 @@ def _obstacles(scene, episode: Episode, values) -> list[Thing]:
     things = []
     specs = zip(episode.layout.obstacles, values["obstacles"], values["materials"]["obstacles"], strict=True)  # fmt: skip
     for i, (rect, spec, material) in enumerate(specs):
-        centre, half = _rect_centre_half(rect, 0.0, spec["height"])
+        half, centre = _rect_box(rect, 0.0, spec["height"])
         if spec["shape"] == "cylinder":  # inscribed in the footprint, so inside the occupied cells
-            shapes = {"cylinders": [(centre, min(half[:2]), spec["height"])]}
+            cylinder = (centre, min(half[:2]), spec["height"])
+            entity = _static(scene, f"obstacle_{i}", render_material(material), [cylinder])
         else:
-            shapes = {"boxes": [(centre, half)]}
-        entity = _static(scene, f"obstacle_{i}", render_material(material), **shapes)
+            entity = _surface(scene, f"obstacle_{i}", material, [(half, centre)])
         things.append(Thing(0, "obstacle", f"obstacle_{i}", [entity]))
     return things
 
@@ -180,7 +174,7 @@ def build_nav_scene(config: BuildConfig, episode: Episode, values: dict[str, Any
         scene,
         "floor",
         values["materials"]["floor"],
-        boxes=[([width / 2, depth / 2, -FLOOR_THICKNESS / 2], half)],
+        boxes=[(half, [width / 2, depth / 2, -FLOOR_THICKNESS / 2])],
     )
     walls, doors = _walls_and_doors(scene, episode, values)
     things = [*_obstacles(scene, episode, values), *doors, _goal_marker(scene, episode, values)]

@@ -17,7 +17,6 @@ from pathlib import Path
 import sapien
 from sapien.wrapper.articulation_builder import ArticulationBuilder
 
-PANDA = "robots/panda/panda_v2.urdf"
 FETCH = "robots/fetch/fetch.urdf"
 
 

@@ -17,26 +17,28 @@ import sapien
 from datagen.assets.shapes import ObjectGeometry
 from datagen.assets.tabletop_layout import (
     ROBOT_BASE,
-    TABLE_HALF,
-    TABLE_TOP,
     TRAY_CENTRE,
     TRAY_FLOOR,
     TRAY_INNER_HALF,
-    tray_boxes,
+    StaticPart,
+    static_parts,
 )
 from datagen.config import BuildConfig
 from datagen.config.sections import SHAPE_FAMILIES
 from datagen.randomisers import sample_scene
-from datagen.randomisers.background import add_background, lit_by_room
-from datagen.randomisers.camera import apply_camera
-from datagen.randomisers.distractors import add_distractors
-from datagen.randomisers.lighting import apply_lighting
-from datagen.randomisers.materials import render_material
-from datagen.randomisers.objects import add_objects
-from datagen.randomisers.robot import apply_robot
-from datagen.randomisers.textures import surface_entity
-from datagen.worlds.robots import PANDA, load_robot, maniskill_asset
+from datagen.robot_specs.panda import PANDA
+from datagen.worlds.realise import (
+    add_background,
+    add_distractors,
+    add_objects,
+    apply_camera,
+    apply_lighting,
+    apply_robot,
+    lit_by_room,
+)
+from datagen.worlds.robots import load_robot, maniskill_asset
 from datagen.worlds.settle import settle
+from datagen.worlds.surfaces import box_entity, render_material
 
 # Semantic classes: 0 is background (nothing rendered), object classes are shape families,
 # then the distractors (objects that are not grasp targets), whatever their shape, then the
@@ -48,7 +50,6 @@ DISTRACTOR_CLASS = "distractor"
 WALL_CLASS = "wall"
 CLASSES = (*STUFF_CLASSES, *SHAPE_FAMILIES, DISTRACTOR_CLASS, WALL_CLASS)
 CLASS_ID = {name: i for i, name in enumerate(CLASSES)}
-FLOOR_HALF = 10.0  # metres: half the side of the drawn floor (as SAPIEN's ground)
 
 
 def grasp_classes(config: BuildConfig) -> tuple[str, ...]:
@@ -62,17 +63,13 @@ def grasp_classes(config: BuildConfig) -> tuple[str, ...]:
     return CLASSES
 
 
-# Wrist camera on the Panda hand, from ManiSkill's panda_wristcam (pose in the hand frame).
-WRIST_CAMERA_POSE = sapien.Pose([0.0464982, -0.0200011, 0.0360011], [0, 0.70710678, 0, 0.70710678])
-
-
 def panda_urdf() -> Path:
-    return maniskill_asset(PANDA)
+    return maniskill_asset(PANDA.description)
 
 
 def load_panda(scene: sapien.Scene) -> sapien.physx.PhysxArticulation:
     """The Panda, fixed base, from the process's parsed URDF (datagen.worlds.robots)."""
-    return load_robot(scene, PANDA, fix_root_link=True)
+    return load_robot(scene, PANDA.description, fix_root_link=True)
 
 
 @dataclass
@@ -97,61 +94,19 @@ class GraspScene:
     distractors: list[SceneObject] = field(default_factory=list)  # instance ids after objects
 
 
-def _static_box(scene, name, half_size, position, material_values) -> sapien.Entity:
-    if "texture" in material_values:
-        entity = surface_entity(scene, name, [(half_size, [0, 0, 0])], material_values)
-        entity.set_pose(sapien.Pose(position))
-        return entity
-    builder = scene.create_actor_builder()
-    builder.add_box_collision(half_size=half_size)
-    builder.add_box_visual(half_size=half_size, material=render_material(material_values))
-    entity = builder.build_static(name=name)
-    entity.set_pose(sapien.Pose(position))
-    return entity
-
-
-def _add_table(scene, material) -> list[sapien.Entity]:
-    thickness = 0.03
-    parts = [
-        _static_box(
-            scene,
-            "table",
-            [*TABLE_HALF, thickness / 2],
-            [0, 0, TABLE_TOP - thickness / 2],
-            material,
-        )
-    ]
-    leg = (TABLE_TOP - thickness) / 2
-    for sx in (-1, 1):
-        for sy in (-1, 1):
-            position = [sx * (TABLE_HALF[0] - 0.05), sy * (TABLE_HALF[1] - 0.05), leg]
-            parts.append(_static_box(scene, "table_leg", [0.025, 0.025, leg], position, material))
-    return parts
-
-
-def _add_tray(scene, material) -> sapien.Entity:
-    if "texture" in material:
-        tray = surface_entity(scene, "tray", list(tray_boxes()), material)
-        tray.set_pose(sapien.Pose(TRAY_CENTRE))
-        return tray
-    builder = scene.create_actor_builder()
-    mat = render_material(material)
-    for half_size, offset in tray_boxes():
-        builder.add_box_collision(sapien.Pose(offset), half_size=half_size)
-        builder.add_box_visual(sapien.Pose(offset), half_size=half_size, material=mat)
-    tray = builder.build_static(name="tray")
-    tray.set_pose(sapien.Pose(TRAY_CENTRE))
-    return tray
-
-
-def _add_floor(scene, material) -> list[sapien.Entity]:
-    """The ground plane; a textured floor is drawn as a big thin box (texture coordinates)."""
+def _add_part(
+    scene: sapien.Scene, part: StaticPart, material: dict[str, Any]
+) -> list[sapien.Entity]:
+    """A part of the static geometry; the floor is SAPIEN's ground plane, drawn as its slab only
+    when textured (texture coordinates), else by the plane itself (the slab's extent)."""
+    name = "_".join(filter(None, (part.surface, part.name)))
+    if part.surface != "floor":
+        return [box_entity(scene, name, part.boxes, material, part.position)]
     if "texture" not in material:
-        return [scene.add_ground(0.0, render_material=render_material(material))]
+        drawn = render_material(material)
+        return [scene.add_ground(0.0, render_material=drawn, render_half_size=part.boxes[0][0][:2])]
     ground = scene.add_ground(0.0, render=False)
-    half = [FLOOR_HALF, FLOOR_HALF, 0.005]
-    floor = surface_entity(scene, "floor", [(half, [0, 0, -0.005])], material, collide=False)
-    return [ground, floor]
+    return [ground, box_entity(scene, name, part.boxes, material, part.position, collide=False)]
 
 
 def build_scene(config: BuildConfig, seed: int, index: int, attempt: int = 0) -> GraspScene:
@@ -181,11 +136,9 @@ def construct_scene(config: BuildConfig, params: dict[str, Any]) -> GraspScene:
     scene.set_timestep(config.physics.timestep)
     stuff: dict[int, str] = {}
 
-    for entity in _add_floor(scene, materials["floor"]):
-        stuff[entity.per_scene_id] = "floor"
-    for entity in _add_table(scene, materials["table"]):
-        stuff[entity.per_scene_id] = "table"
-    stuff[_add_tray(scene, materials["tray"]).per_scene_id] = "tray"
+    for part in static_parts():
+        for entity in _add_part(scene, part, materials[part.surface]):
+            stuff[entity.per_scene_id] = part.surface
     for entity in add_background(scene, params.get("background")):  # none when it is off
         stuff[entity.per_scene_id] = WALL_CLASS
 
@@ -219,8 +172,11 @@ def construct_scene(config: BuildConfig, params: dict[str, Any]) -> GraspScene:
         cameras[name] = scene.add_camera(name, r.width, r.height, 1.0, r.near, r.far)
         apply_camera(cameras[name], values)
     if r.wrist_camera:
-        hand = next(link for link in robot.get_links() if link.name == "panda_hand")
+        mount = PANDA.wrist_camera
+        link = next(link for link in robot.get_links() if link.name == mount.link)
+        pose = sapien.Pose(list(mount.position), list(mount.quat_wxyz))
+        fovy = np.deg2rad(mount.fovy_deg)
         cameras["wrist"] = scene.add_mounted_camera(
-            "wrist", hand.entity, WRIST_CAMERA_POSE, r.width, r.height, np.deg2rad(70), 0.01, r.far
+            "wrist", link.entity, pose, r.width, r.height, fovy, mount.near, r.far
         )
     return GraspScene(scene, cameras, objects, robot, params, stuff, distractors)

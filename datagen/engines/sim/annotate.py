@@ -12,13 +12,14 @@ rasterised by the renderer's rule (see ``silhouette``), so a fully visible objec
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
 
 import numpy as np
 from scipy import ndimage
 
 from datagen.engines.sim.silhouette import convex_outlines, silhouette_pixels
 from datagen.geometry import image_points, pose_record
+from datagen.records import ObjectViewRecord, ObjectWorldRecord
 
 if TYPE_CHECKING:  # only for annotations: drawing and tests need no simulator
     from datagen.engines.sim.render import Frame
@@ -79,7 +80,9 @@ def _amodal_pixels(obj: LabelledObject, frame: Frame, near: float) -> tuple[int,
         if (z <= near).any():
             return 0, 0
         projected.append(uv)
-    return silhouette_pixels(convex_outlines(projected), width, height)
+    counts = silhouette_pixels(convex_outlines(projected), width, height)
+    assert counts is not None  # no span limit: always counted
+    return counts
 
 
 def _image_points(
@@ -91,13 +94,13 @@ def _image_points(
 
 def object_view_records(
     frame: Frame, instance_map: np.ndarray, objects: list[LabelledObject], near: float
-) -> list[dict[str, Any]]:
+) -> list[ObjectViewRecord]:
     """Per object, what this camera sees of it. Objects with no visible pixel have ``bbox: None``."""
     max_id = max((o.instance_id for o in objects), default=0)
     counts = np.bincount(instance_map.ravel(), minlength=max_id + 1)
     # every instance's bounding slices in one pass over the map (7x faster than a mask each)
     extents = ndimage.find_objects(instance_map, max_label=max_id) if max_id else []
-    records = []
+    records: list[ObjectViewRecord] = []
     for obj in objects:
         visible = int(counts[obj.instance_id])
         bbox = None
@@ -127,7 +130,7 @@ def object_view_records(
     return records
 
 
-def object_world_record(obj: LabelledObject) -> dict[str, Any]:
+def object_world_record(obj: LabelledObject) -> ObjectWorldRecord:
     return {
         "instance_id": obj.instance_id,
         "class": obj.class_name,

@@ -25,18 +25,10 @@ import cv2
 import numpy as np
 
 from datagen.config.appearance import DepthSensorConfig
-from datagen.engines.sim.camera_effects import normal_image
+from datagen.engines.sim.camera_effects import LINEAR_FROM_BYTE, normal_image
 
 _SHADOW_TOLERANCE_PX = 0.3  # projector columns closer than this do not occlude (depth rounding)
 _LUMA = np.array([0.2126, 0.7152, 0.0722], np.float32)  # linear RGB -> luminance
-
-
-def _linear_from_byte() -> np.ndarray:
-    x = np.arange(256) / 255.0
-    return np.where(x <= 0.04045, x / 12.92, ((x + 0.055) / 1.055) ** 2.4).astype(np.float32)
-
-
-_LINEAR = _linear_from_byte()
 
 
 def _r(value: float) -> float:
@@ -137,7 +129,7 @@ def shadow_holes(z: np.ndarray, focal_px: float, baseline: float) -> np.ndarray:
 
 
 def dark_pixels(rgb: np.ndarray, threshold: float) -> np.ndarray:
-    luminance = cv2.transform(cv2.LUT(rgb, _LINEAR), _LUMA[None, :])
+    luminance = cv2.transform(cv2.LUT(rgb, LINEAR_FROM_BYTE), _LUMA[None, :])
     return (
         luminance[..., 0] < np.float32(threshold)
         if luminance.ndim == 3

@@ -18,6 +18,7 @@ import cv2
 import numpy as np
 
 from datagen.engines.sim.stage_clock import timed
+from datagen.records import SampleMetadata
 
 DEFAULT_PNG_LEVEL = 1
 PNG_LEVELS = range(0, 10)
@@ -77,24 +78,27 @@ def encode_view(
     """``<prefix>rgb.png depth.png seg.png semantic.png`` of one rendered view, plus
     ``depth_sensor.png`` and ``rgb_clean.png`` when it has them; the images are encoded on a
     small thread pool unless ``parallel`` is false (same bytes)."""
-    jobs = {
-        f"{prefix}rgb.png": (view.rgb, level, True),
-        f"{prefix}depth.png": (view.depth, level),
-        f"{prefix}seg.png": (view.instance, level),
-        f"{prefix}semantic.png": (view.semantic, level),
+    jobs = {  # part name -> (image, whether it is RGB: stored as OpenCV's BGR)
+        f"{prefix}rgb.png": (view.rgb, True),
+        f"{prefix}depth.png": (view.depth, False),
+        f"{prefix}seg.png": (view.instance, False),
+        f"{prefix}semantic.png": (view.semantic, False),
     }
     if view.depth_sensor is not None:
-        jobs[f"{prefix}depth_sensor.png"] = (view.depth_sensor, level)
+        jobs[f"{prefix}depth_sensor.png"] = (view.depth_sensor, False)
     if view.rgb_clean is not None:
-        jobs[f"{prefix}rgb_clean.png"] = (view.rgb_clean, level, True)
+        jobs[f"{prefix}rgb_clean.png"] = (view.rgb_clean, True)
     with timed("encode"):
         if not parallel or _ENCODE_THREADS < 2:
-            return {name: _png(*args) for name, args in jobs.items()}
-        futures = {name: _pool.get().submit(_png, *args) for name, args in jobs.items()}
+            return {name: _png(image, level, rgb) for name, (image, rgb) in jobs.items()}
+        pool = _pool.get()
+        futures = {
+            name: pool.submit(_png, image, level, rgb) for name, (image, rgb) in jobs.items()
+        }
         return {name: future.result() for name, future in futures.items()}
 
 
-def metadata_bytes(metadata: dict[str, Any]) -> bytes:
+def metadata_bytes(metadata: SampleMetadata) -> bytes:
     """Strict JSON: writers refuse ``NaN``/``Infinity`` (datagen.safe_json), so a non-finite
     value fails here, naming where it is, instead of the sample being refused on the bus."""
     with timed("encode"):

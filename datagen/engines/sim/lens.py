@@ -19,9 +19,10 @@ from dataclasses import dataclass
 import cv2
 import numpy as np
 
+from datagen.geometry import undistorted_normalised
+
 DISTORTION_MODEL = "opencv"  # k1, k2, p1, p2, k3
 _GRID_PX = 4  # the map is exact every 4 pixels, bilinear between (error < 0.05 px)
-_CRITERIA = (cv2.TERM_CRITERIA_COUNT | cv2.TERM_CRITERIA_EPS, 20, 1e-9)
 _MAX_ZOOM = 4.0
 
 
@@ -46,14 +47,7 @@ def _render_points(
 ) -> np.ndarray:
     """Distorted image-plane points (N, 2) -> where the render shows them (N, 2), same
     convention."""
-    normalised = cv2.undistortPointsIter(
-        plane.reshape(-1, 1, 2).astype(np.float64),
-        _scaled(render_k, zoom),
-        coefficients,
-        None,
-        None,
-        _CRITERIA,
-    ).reshape(-1, 2)
+    normalised = undistorted_normalised(plane, _scaled(render_k, zoom), coefficients)
     return normalised * np.diag(render_k)[:2] + render_k[:2, 2]
 
 

@@ -1,6 +1,6 @@
 """Off-screen capture of one camera: colour, metric depth and per-entity ids, plus its calibration.
 
-Conventions (also in README): intrinsics K is 3x3 in pixels with the origin at the top-left
+Conventions (also in docs/data-formats.md): intrinsics K is 3x3 in pixels with the origin at the top-left
 pixel corner; extrinsics E is the 4x4 world-to-camera transform in the OpenCV camera frame
 (x right, y down, z forward), so ``x_cam = E @ x_world`` and ``uv ~ K @ x_cam[:3]``.
 

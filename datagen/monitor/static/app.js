@@ -203,8 +203,8 @@ function renderCampaign(s) {
   if (s.campaign) {
     const c = s.campaign;
     boxes.push(rateRows(`grasp attempts: ${(100 * c.success_rate).toFixed(1)}% of ${c.attempts} succeed`, {}));
-    boxes.push(rateRows("by sampler", rows(c.by_sampler)), rateRows("by shape family", rows(c.by_family)));
-    const failures = c.attempts - Math.round(c.success_rate * c.attempts);
+    boxes.push(rateRows("by sampler", rows(c.per_sampler)), rateRows("by shape family", rows(c.per_family)));
+    const failures = c.attempts - c.successes;
     const modes = Object.fromEntries(Object.entries(c.failure_modes || {}).map(([k, n]) => [k, { rate: failures ? n / failures : 0, label: `${n}` }]));
     boxes.push(rateRows("failure modes (share of failures)", modes, "failure"));
   }

@@ -18,8 +18,9 @@ from typing import Any, Protocol
 
 from datagen.engines.transfer.run_binding import RunBinding
 from datagen.pipeline.production import Task
+from datagen.records import WorkerEvent
 
-Event = tuple[int, str, Any]  # (worker id, kind, payload); kinds: see datagen/pipeline/worker.py
+Event = WorkerEvent  # (worker id, kind, payload); kinds: see datagen/pipeline/worker.py
 # One worker per core: OpenMP/BLAS thread pools in each worker would oversubscribe the cores
 # (measured: +12-20 % frames/s for a local worker with 1 thread). Ray sets the same itself.
 # A value the user exported wins.

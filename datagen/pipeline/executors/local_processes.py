@@ -11,6 +11,7 @@ from typing import Any
 from datagen.pipeline.executors.base import WORKER_ENV_DEFAULTS, Event, WorkerSpec, default_env
 from datagen.pipeline.production import Task
 from datagen.pipeline.worker import worker_main
+from datagen.records import WorkerMessage
 
 log = logging.getLogger(__name__)
 
@@ -58,7 +59,8 @@ class LocalExecutor:
         for conn in wait_connections(list(by_conn), timeout=timeout):
             worker_id = by_conn[conn]
             try:
-                kind, payload = conn.recv()
+                message: WorkerMessage = self.workers[worker_id][1].recv()  # from conn
+                kind, payload = message
             except (EOFError, OSError):
                 process = self._forget(worker_id)
                 events.append((worker_id, "lost", f"exit code {process.exitcode}"))

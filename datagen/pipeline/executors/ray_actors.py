@@ -23,6 +23,7 @@ from datagen.pipeline.executors.base import Event, WorkerSpec, worker_env
 from datagen.pipeline.live_preview import PreviewFeed, sample_outcome
 from datagen.pipeline.production import Task
 from datagen.pipeline.worker import HEARTBEAT_S
+from datagen.records import AttemptRecord, ProducedRecord, WorkerMessage
 
 log = logging.getLogger(__name__)
 CLOSE_TIMEOUT_S = 30.0
@@ -54,10 +55,10 @@ class SceneWorker:
         )
         self.publisher.__enter__()
         self.previews = PreviewFeed(spec.broker_url, spec.build_id, str(worker_id))
-        self.working: dict[str, Any] | None = None  # the attempt in progress, for ping
+        self.working: AttemptRecord | None = None  # the attempt in progress, for ping
 
-    def produce(self, task: Task) -> dict[str, Any]:
-        """``{"index", "attempt", "failures", "published"}``; raises if the build must stop."""
+    def produce(self, task: Task) -> ProducedRecord:
+        """What became of the sample; raises if the build must stop."""
         from datagen.pipeline.production import SampleFailed, produce_with_policy
 
         def started(attempt: int, failures: list[str]) -> None:
@@ -78,7 +79,7 @@ class SceneWorker:
         return {"index": index, "attempt": produced.attempt, "failures": produced.failures, "published": True, "outcome": outcome}  # fmt: skip
 
     @ray.method(concurrency_group="liveness")
-    def ping(self) -> dict[str, Any] | None:
+    def ping(self) -> AttemptRecord | None:
         """Runs beside ``produce`` (its own thread): the attempt in progress, if any."""
         return self.working
 
@@ -180,7 +181,7 @@ class RayExecutor:
                 self.pending[actor.ping.remote()] = (worker_id, "ping", None)
                 self.pinged[worker_id] = now
 
-    def _pinged(self, worker_id: int, working: dict[str, Any] | None) -> list[Event]:
+    def _pinged(self, worker_id: int, working: AttemptRecord | None) -> list[Event]:
         # the first answer comes once the constructor (the actor's start-up) is over
         events: list[Event] = [(worker_id, "heartbeat" if worker_id in self.reported else "ready", None)]  # fmt: skip
         self.reported.setdefault(worker_id, (-1, -1))
@@ -219,11 +220,11 @@ class RayExecutor:
             ray.shutdown()
 
 
-def _produced(result: dict[str, Any]) -> list[tuple[str, Any]]:
+def _produced(result: ProducedRecord) -> list[WorkerMessage]:
     """A produce call's result as the events a local worker sends (see datagen/pipeline/worker.py)."""
     index, failures = result["index"], result["failures"]
     if not result["published"]:
         return [("failed", {"index": index, "failures": failures})]
-    retried = [("retried", {"index": index, "attempt": result["attempt"], "failures": failures})]
-    outcome = [("outcome", result["outcome"])] if result.get("outcome") else []
+    retried: list[WorkerMessage] = [("retried", {"index": index, "attempt": result["attempt"], "failures": failures})]  # fmt: skip
+    outcome: list[WorkerMessage] = [("outcome", result["outcome"])] if result.get("outcome") else []  # fmt: skip
     return [*outcome, *(retried if failures else []), ("published", index)]

@@ -3,7 +3,7 @@ trajectory and render its head camera at the frame rate; one sample per episode.
 
 Parts: ``fNNNN.rgb.png fNNNN.depth.png fNNNN.seg.png fNNNN.semantic.png`` per frame (NNNN = frame
 number from 0), ``map.png`` (top-down picture with the paths), ``occupancy.png`` (the grid, one
-pixel per cell, 255 = occupied) and ``json`` (see README, "Navigation episodes").
+pixel per cell, 255 = occupied) and ``json`` (see docs/navigation.md).
 """
 
 from __future__ import annotations
@@ -20,7 +20,7 @@ from datagen.engines.sim.render import DEPTH_SCALE, capture, keep_renderer_alive
 from datagen.navigation.episode import Episode, frame_steps, plan_episode
 from datagen.navigation.grid import inflate
 from datagen.navigation.map_image import episode_map, occupancy_image
-from datagen.randomisers.navigation import sample_nav_scene
+from datagen.randomisers.floorplan_scene import sample_nav_scene
 from datagen.sample import Sample, sample_key
 from datagen.worlds.floorplan import NAV_CLASSES, NavScene, build_nav_scene
 from datagen.worlds.robots import FETCH

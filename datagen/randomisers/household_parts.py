@@ -11,6 +11,8 @@ from typing import Any
 
 import numpy as np
 
+from datagen.assets.household import HOUSEHOLD_FAMILIES
+
 _IDENTITY = [1.0, 0.0, 0.0, 0.0]
 _Z_TO_X = [float(np.cos(np.pi / 4)), 0.0, float(np.sin(np.pi / 4)), 0.0]  # 90 deg about y
 
@@ -162,14 +164,10 @@ def _tool(rng: np.random.Generator, size: float) -> list[dict[str, Any]]:
     return [handle_part, head_part]
 
 
-_SAMPLERS = {
-    "bottle": _bottle,
-    "can": _can,
-    "mug": _mug,
-    "bowl": _bowl,
-    "lidded_box": _lidded_box,
-    "tool": _tool,
-}
+# in the order of HOUSEHOLD_FAMILIES
+_SAMPLERS = dict(
+    zip(HOUSEHOLD_FAMILIES, (_bottle, _can, _mug, _bowl, _lidded_box, _tool), strict=True)
+)
 
 
 def sample_household_parts(

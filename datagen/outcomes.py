@@ -1,0 +1,47 @@
+"""A sample's outcome: whether it succeeded, and what campaign statistics group it by. The one
+place that knows where each scene family keeps it in a sample's metadata (a grasp attempt's under
+``attempt``, a navigation episode's under ``episode``); the live status, the manifest's campaign
+statistics, the exports and the tools all read outcomes through here.
+
+An outcome is plain JSON: ``{"kind": "grasp", "success", "sampler", "family", "failure_mode"}``
+(``family``: the target's class; ``failure_mode``: None on success) or
+``{"kind": "navigation", "success", "spl"}``.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Mapping
+from typing import Any
+
+from datagen.records import Outcome
+
+
+def grasp_outcome(attempt: Mapping[str, Any]) -> Outcome:
+    """The outcome of a grasp attempt's record (``meta["attempt"]``)."""
+    return {
+        "kind": "grasp",
+        "success": bool(attempt["outcome"]["success"]),
+        "sampler": attempt["sampler"],
+        "family": attempt["target"]["class"],
+        "failure_mode": attempt["outcome"]["failure_mode"],
+    }
+
+
+def navigation_outcome(episode: Mapping[str, Any]) -> Outcome:
+    """The outcome of a navigation episode's record (``meta["episode"]``)."""
+    return {"kind": "navigation", "success": bool(episode["success"]), "spl": episode["spl"]}
+
+
+# the metadata key of each family's record -> its outcome
+OUTCOME_RECORDS: dict[str, Callable[[Mapping[str, Any]], Outcome]] = {
+    "attempt": grasp_outcome,
+    "episode": navigation_outcome,
+}
+
+
+def sample_outcome(meta: Mapping[str, Any]) -> Outcome | None:
+    """The outcome of a sample from its metadata; None for a sample without one."""
+    for key, outcome in OUTCOME_RECORDS.items():
+        if isinstance(meta.get(key), dict):
+            return outcome(meta[key])
+    return None

@@ -1,0 +1,170 @@
+"""Sampled scene values made SAPIEN things, in one place: objects and distractors, a room's
+walls and lights, the lighting, cameras and the robot's joints. The randomisers only sample
+(:mod:`datagen.randomisers`); the worlds call these to build what was sampled, so a scene is
+rebuilt from its stored values alone. Materials, textures and boxes: :mod:`datagen.worlds.surfaces`.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+import sapien
+
+from datagen.assets.backdrop import wall_boxes
+from datagen.assets.shapes import ObjectGeometry, build_geometry
+from datagen.geometry import look_at
+from datagen.worlds.surfaces import render_shape, surface_entity
+
+SHADOW_CENTRE = [0, 0, 1]  # metres: the key light's shadow volume centre, unless the values say
+SHADOW_HALF_EXTENT = 1.5  # metres: it covers the table, the tray and the robot
+CEILING_SHADOW_GAP = 0.05  # metres below a room's ceiling where the key light's shadows begin
+POINT_LIGHT_REFERENCE_SQ = 4.0  # squared metres: a point light's intensity means the same at 2 m
+
+
+def _radiance_at(light: dict[str, Any], target) -> list[float]:
+    """A light's colour times its intensity, scaled by the squared distance to ``target``:
+    radiance falls off with it, so intensity means the same at the target (the tray)."""
+    distance_sq = float(np.sum((np.asarray(light["position"]) - target) ** 2))
+    return (np.asarray(light["colour"]) * light["intensity"] * distance_sq).tolist()
+
+
+def _shadow_near(lighting: dict[str, Any]) -> float:
+    """Where the key light's shadow casters begin, metres along the light from its centre."""
+    return lighting.get(
+        "shadow_near", -2.0 * lighting.get("shadow_half_extent", SHADOW_HALF_EXTENT)
+    )
+
+
+def add_objects(
+    scene: sapien.Scene,
+    objects: list[dict[str, Any]],
+    poses: list[dict[str, Any]],
+    materials: list[dict[str, Any]],
+) -> list[tuple[sapien.Entity, ObjectGeometry]]:
+    """One dynamic actor per object, convex collision parts, its own material."""
+    added = []
+    for i, (obj, pose, material) in enumerate(zip(objects, poses, materials, strict=True)):
+        geometry = build_geometry(obj["shape"])
+        physx_material = sapien.physx.PhysxMaterial(
+            obj["friction"], obj["friction"], obj["restitution"]
+        )
+        body = sapien.physx.PhysxRigidDynamicComponent()
+        for part in geometry.parts:
+            shape = sapien.physx.PhysxCollisionShapeConvexMesh(
+                np.asarray(part.vertices, np.float32), np.ones(3, np.float32), physx_material
+            )
+            shape.set_density(obj["density"])
+            body.attach(shape)
+        render_body = sapien.render.RenderBodyComponent()
+        render_body.attach(render_shape(geometry.visual, material))
+        entity = sapien.Entity()
+        entity.name = f"object_{i + 1}"
+        entity.add_component(body)
+        entity.add_component(render_body)
+        entity.set_pose(sapien.Pose(pose["position"], pose["quat_wxyz"]))
+        scene.add_entity(entity)
+        added.append((entity, geometry))
+    return added
+
+
+def add_distractors(
+    scene: sapien.Scene, distractors: list[dict[str, Any]]
+) -> list[tuple[sapien.Entity, ObjectGeometry]]:
+    """One static, visual-only entity per distractor (no collision shape)."""
+    added = []
+    for i, spec in enumerate(distractors):
+        geometry = build_geometry(spec["shape"])
+        render_body = sapien.render.RenderBodyComponent()
+        render_body.attach(render_shape(geometry.visual, spec["material"]))
+        entity = sapien.Entity()
+        entity.name = f"distractor_{i + 1}"
+        entity.add_component(render_body)
+        entity.set_pose(sapien.Pose(spec["pose"]["position"], spec["pose"]["quat_wxyz"]))
+        scene.add_entity(entity)
+        added.append((entity, geometry))
+    return added
+
+
+def add_background(scene: sapien.Scene, values: dict[str, Any] | None) -> list[sapien.Entity]:
+    """A room's walls (and ceiling) as drawn-only entities, and its lights; nothing for
+    ``None`` (background off)."""
+    entities: list[sapien.Entity] = []
+    if values is None:
+        return entities
+    for name, (half_size, centre) in wall_boxes(values).items():
+        entity = surface_entity(
+            scene, f"wall_{name}", [(half_size, [0, 0, 0])], values["walls"][name], collide=False
+        )
+        entity.set_pose(sapien.Pose(centre))
+        entities.append(entity)
+    for light in values["lights"]:
+        scene.add_point_light(
+            light["position"], _radiance_at(light, values["target"]), shadow=False
+        )
+    return entities
+
+
+def lit_by_room(lighting: dict[str, Any], room: dict[str, Any] | None) -> dict[str, Any]:
+    """The lighting values to apply under this room (``randomisation.background``): with a
+    ceiling, the key light's shadow casters stop ``CEILING_SHADOW_GAP`` below it, so the ceiling
+    does not shade the whole scene; unchanged without one."""
+    if not room or not room["ceiling"]:
+        return lighting
+    centre_z = lighting.get("shadow_centre", SHADOW_CENTRE)[2]
+    near = max(-(room["room"]["height"] - centre_z - CEILING_SHADOW_GAP), _shadow_near(lighting))
+    return {**lighting, "shadow_near": near}
+
+
+def apply_lighting(scene: sapien.Scene, values: dict[str, Any], shadow_map_size: int) -> None:
+    """The ambient level, the directional key light and the spot (or point) lights."""
+    scene.set_ambient_light([values["ambient"]] * 3)
+    for light in values["lights"]:
+        colour = np.asarray(light["colour"]) * light["intensity"]
+        if light["type"] == "directional":
+            # the shadow volume (metres around its centre) must cover what the cameras see
+            scale = values.get("shadow_half_extent", SHADOW_HALF_EXTENT)
+            scene.add_directional_light(
+                light["direction"],
+                colour.tolist(),
+                shadow=light["shadow"],
+                position=values.get("shadow_centre", SHADOW_CENTRE),
+                shadow_scale=scale,
+                shadow_near=_shadow_near(values),
+                shadow_far=2.0 * scale,
+                shadow_map_size=shadow_map_size,
+            )
+        elif light["type"] == "point":
+            colour = colour * POINT_LIGHT_REFERENCE_SQ
+            scene.add_point_light(light["position"], colour.tolist(), shadow=False)
+        else:
+            outer = np.deg2rad(light["outer_fov_deg"])
+            scene.add_spot_light(
+                light["position"],
+                light["direction"],
+                inner_fov=outer * 0.6,
+                outer_fov=outer,
+                color=_radiance_at(light, values["target"]),
+                shadow=light["shadow"],
+                shadow_near=0.1,
+                shadow_far=5.0,
+                shadow_map_size=shadow_map_size,
+            )
+
+
+def apply_camera(camera: sapien.render.RenderCameraComponent, values: dict[str, Any]) -> None:
+    """A camera's field of view and its pose looking from ``eye`` at ``target``."""
+    camera.set_fovy(np.deg2rad(values["fovy_deg"]), compute_x=True)
+    camera.entity.set_pose(sapien.Pose(look_at(values["eye"], values["target"])))
+
+
+def apply_robot(robot: sapien.physx.PhysxArticulation, values: dict[str, Any]) -> None:
+    """Sets the joints and holds them there with stiff PD drives (stiffness N·m/rad)."""
+    qpos = np.asarray(values["qpos"], np.float32)
+    joints = robot.get_active_joints()
+    if len(joints) != len(qpos):
+        raise ValueError(f"robot has {len(joints)} active joints, sampled qpos has {len(qpos)}")
+    robot.set_qpos(qpos)
+    for joint, target in zip(joints, qpos, strict=True):
+        joint.set_drive_property(stiffness=2000.0, damping=200.0)
+        joint.set_drive_target(float(target))
