@@ -4,7 +4,7 @@ parsed articulation builders, cached per process.
 Parsing the Panda's URDF and SRDF (XML, link trees, mesh paths) costs about 6 ms a scene; the
 parsed :class:`ArticulationBuilder` holds no physics state (every ``build`` makes new entities,
 bodies and joints), so one builder serves every scene of a worker and the samples stay a
-function of (seed, index): tests/test_reproducible_history.py checks it. A build borrows the
+function of (seed, index): tests/pipeline/test_reproducible_history.py checks it. A build borrows the
 builder (``set_scene``) for its duration: scenes of one process are built one at a time.
 """
 

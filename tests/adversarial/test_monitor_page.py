@@ -30,7 +30,7 @@ from datagen.monitor.server import MonitorServer, PageConfig
 
 pytestmark = [pytest.mark.adversarial]
 REPO = Path(__file__).resolve().parents[2]
-CHROMIUM = "/usr/bin/chromium"  # Debian's (scripts/install.sh), as tests/test_monitor.py
+CHROMIUM = "/usr/bin/chromium"  # Debian's (scripts/install.sh), as tests/monitor/test_monitor.py
 WEBSOCKET_GUID = "258EAFA5-E914-47DA-95CA-C5AB0DC85B11"  # RFC 6455, section 1.3
 
 

@@ -21,7 +21,6 @@ from datagen.config import config_from_dict
 from datagen.dataset.loader import load, verify
 from datagen.engines.transfer.broker_url import parse_broker_url
 from datagen.engines.transfer.collector import AckCollector
-from datagen.engines.transfer.envelope import Opener, Sealer
 from datagen.engines.transfer.publisher import SamplePublisher
 from datagen.engines.transfer.run_binding import RunBinding, client_id, writer_client_id
 from datagen.engines.transfer.topics import topics
@@ -141,23 +140,6 @@ def test_client_ids_are_unguessable_and_new_every_run():
         writer_client_id("b1", "B", secret),
     }
     assert writer_client_id("b1", "A", None) == "datagen-b1-writer-A"  # no secret: nothing hidden
-
-
-def test_a_message_opens_only_in_its_run():
-    t, secret = topics("b1"), bytes(range(32))
-    run_a, run_b = "a" * 32, "b" * 32
-    finalize_of_a = Sealer(secret, t, "coordinator", "coordinator", run_a).seal(
-        t.control, {"cmd": "finalize"}
-    )
-    in_b = Opener(secret, t, run_b)
-    assert in_b.open(t.control, finalize_of_a) is None and in_b.rejected == {"wrong_run": 1}
-    assert Opener(secret, t, run_a).open(t.control, finalize_of_a) == {"cmd": "finalize"}
-    waiting = Sealer(secret, t, "writer", "0").seal(t.status("0"), {"state": "waiting"})
-    assert in_b.open(t.status("0"), waiting) is None and in_b.outside_run == 1  # not counted
-    assert in_b.open_any_run(t.status("0"), waiting) is None  # the same one again: a duplicate
-    version_1 = json.loads(finalize_of_a) | {"v": 1}
-    assert in_b.open(t.control, json.dumps(version_1).encode()) is None
-    assert in_b.rejected == {"wrong_run": 1, "wrong_version": 1}
 
 
 def seeded(index: int, seed: int) -> Sample:

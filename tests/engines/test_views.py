@@ -1,6 +1,6 @@
 """Several randomised views per settled scene (``render.views``): each a complete annotated view
 of the sample, consistent with its own image; view 0 is the one-view sample's workspace camera,
-byte for byte. Exports of a multi-view dataset are checked in tests/test_sinks.py."""
+byte for byte. Exports of a multi-view dataset are checked in tests/sinks/test_sinks.py."""
 
 from __future__ import annotations
 

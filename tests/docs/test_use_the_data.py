@@ -14,7 +14,7 @@ from torch.utils.data import DataLoader
 
 import datagen
 
-REPO = Path(__file__).resolve().parents[1]
+REPO = Path(__file__).resolve().parents[2]
 README_PATH = "datasets/grasp_tabletop"  # the dataset the recipes name
 RECIPES = REPO / "docs" / "using-the-data.md"
 

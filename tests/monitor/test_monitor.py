@@ -30,7 +30,7 @@ from datagen.pipeline.live_preview import sample_outcome, thumbnail
 from datagen.pipeline.live_status import campaign_summary
 from datagen.sample import Sample
 
-REPO = Path(__file__).resolve().parents[1]
+REPO = Path(__file__).resolve().parents[2]
 DEPLOYMENT = REPO / "docs" / "deployment.md"
 CHROMIUM = "/usr/bin/chromium"  # Debian's (scripts/install.sh); Playwright downloads none
 SCREENSHOT_ENV = "DATAGEN_MONITOR_SCREENSHOT"  # a path: also save the screenshot there

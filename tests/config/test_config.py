@@ -64,7 +64,7 @@ def test_reference_documents_every_key():
     import typing
     from pathlib import Path
 
-    reference = (Path(__file__).resolve().parents[1] / "configs" / "README.md").read_text()
+    reference = (Path(__file__).resolve().parents[2] / "configs" / "README.md").read_text()
 
     def keys(cls, prefix=""):
         hints = typing.get_type_hints(cls)

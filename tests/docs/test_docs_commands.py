@@ -14,7 +14,7 @@ from pathlib import Path
 
 import pytest
 
-REPO = Path(__file__).resolve().parents[1]
+REPO = Path(__file__).resolve().parents[2]
 # Set for the command's own pytest: it must not run this test again (pytest inside pytest).
 GUARD = "DATAGEN_DOCS_COMMAND_RUNNING"
 HOOK = REPO / "docs" / "hooks" / "config_reference.py"

@@ -16,7 +16,7 @@ from datagen.engines.transfer.topics import ack_indices, topics
 from datagen.engines.transfer.wire import MAGIC, WireError, decode_sample, encode_sample
 from datagen.sample import Sample
 
-REPO = Path(__file__).resolve().parents[1]
+REPO = Path(__file__).resolve().parents[2]
 
 
 def frame(

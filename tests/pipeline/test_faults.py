@@ -34,7 +34,7 @@ from datagen.sample import Sample
 
 pytestmark = [pytest.mark.sim, pytest.mark.mqtt, pytest.mark.slow]  # real builds
 
-REPO = Path(__file__).resolve().parents[1]
+REPO = Path(__file__).resolve().parents[2]
 N = 30
 CONFIG = BuildConfig(
     num_samples=N,

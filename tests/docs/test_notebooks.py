@@ -14,7 +14,7 @@ from datagen.pipeline.run import run_build
 
 pytestmark = [pytest.mark.sim, pytest.mark.mqtt, pytest.mark.slow]  # a real build, then a kernel
 
-NOTEBOOKS = Path(__file__).resolve().parents[1] / "notebooks"
+NOTEBOOKS = Path(__file__).resolve().parents[2] / "notebooks"
 
 
 @pytest.fixture(scope="module")

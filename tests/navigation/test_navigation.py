@@ -26,7 +26,7 @@ from datagen.tools.inspection import inspect_dataset
 from datagen.tools.preview import write_preview
 from datagen.worlds.floorplan import NAV_CLASS_ID
 
-REPO = Path(__file__).resolve().parents[1]
+REPO = Path(__file__).resolve().parents[2]
 FAMILIES = ("rooms", "corridor", "maze")
 RENDER = RenderConfig(width=96, height=72, far=20.0)
 

@@ -20,7 +20,7 @@ from datagen.sinks.finalize import FinalizeError, combine, write_part
 from datagen.sinks.journal import recover
 from datagen.sinks.shard_writer import ShardWriter, remove_keys
 
-REPO = Path(__file__).resolve().parents[1]
+REPO = Path(__file__).resolve().parents[2]
 
 
 def verify(path: Path) -> subprocess.CompletedProcess:

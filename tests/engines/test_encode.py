@@ -14,7 +14,7 @@ from datagen.config import load_config
 from datagen.engines.sim.encode import View, encode_view, png_bytes
 from datagen.errors import ConfigError
 
-REPO = Path(__file__).resolve().parents[1]
+REPO = Path(__file__).resolve().parents[2]
 
 
 def _view(seed: int, height: int = 96, width: int = 128) -> View:
