@@ -20,6 +20,7 @@ TRAY_CENTRE = (0.08, 0.0, TABLE_TOP)  # centre of the tray's bottom face
 TRAY_INNER_HALF = (0.2, 0.26)  # metres
 TRAY_WALL = (0.008, 0.07)  # thickness, height (metres)
 TRAY_FLOOR = 0.01  # floor thickness, metres
+IN_TRAY_TOLERANCE = 0.01  # metres, beyond the inner rectangle or below the floor (in_tray)
 
 Box = tuple[list[float], list[float]]  # (half size, centre offset from its part's position)
 
@@ -46,6 +47,18 @@ def tray_boxes() -> list[Box]:
         ([ix + t, t / 2, h / 2], [0, iy + t / 2, h / 2]),
         ([ix + t, t / 2, h / 2], [0, -iy - t / 2, h / 2]),
     ]
+
+
+def in_tray(point: tuple[float, float, float] | list[float]) -> bool:
+    """True when ``point`` (an object's centre of mass, world metres) lies over the tray's inner
+    rectangle and above its floor's top, within ``IN_TRAY_TOLERANCE``: where a target must be
+    after settling (``datagen.worlds.tray_targets``)."""
+    x, y, z = (float(v) for v in point)
+    return (
+        abs(x - TRAY_CENTRE[0]) <= TRAY_INNER_HALF[0] + IN_TRAY_TOLERANCE
+        and abs(y - TRAY_CENTRE[1]) <= TRAY_INNER_HALF[1] + IN_TRAY_TOLERANCE
+        and z >= TRAY_CENTRE[2] + TRAY_FLOOR - IN_TRAY_TOLERANCE
+    )
 
 
 def static_parts() -> list[StaticPart]:

@@ -65,3 +65,21 @@ def sample_scene(
             name: sample_extra_view(rng(f"camera.{name}"), config.camera) for name in names
         }
     return params
+
+
+def redrawn_drop_poses(
+    config: BuildConfig,
+    seed: int,
+    index: int,
+    redraw: int,
+    count: int,
+    tray_centre: tuple[float, float, float],
+    tray_inner_half: tuple[float, float],
+    attempt: int = 0,
+) -> tuple[str, list[dict[str, Any]]]:
+    """Re-draw ``redraw`` (1, 2, ...) of the drop poses, when a target settled outside the tray:
+    (the stream's name, the poses) from stream ``drop_poses.redraw<k>``, still a function of
+    (seed, index, attempt) alone."""
+    stream = f"drop_poses.redraw{redraw}"
+    rng = sample_rng(seed, index, stream, attempt)
+    return stream, sample_drop_poses(rng, config.objects, count, tray_centre, tray_inner_half)

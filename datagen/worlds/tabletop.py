@@ -25,7 +25,7 @@ from datagen.assets.tabletop_layout import (
 )
 from datagen.config import BuildConfig
 from datagen.config.sections import SHAPE_FAMILIES
-from datagen.randomisers import sample_scene
+from datagen.randomisers import redrawn_drop_poses, sample_scene
 from datagen.robot_specs.panda import PANDA
 from datagen.worlds.realise import (
     add_background,
@@ -39,6 +39,7 @@ from datagen.worlds.realise import (
 from datagen.worlds.robots import load_robot, maniskill_asset
 from datagen.worlds.settle import settle
 from datagen.worlds.surfaces import box_entity, render_material
+from datagen.worlds.tray_targets import MAX_REDRAWS, TargetsOutsideTray, outside_tray
 
 # Semantic classes: 0 is background (nothing rendered), object classes are shape families,
 # then the distractors (objects that are not grasp targets), whatever their shape, then the
@@ -110,11 +111,34 @@ def _add_part(
 
 
 def build_scene(config: BuildConfig, seed: int, index: int, attempt: int = 0) -> GraspScene:
-    """A fresh SAPIEN scene for sample ``index`` of the build, settled and ready to render."""
+    """A fresh SAPIEN scene for sample ``index`` of the build, settled and ready to render, with
+    every target in the tray: a scene where one is not is built again from re-drawn drop poses
+    (``datagen.worlds.tray_targets``); raises TargetsOutsideTray after ``MAX_REDRAWS``."""
     tray_floor_top = (TRAY_CENTRE[0], TRAY_CENTRE[1], TRAY_CENTRE[2] + TRAY_FLOOR)
     params = sample_scene(config, seed, index, tray_floor_top, TRAY_INNER_HALF, attempt)
-    scene = construct_scene(config, params)
-    settle(
+    redraws: list[dict[str, str]] = []
+    while True:
+        scene = construct_scene(config, params)
+        settle_scene(config, scene)
+        outside = outside_tray(scene.objects)
+        if not outside:
+            return scene
+        if len(redraws) == MAX_REDRAWS:
+            raise TargetsOutsideTray(
+                f"sample {index} (seed {seed}, attempt {attempt}): after {MAX_REDRAWS} re-draws, "
+                + "; ".join(outside)
+            )
+        count = len(params["objects"])
+        stream, poses = redrawn_drop_poses(
+            config, seed, index, len(redraws) + 1, count, tray_floor_top, TRAY_INNER_HALF, attempt
+        )
+        redraws = [*redraws, {"stream": stream, "why": "; ".join(outside)}]
+        params = {**params, "drop_poses": poses, "redraws": redraws}
+
+
+def settle_scene(config: BuildConfig, scene: GraspScene) -> int:
+    """Settles ``scene``'s objects (``datagen.worlds.settle``); returns the physics steps."""
+    return settle(
         scene.scene,
         [
             o.entity.find_component_by_type(sapien.physx.PhysxRigidDynamicComponent)
@@ -125,7 +149,6 @@ def build_scene(config: BuildConfig, seed: int, index: int, attempt: int = 0) ->
         max_steps=round(config.physics.settle_time / config.physics.timestep),
         settle_velocity=config.physics.settle_velocity,
     )
-    return scene
 
 
 def construct_scene(config: BuildConfig, params: dict[str, Any]) -> GraspScene:
