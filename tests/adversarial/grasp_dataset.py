@@ -6,12 +6,15 @@ metadata or its USD description, so that the bad values reach the real drawing a
 
 from __future__ import annotations
 
+import contextlib
 import functools
+import io
 import json
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
+from datagen.cli import main
 from datagen.config import config_from_dict
 from datagen.registries import FAMILIES
 from datagen.sample import Sample
@@ -53,4 +56,23 @@ def write_grasp_dataset(out: Path, samples: list[Sample], make_dataset: Callable
         "config": config.to_dict(),
     }
     write_manifest(out, manifest | extra)
+    return out
+
+
+def cli(*argv: object) -> tuple[int, str, str]:
+    """``datagen ARGV`` in this process: (exit status, stdout, stderr)."""
+    out, err = io.StringIO(), io.StringIO()
+    with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
+        try:
+            code = main([str(a) for a in argv])
+        except SystemExit as exc:  # argparse's errors
+            code = exc.code
+    return code, out.getvalue(), err.getvalue()
+
+
+def usd_dataset(out: Path, make_dataset: Callable) -> Path:
+    """The grasp samples as a dataset with their USD descriptions (``usd/KEY.usda``)."""
+    write_grasp_dataset(out, list(grasp_samples()), make_dataset)
+    code, _, err = cli("export", out, "--to", "usd")
+    assert code == 0, err
     return out

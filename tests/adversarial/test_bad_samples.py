@@ -8,8 +8,6 @@ the real CLI (``datagen.cli.main`` in this process)."""
 
 from __future__ import annotations
 
-import contextlib
-import io
 import json
 from collections.abc import Callable
 from pathlib import Path
@@ -17,8 +15,7 @@ from typing import Any
 
 import pytest
 
-from adversarial.grasp_dataset import grasp_samples, metadata, with_json, write_grasp_dataset
-from datagen.cli import main
+from adversarial.grasp_dataset import cli, grasp_samples, metadata, with_json, write_grasp_dataset
 
 pytestmark = [pytest.mark.adversarial, pytest.mark.sim]
 
@@ -69,13 +66,6 @@ def bad_json(kind: str, meta: dict) -> str:
     if kind == "JSON 10000 deep":
         return text.replace(f'"{INF}"', "[" * 10_000 + "]" * 10_000)
     return text.replace(f'"{INF}"', "1e999")
-
-
-def cli(*argv: object) -> tuple[int, str, str]:
-    out, err = io.StringIO(), io.StringIO()
-    with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
-        code = main([str(a) for a in argv])
-    return code, out.getvalue(), err.getvalue()
 
 
 @pytest.fixture

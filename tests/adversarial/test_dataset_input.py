@@ -7,8 +7,6 @@ whole, and write nothing outside the dataset; a failed export leaves nothing beh
 
 from __future__ import annotations
 
-import contextlib
-import io
 import json
 import os
 import resource
@@ -29,7 +27,7 @@ from adversarial.forged_datasets import (
     special,
     tiny_build,
 )
-from datagen.cli import main
+from adversarial.grasp_dataset import cli
 from datagen.dataset.loader import DatasetError, load
 
 pytestmark = [pytest.mark.adversarial, pytest.mark.sim]
@@ -37,17 +35,6 @@ REPO = Path(__file__).resolve().parents[2]
 SHARD = "shard-0-000001.tar"  # holds sample 000000001
 EXPORTS = ("pointclouds", "coco", "usd", "episodes.h5", "inspect")
 EVERY_FORMAT = "pointcloud,coco,usd,hdf5"
-
-
-def cli(*argv) -> tuple[int, str, str]:
-    """``datagen ARGV`` in this process: (exit status, stdout, stderr)."""
-    out, err = io.StringIO(), io.StringIO()
-    with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
-        try:
-            code = main([str(a) for a in argv])
-        except SystemExit as exc:
-            code = exc.code
-    return code, out.getvalue(), err.getvalue()
 
 
 def real_cli(*argv, memory: int | None = None) -> tuple[int, str, str]:

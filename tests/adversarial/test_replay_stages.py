@@ -10,8 +10,6 @@ usd``; the commands are the real CLI in this process."""
 
 from __future__ import annotations
 
-import contextlib
-import io
 import itertools
 import json
 import os
@@ -24,8 +22,7 @@ from conftest import write_dataset  # tests/conftest.py: shards and a manifest, 
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from adversarial.grasp_dataset import grasp_samples, metadata, write_grasp_dataset
-from datagen.cli import main
+from adversarial.grasp_dataset import cli, grasp_samples, metadata, usd_dataset
 from datagen.dataset.loader import DatasetError
 from datagen.tools.replay import MAX_REACH, stored_description
 
@@ -33,20 +30,9 @@ pytestmark = [pytest.mark.adversarial, pytest.mark.sim]
 KEY = "000000000"
 
 
-def cli(*argv: object) -> tuple[int, str, str]:
-    out, err = io.StringIO(), io.StringIO()
-    with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
-        code = main([str(a) for a in argv])
-    return code, out.getvalue(), err.getvalue()
-
-
 @pytest.fixture(scope="module")
 def exported(tmp_path_factory) -> Path:
-    """A dataset of real grasp samples with their USD descriptions (``usd/KEY.usda``)."""
-    out = write_grasp_dataset(tmp_path_factory.mktemp("replay") / "ds", list(grasp_samples()), write_dataset)  # fmt: skip
-    code, _, err = cli("export", out, "--to", "usd")
-    assert code == 0, err
-    return out
+    return usd_dataset(tmp_path_factory.mktemp("replay") / "ds", write_dataset)
 
 
 @pytest.fixture

@@ -17,7 +17,6 @@ from __future__ import annotations
 
 import contextlib
 import hashlib
-import io
 import json
 import os
 import shutil
@@ -30,21 +29,20 @@ import pytest
 from conftest import write_dataset  # tests/conftest.py: shards and a manifest, no MQTT
 
 from adversarial.forged_datasets import snapshot
-from adversarial.grasp_dataset import grasp_samples, metadata, with_json, write_grasp_dataset
-from datagen.cli import main
+from adversarial.grasp_dataset import (
+    cli,
+    grasp_samples,
+    metadata,
+    usd_dataset,
+    with_json,
+    write_grasp_dataset,
+)
 from datagen.shards import write_manifest
 
 pytestmark = [pytest.mark.adversarial, pytest.mark.sim]
 KEY = "000000000"
 PRECIOUS = b"precious: not datagen's to write\n"
 PNG = b"\x89PNG\r\n\x1a\n"
-
-
-def cli(*argv: object) -> tuple[int, str, str]:
-    out, err = io.StringIO(), io.StringIO()
-    with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
-        code = main([str(a) for a in argv])
-    return code, out.getvalue(), err.getvalue()
 
 
 def refused(result: tuple[int, str, str], *fragments: str) -> None:
@@ -58,11 +56,7 @@ def refused(result: tuple[int, str, str], *fragments: str) -> None:
 
 @pytest.fixture(scope="module")
 def exported(tmp_path_factory) -> Path:
-    """A dataset of real grasp samples with their USD descriptions (``usd/KEY.usda``)."""
-    out = write_grasp_dataset(tmp_path_factory.mktemp("tools") / "ds", list(grasp_samples()), write_dataset)  # fmt: skip
-    code, _, err = cli("export", out, "--to", "usd")
-    assert code == 0, err
-    return out
+    return usd_dataset(tmp_path_factory.mktemp("tools") / "ds", write_dataset)
 
 
 @pytest.fixture
