@@ -93,11 +93,29 @@ ObjectWorldRecord = TypedDict(
 """One object of the scene, in the world frame."""
 
 
+RobotPartViewRecord = TypedDict(
+    "RobotPartViewRecord",
+    {
+        "instance_id": int,
+        "class": str,  # "robot" (the arm) or "gripper"
+        "class_id": int,
+        "links": list[str],
+        "visible": bool,
+        "visible_pixels": int,
+        "bbox_xyxy": BoxXYXY | None,  # None: no pixel visible
+        "visible_fraction": float,
+        "in_frame_fraction": float,
+    },
+)
+"""What one camera sees of the robot's arm or gripper (``datagen.engines.sim.robot_labels``)."""
+
+
 class ViewRecord(TypedDict, total=False):
     """One camera of a ``datagen.sample/1`` sample: its record and what it sees."""
 
     camera: Required[CameraRecord]
     objects: Required[list[ObjectViewRecord]]
+    robot_parts: list[RobotPartViewRecord]  # the arm, then the gripper (absent before issue 24)
     camera_effects: dict[str, Any]  # the drawn effects, when camera effects are on
     depth_sensor: dict[str, Any]  # the drawn sensor, when a depth sensor is on
 

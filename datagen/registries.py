@@ -1,5 +1,5 @@
 """Every name a user can choose, in one place: scene families, grasp samplers, export formats,
-executors and navigation layouts.
+executors, navigation layouts and robots.
 
 Each table maps a name to a record whose code is referenced as ``"module:attribute"`` and
 imported only when used, so that reading a config (or a dataset) never imports the simulator.
@@ -7,7 +7,8 @@ Config validation, CLI choices and the code that runs a choice all ask these tab
 else lists the names. Adding a plug-in is one module plus one line here (docs/extending.md).
 
 Installed packages may add entries through entry points in the groups ``datagen.families``,
-``datagen.samplers``, ``datagen.exports``, ``datagen.executors`` and ``datagen.layouts``: an
+``datagen.samplers``, ``datagen.exports``, ``datagen.executors``, ``datagen.layouts`` and
+``datagen.robots``: an
 entry point's object is the record itself (for example a :class:`SceneFamily`). They are
 loaded the first time a table is read. A plug-in that cannot be used (its import fails, its
 object is not a record of the table's kind, it has no name, or its name is a built-in's or an
@@ -95,6 +96,19 @@ class LayoutKind:
     name: str
     make: str
     params: str  # a dataclass of the generator's parameters
+
+
+@dataclass(frozen=True)
+class RobotKind:
+    """An arm for tabletop scenes (``robot.name``): its record, a
+    :class:`datagen.robot_specs.RobotSpec`, referenced as ``"module:attribute"``."""
+
+    name: str
+    summary: str  # one line, shown in docs/robots.md
+    spec: str
+
+    def load(self):
+        return resolve(self.spec)
 
 
 @dataclass(frozen=True)
@@ -290,4 +304,12 @@ LAYOUTS: Registry[LayoutKind] = Registry("layout family", "datagen.layouts", [
     LayoutKind("rooms", "datagen.navigation.layouts:rooms", "datagen.navigation.layouts:RoomsParams"),
     LayoutKind("corridor", "datagen.navigation.layouts:corridor", "datagen.navigation.layouts:CorridorParams"),
     LayoutKind("maze", "datagen.navigation.layouts:maze", "datagen.navigation.layouts:MazeParams"),
+])  # fmt: skip
+
+ROBOTS: Registry[RobotKind] = Registry("robot", "datagen.robots", [
+    RobotKind("panda", "Franka Emika Panda with its hand (ManiSkill's panda_v2)", "datagen.robot_specs.panda:PANDA"),
+    RobotKind("iiwa14", "KUKA LBR iiwa 14 R820 with the Franka hand", "datagen.robot_specs.iiwa14:IIWA14"),
+    RobotKind("xarm7", "UFACTORY xArm7 with the Franka hand (ManiSkill's xarm7)", "datagen.robot_specs.xarm7:XARM7"),
+    RobotKind("so100", "TheRobotStudio SO-100 low-cost arm with its jaw gripper (ManiSkill's so100)", "datagen.robot_specs.so100:SO100"),
+    RobotKind("koch", "Koch v1.1 low-cost arm with its jaw gripper (ManiSkill's koch-v1.1)", "datagen.robot_specs.koch:KOCH"),
 ])  # fmt: skip

@@ -160,11 +160,13 @@ def test_the_example_sampler_grasps_a_box_from_above():
         from example_top_down import TopDownSampler
     finally:
         sys.path.remove(str(PLUGINS))
+    from datagen.grasping.gripper_geometry import gripper_geometry
     from datagen.grasping.samplers.base import GraspTarget, Obstacles
+    from datagen.registries import ROBOTS
 
     box = trimesh.creation.box(extents=[0.04, 0.1, 0.05])
     box.apply_translation([0.1, 0.0, 0.775])
-    result = TopDownSampler().sample(np.random.default_rng(0), GraspTarget([box], np.eye(4)), Obstacles([]))  # fmt: skip
+    result = TopDownSampler(gripper_geometry(ROBOTS["panda"].load())).sample(np.random.default_rng(0), GraspTarget([box], np.eye(4)), Obstacles([]))  # fmt: skip
     candidate = result.candidate
     assert candidate is not None and candidate.width == pytest.approx(0.05)
     assert np.allclose(candidate.approach, [0, 0, -1]) and np.allclose(candidate.closing, [1, 0, 0])

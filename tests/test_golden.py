@@ -8,7 +8,14 @@ turned the appearance randomisers on by default (textures, rooms, distractors, h
 camera effects, sensor depth), so every part of the default grasp, campaign and navigation
 samples was re-recorded; ``configs/grasp_flat.yaml`` (all of them off) was added with images,
 depth and label maps byte-for-byte those of the defaults before issue 16 (only its JSON differs:
-the class list gained the new families, ``distractor`` and ``wall`` at its end). The
+the class list gained the new families, ``distractor`` and ``wall`` at its end). Issue 24 moved
+the default workspace camera behind the robot and labelled the arm and the gripper as instances
+(class ``gripper`` appended): every part of the default grasp and campaign samples was
+re-recorded; ``configs/grasp_flat.yaml`` keeps the close-up camera, so only its JSON changed
+(``gripper`` in the classes, ``robot_parts`` per view); navigation kept its bytes. The grasp
+samplers' gripper boxes now come from the hand's URDF collision shapes (four per finger instead
+of two hand-typed ones), which changes the campaign sample's chosen approach; the campaign sample
+gained ``trajectory.npz`` (the recorded attempt), with every other part unchanged by recording. The
 digests were recorded with Mesa's lavapipe (llvmpipe) on x86-64, as on CI; another renderer draws
 other pixels, so the test runs only there.
 
@@ -74,8 +81,9 @@ def record(parts: set[str]) -> int:
             ]
             changed = sorted(name for name in parts if old.get(name) != new.get(name))
             print(f"{config} {key}: re-recorded {changed or 'nothing'}")
+            names = [n for n in sorted(set(old) | set(new)) if n in (new if n in parts else old)]
             recorded.setdefault(config, {})[key] = {
-                name: (new if name in parts else old)[name] for name in old
+                name: (new if name in parts else old)[name] for name in names
             }
     if unexpected:
         print("not recorded: parts not named changed too:\n  " + "\n  ".join(unexpected))

@@ -1,5 +1,7 @@
 """The tabletop world's static geometry, described once (metres; world frame z up): the floor,
 the table (top and legs), the robot's base on its edge at negative x and the tray in front of it.
+The constants are the Panda's workspace; a smaller arm gets them scaled about the world origin
+(:class:`Workspace`, from ``RobotSpec.workspace_scale``; the floor is not scaled).
 Pure numbers, realised by the simulator scene (``datagen.worlds.tabletop``) and the USD export
 (``datagen.exports.usd_stage``) from :func:`static_parts`, and shared with grasp planning."""
 
@@ -37,11 +39,58 @@ class StaticPart:
     boxes: tuple[Box, ...]
 
 
-def tray_boxes() -> list[Box]:
-    """The tray as (half size, centre offset from TRAY_CENTRE) boxes: floor and four walls."""
-    (ix, iy), (t, h) = TRAY_INNER_HALF, TRAY_WALL
+@dataclass(frozen=True)
+class Workspace:
+    """The table, the tray and the robot's base, scaled by ``scale`` (1: the constants above)."""
+
+    scale: float = 1.0
+
+    def _scaled(self, values):
+        return tuple(v * self.scale for v in values)
+
+    @property
+    def table_top(self) -> float:
+        return TABLE_TOP * self.scale
+
+    @property
+    def table_half(self) -> tuple[float, float]:
+        return self._scaled(TABLE_HALF)
+
+    @property
+    def robot_base(self) -> tuple[float, float, float]:
+        return self._scaled(ROBOT_BASE)
+
+    @property
+    def tray_centre(self) -> tuple[float, float, float]:
+        return self._scaled(TRAY_CENTRE)
+
+    @property
+    def tray_inner_half(self) -> tuple[float, float]:
+        return self._scaled(TRAY_INNER_HALF)
+
+    @property
+    def tray_wall(self) -> tuple[float, float]:
+        return self._scaled(TRAY_WALL)
+
+    @property
+    def tray_floor(self) -> float:
+        return TRAY_FLOOR * self.scale
+
+    @property
+    def tray_floor_top(self) -> tuple[float, float, float]:
+        """The middle of the tray floor's top face, where objects are dropped above."""
+        x, y, z = self.tray_centre
+        return (x, y, z + self.tray_floor)
+
+
+DEFAULT_WORKSPACE = Workspace()
+
+
+def tray_boxes(ws: Workspace = DEFAULT_WORKSPACE) -> list[Box]:
+    """The tray as (half size, centre offset from the tray centre) boxes: floor and four walls."""
+    (ix, iy), (t, h), floor = ws.tray_inner_half, ws.tray_wall, ws.tray_floor
     return [
-        ([ix + t, iy + t, TRAY_FLOOR / 2], [0, 0, TRAY_FLOOR / 2]),
+        ([ix + t, iy + t, floor / 2], [0, 0, floor / 2]),
         ([t / 2, iy + t, h / 2], [ix + t / 2, 0, h / 2]),
         ([t / 2, iy + t, h / 2], [-ix - t / 2, 0, h / 2]),
         ([ix + t, t / 2, h / 2], [0, iy + t / 2, h / 2]),
@@ -49,36 +98,35 @@ def tray_boxes() -> list[Box]:
     ]
 
 
-def in_tray(point: tuple[float, float, float] | list[float]) -> bool:
+def in_tray(
+    point: tuple[float, float, float] | list[float], ws: Workspace = DEFAULT_WORKSPACE
+) -> bool:
     """True when ``point`` (an object's centre of mass, world metres) lies over the tray's inner
     rectangle and above its floor's top, within ``IN_TRAY_TOLERANCE``: where a target must be
     after settling (``datagen.worlds.tray_targets``)."""
     x, y, z = (float(v) for v in point)
+    (cx, cy, cz), (ix, iy) = ws.tray_centre, ws.tray_inner_half
     return (
-        abs(x - TRAY_CENTRE[0]) <= TRAY_INNER_HALF[0] + IN_TRAY_TOLERANCE
-        and abs(y - TRAY_CENTRE[1]) <= TRAY_INNER_HALF[1] + IN_TRAY_TOLERANCE
-        and z >= TRAY_CENTRE[2] + TRAY_FLOOR - IN_TRAY_TOLERANCE
+        abs(x - cx) <= ix + IN_TRAY_TOLERANCE
+        and abs(y - cy) <= iy + IN_TRAY_TOLERANCE
+        and z >= cz + ws.tray_floor - IN_TRAY_TOLERANCE
     )
 
 
-def static_parts() -> list[StaticPart]:
+def static_parts(ws: Workspace = DEFAULT_WORKSPACE) -> list[StaticPart]:
     """The floor, the table's top and four legs, and the tray, in the order they are built."""
     floor_half = [FLOOR_HALF, FLOOR_HALF, FLOOR_THICKNESS / 2]
     parts = [
         StaticPart("floor", "", (0.0, 0.0, 0.0), ((floor_half, [0, 0, -FLOOR_THICKNESS / 2]),))
     ]
-    top = (0.0, 0.0, TABLE_TOP - TABLE_THICKNESS / 2)
-    parts.append(
-        StaticPart("table", "top", top, (([*TABLE_HALF, TABLE_THICKNESS / 2], [0, 0, 0]),))
-    )
-    leg = (TABLE_TOP - TABLE_THICKNESS) / 2  # half its height, so also its centre's height
-    leg_box = ([TABLE_LEG_HALF, TABLE_LEG_HALF, leg], [0, 0, 0])
+    top_z, (hx, hy), thickness = ws.table_top, ws.table_half, TABLE_THICKNESS * ws.scale
+    top = (0.0, 0.0, top_z - thickness / 2)
+    parts.append(StaticPart("table", "top", top, (([hx, hy, thickness / 2], [0, 0, 0]),)))
+    leg = (top_z - thickness) / 2  # half its height, so also its centre's height
+    leg_half, inset = TABLE_LEG_HALF * ws.scale, TABLE_LEG_INSET * ws.scale
+    leg_box = ([leg_half, leg_half, leg], [0, 0, 0])
     for k, (sx, sy) in enumerate(itertools.product((-1, 1), (-1, 1))):
-        position = (
-            sx * (TABLE_HALF[0] - TABLE_LEG_INSET),
-            sy * (TABLE_HALF[1] - TABLE_LEG_INSET),
-            leg,
-        )
+        position = (sx * (hx - inset), sy * (hy - inset), leg)
         parts.append(StaticPart("table", f"leg_{k}", position, (leg_box,)))
-    parts.append(StaticPart("tray", "", TRAY_CENTRE, tuple(tray_boxes())))
+    parts.append(StaticPart("tray", "", ws.tray_centre, tuple(tray_boxes(ws))))
     return parts

@@ -24,6 +24,7 @@ from datagen.config.appearance import (
     DistractorsConfig,
 )
 from datagen.config.pictures import check_pictures, resolve_picture_folders
+from datagen.config.robot import RobotConfig, robot_spec
 from datagen.config.sections import (
     SAMPLE_ERROR_POLICIES,
     SHAPE_FAMILIES,
@@ -38,7 +39,6 @@ from datagen.config.sections import (
     OutputConfig,
     PhysicsConfig,
     RenderConfig,
-    RobotConfig,
     TransferConfig,
     _range,
 )
@@ -125,6 +125,15 @@ def config_from_dict(data: Any, source: str = "<config>") -> BuildConfig:
             config.objects, assets_dir=_resolved(config.objects.assets_dir, source)
         )
         config = dataclasses.replace(config, objects=objects)
+    urdf = config.robot.urdf
+    if urdf.file and not Path(urdf.file).is_absolute():
+        files = {
+            k: _resolved(v, source, f"robot.urdf.{k}")
+            for k in ("file", "srdf")
+            if (v := getattr(urdf, k))
+        }
+        robot = dataclasses.replace(config.robot, urdf=dataclasses.replace(urdf, **files))
+        config = dataclasses.replace(config, robot=robot)
     config = resolve_picture_folders(config, source)
     _check_ranges(config, source, prefix="")
     _check_semantics(config, source)
@@ -132,13 +141,14 @@ def config_from_dict(data: Any, source: str = "<config>") -> BuildConfig:
     return config
 
 
-def _resolved(assets_dir: str, source: str) -> str:
-    """``objects.assets_dir`` relative to the config file (else to the working directory)."""
+def _resolved(assets_dir: str, source: str, key: str = "objects.assets_dir") -> str:
+    """A path of the config (``objects.assets_dir``, ``robot.urdf.file``) relative to the config
+    file (else to the working directory)."""
     try:
         base = Path(source).parent if Path(source).is_file() else Path.cwd()
         return str((base / assets_dir).resolve())
     except (OSError, RuntimeError, ValueError) as exc:  # too long, a symlink loop, ...
-        raise ConfigError(f"{source}: objects.assets_dir: not a usable path ({exc})") from None
+        raise ConfigError(f"{source}: {key}: not a usable path ({exc})") from None
 
 
 def _check_keys_and_types(cls: type, data: dict[str, Any], source: str, prefix: str) -> None:
@@ -209,6 +219,8 @@ def _check_semantics(config: BuildConfig, source: str) -> None:
             f"got {list(config.objects.families)}"
         )
     SAMPLERS.check(config.campaign.sampler, f"{source}: campaign.sampler")
+    if family.world == "tabletop":
+        robot_spec(config.robot, source)
     LAYOUTS.check(config.navigation.family, f"{source}: navigation.family")
     _check_sinks(list(config.output.sinks), family, source)
     if config.build.on_sample_error not in SAMPLE_ERROR_POLICIES:
@@ -219,11 +231,27 @@ def _check_semantics(config: BuildConfig, source: str) -> None:
     if config.render.near >= config.render.far:
         raise ConfigError(f"{source}: render.near: must be smaller than render.far")
     _check_camera(config.camera, source)
+    _check_recording(config, source)
     if config.render.views > 1 and family.world != "tabletop":
         raise ConfigError(
             f"{source}: render.views: expected 1 for scene {config.scene!r} (several views per "
             f"scene are rendered by the tabletop scenes: grasp_tabletop, grasp_attempts), "
             f"got {config.render.views}"
+        )
+
+
+def _check_recording(config: BuildConfig, source: str) -> None:
+    rate = 1.0 / config.physics.timestep  # physics steps per simulated second
+    for key in ("record_hz", "frame_hz"):
+        if getattr(config.campaign, key) > rate + 1e-9:
+            raise ConfigError(
+                f"{source}: campaign.{key}: expected at most the physics rate {rate:g} Hz "
+                f"(1 / physics.timestep), got {getattr(config.campaign, key)}"
+            )
+    if config.campaign.frame_hz > 0 and config.campaign.record_hz <= 0:
+        raise ConfigError(
+            f"{source}: campaign.frame_hz: frames need campaign.record_hz > 0 (their times are "
+            f"kept in trajectory.npz), got record_hz {config.campaign.record_hz}"
         )
 
 

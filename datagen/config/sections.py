@@ -103,26 +103,19 @@ class LightingConfig:
 @dataclass(frozen=True)
 class CameraConfig:
     eye: tuple[float, float, float] = field(
-        default=(-0.22, 0.28, 1.22), metadata=_range(-100.0, 100.0, "world metres, per axis")
+        default=(-0.85, 0.9, 1.8), metadata=_range(-100.0, 100.0, "world metres, per axis")
     )
     target: tuple[float, float, float] = field(
-        default=(0.08, 0.0, 0.76), metadata=_range(-100.0, 100.0, "world metres, per axis")
+        default=(-0.25, 0.0, 0.85), metadata=_range(-100.0, 100.0, "world metres, per axis")
     )
     eye_jitter: float = field(default=0.05, metadata=_range(0.0, 1.0, "metres, per axis"))
     target_jitter: float = field(default=0.03, metadata=_range(0.0, 1.0, "metres, per axis"))
     fovy_deg: tuple[float, float] = field(
-        default=(42.0, 52.0), metadata=_range(5.0, 150.0, "vertical field of view, degrees")
+        default=(48.0, 56.0), metadata=_range(5.0, 150.0, "vertical field of view, degrees")
     )
     orbit_deg: float = field(
         default=30.0,
         metadata=_range(0.0, 180.0, "extra views turn about the target's vertical, +- degrees"),
-    )
-
-
-@dataclass(frozen=True)
-class RobotConfig:
-    joint_jitter: float = field(
-        default=0.15, metadata=_range(0.0, 1.0, "radians around the ready pose, per arm joint")
     )
 
 
@@ -192,6 +185,14 @@ class CampaignConfig:
     lift_height: float = field(default=0.1, metadata=_range(0.01, 0.5, "metres"))
     hold_time: float = field(default=1.0, metadata=_range(0.0, 10.0, "simulated seconds"))
     post_grasp_frame: bool = True
+    record_hz: float = field(
+        default=20.0,
+        metadata=_range(0.0, 1000.0, "Hz: state rows of trajectory.npz (0: not recorded)"),
+    )
+    frame_hz: float = field(
+        default=0.0,
+        metadata=_range(0.0, 1000.0, "Hz: colour frames while executing (0: none)"),
+    )
 
 
 @dataclass(frozen=True)

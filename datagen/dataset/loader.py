@@ -24,6 +24,7 @@ import numpy as np
 
 from datagen.dataset.integrity import verify_dataset
 from datagen.dataset.manifest import DatasetError, read_manifest
+from datagen.dataset.trajectory import decode_trajectory
 from datagen.records import SampleMetadata
 from datagen.safe_json import JsonInputError, loads_bounded
 from datagen.shards import member_key, open_regular, read_members
@@ -44,6 +45,8 @@ _KINDS = "rgb|rgb_clean|depth|depth_sensor|seg|semantic"
 _FRAME_PART = re.compile(rf"^f(\d{{4}})\.({_KINDS})\.png$")
 # another camera of a sample: wrist.rgb.png, view1.depth.png, post.seg.png, ...
 _CAMERA_PART = re.compile(rf"^([A-Za-z][\w-]*)\.({_KINDS})\.png$")
+# a grasp attempt's film: frame3.rgb.png (workspace camera), frame3.wrist.rgb.png
+_FILM_PART = re.compile(r"^frame(\d+)\.(?:(wrist)\.)?rgb\.png$")
 
 
 def decode_parts(parts: dict[str, bytes]) -> dict[str, Any]:
@@ -56,17 +59,25 @@ def decode_parts(parts: dict[str, bytes]) -> dict[str, Any]:
     (``item["views"]["view1"]["rgb"]``, ``["wrist"]``, ...; the main camera's stay at the top).
     Navigation episodes also get ``frames`` (a list in time order of dicts with rgb, depth, seg,
     semantic and ``meta``, the frame's record), ``map`` (RGB picture) and ``occupancy`` (bool
-    grid, True = occupied). The PNGs of one call are decoded on a small thread pool (OpenCV
-    releases the GIL)."""
+    grid, True = occupied). A recorded grasp attempt gets ``trajectory``: the arrays of its
+    ``trajectory.npz`` and its ``names`` (``datagen.dataset.trajectory``), with ``frames`` (a list
+    in time order of dicts with ``time``, ``rgb`` and, if filmed, ``wrist_rgb``) when it was
+    filmed. The PNGs of one call are decoded on a small thread pool (OpenCV releases the GIL)."""
     item: dict[str, Any] = {}
     frames: dict[int, dict[str, Any]] = {}
     cameras: dict[str, dict[str, Any]] = {}
+    film: dict[int, dict[str, Any]] = {}
     jobs: list[tuple[dict[str, Any], str, str, bytes]] = []  # (into, field, image kind, data)
     for name, data in parts.items():
         if name == "json":
             item["meta"] = metadata_of(data, "part 'json'")
         elif name in _IMAGES:
             jobs.append((item, _IMAGES[name], name, data))
+        elif name == "trajectory.npz":
+            item["trajectory"] = decode_trajectory(data)
+        elif match := _FILM_PART.match(name):
+            field = "wrist_rgb" if match[2] else "rgb"
+            jobs.append((film.setdefault(int(match[1]), {}), field, "rgb.png", data))
         elif match := _FRAME_PART.match(name):
             kind = f"{match[2]}.png"
             jobs.append((frames.setdefault(int(match[1]), {}), _IMAGES[kind], kind, data))
@@ -89,6 +100,8 @@ def decode_parts(parts: dict[str, bytes]) -> dict[str, Any]:
         into[field] = image > 0 if field == "occupancy" else image
     if cameras:
         item["views"] = cameras
+    if film:
+        _attach_film(item, film)
     if frames:
         records = item.get("meta", {}).get("frames", [])
         records = records if isinstance(records, list) else []
@@ -96,6 +109,21 @@ def decode_parts(parts: dict[str, bytes]) -> dict[str, Any]:
             frames[k] | ({"meta": records[k]} if k < len(records) else {}) for k in sorted(frames)
         ]
     return item
+
+
+def _attach_film(item: dict[str, Any], film: dict[int, dict[str, Any]]) -> None:
+    trajectory = item.get("trajectory")
+    if not trajectory:
+        raise DatasetError(
+            "frame<k>.rgb.png parts do not match any frame times: no part 'trajectory.npz'"
+        )
+    times = trajectory["frame_time"]
+    if sorted(film) != list(range(len(times))):
+        raise DatasetError(
+            f"frame<k>.rgb.png parts {sorted(film)[:5]}... do not match the {len(times)} frame "
+            "times of part 'trajectory.npz'"
+        )
+    trajectory["frames"] = [film[k] | {"time": float(times[k])} for k in sorted(film)]
 
 
 def metadata_of(data: bytes, what: str) -> SampleMetadata:

@@ -18,8 +18,9 @@ from dataclasses import dataclass
 from datagen.dataset.loader import DatasetError
 from datagen.records import CameraRecord, FrameRecord, LabelledInstance, SampleMetadata, ViewRecord
 
-# Classes that are surfaces, not countable instances: left out of instance annotations.
-STUFF = frozenset({"background", "floor", "wall", "table", "tray", "robot"})
+# Classes that are surfaces, not countable instances: left out of instance annotations. The
+# robot's arm and gripper are instances (a sample view's ``robot_parts``).
+STUFF = frozenset({"background", "floor", "wall", "table", "tray"})
 
 
 @dataclass
@@ -43,7 +44,7 @@ def camera_views(meta: SampleMetadata) -> Iterator[LabelledView]:
                 "bbox_xyxy": o["bbox_xyxy"],  # type: ignore[typeddict-item]  # visible: a box
                 "visible_fraction": o["visible_fraction"],
             }
-            for o in view["objects"]
+            for o in [*view["objects"], *view.get("robot_parts", [])]
             if o["visible"]
         ]
         prefix = "" if name == "workspace" else f"{name}."

@@ -5,7 +5,8 @@ workspace camera, the extra views ``view1``, ... of ``render.views`` and the wri
 frame of a sequence, e.g. a navigation episode); ``datagen_view`` names it ("" = workspace).
 Annotations carry the visible mask as RLE, its box and area, plus datagen's ``instance_id`` and
 ``visible_fraction`` where known. Category ids are the dataset's class ids, so they equal the
-values in ``semantic.png``.
+values in ``semantic.png``; a grasp scene's robot arm and gripper are annotations too
+(categories ``robot`` and ``gripper``), after its objects.
 """
 
 from __future__ import annotations

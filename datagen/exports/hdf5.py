@@ -18,6 +18,7 @@ and the outcome attributes; an ``attempt`` adds ``grasp/`` and its outcome.
 from __future__ import annotations
 
 import json
+import re
 from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
@@ -26,6 +27,7 @@ import h5py
 import numpy as np
 
 from datagen.dataset.loader import decode_parts
+from datagen.dataset.trajectory import decode_trajectory
 from datagen.dataset.views import LabelledView, is_sequence, labelled_views
 from datagen.exports.files import FailureRecordingFile
 from datagen.outcomes import grasp_outcome, sample_outcome
@@ -47,6 +49,9 @@ _FRAME_FIELDS = {  # per-frame record field -> dtype, stacked when every frame h
     "step": np.int64, "extrinsics_world_to_camera": np.float64,
 }  # fmt: skip
 _EPISODE_PICTURES = ("map.png", "occupancy.png")  # whole-episode pictures beside its frames
+_FILM = re.compile(
+    r"^frame\d+$"
+)  # a recorded attempt's frames: frame3.rgb.png, frame3.wrist.rgb.png
 
 
 def _images(group: h5py.Group, arrays: dict[str, np.ndarray], stacked: bool) -> None:
@@ -77,7 +82,7 @@ def _cameras(group: h5py.Group, raw: dict[str, bytes]) -> None:
     _images(group, _view_images(raw, ""), stacked=False)
     for name, value in raw.items():
         prefix, _, part = name.partition(".")
-        if part in _IMAGE_PARTS:
+        if part in _IMAGE_PARTS and not _FILM.match(prefix):  # the film: _trajectory
             _images(group.require_group(prefix), decode_parts({part: value}), stacked=False)
 
 
@@ -95,6 +100,22 @@ def _episode(group: h5py.Group, episode: dict[str, Any], raw: dict[str, bytes]) 
         group.create_dataset("occupancy", data=pictures["occupancy"], compression="gzip")
     for name in ("path_length_m", "shortest_path_m", "spl"):
         group.attrs[name] = episode[name]
+
+
+def _trajectory(group: h5py.Group, raw: dict[str, bytes]) -> None:
+    """A recorded attempt (``trajectory.npz``): its arrays under ``trajectory/``, the column and
+    phase names as JSON attribute ``names``, and the film stacked as ``frames/rgb`` (and
+    ``frames/wrist_rgb``), one image per ``frame_time``."""
+    arrays = decode_trajectory(raw["trajectory.npz"])
+    traj = group.create_group("trajectory")
+    traj.attrs["names"] = json.dumps(arrays.pop("names"), separators=(",", ":"))
+    for name, values in arrays.items():
+        traj.create_dataset(name, data=values, compression="gzip", compression_opts=1)
+    for field, infix in (("rgb", ""), ("wrist_rgb", "wrist.")):
+        names = [f"frame{k}.{infix}rgb.png" for k in range(len(arrays["frame_time"]))]
+        if names and all(name in raw for name in names):
+            stack = np.stack([decode_parts({"rgb.png": raw[name]})["rgb"] for name in names])
+            traj.create_dataset(f"frames/{field}", data=stack, chunks=(1, *stack.shape[1:]), compression="gzip", compression_opts=1)  # fmt: skip
 
 
 def _attempt(group: h5py.Group, attempt: dict[str, Any]) -> None:
@@ -143,6 +164,8 @@ def _write(target, dataset: ExportedDataset, manifest: Manifest, on_progress) ->
                 _episode(group, meta["episode"], raw)
             if meta.get("attempt"):
                 _attempt(group, meta["attempt"])
+            if "trajectory.npz" in raw:
+                _trajectory(group, raw)
             keys.append(key)
             if (outcome := sample_outcome(meta)) is not None:
                 group.attrs["success"] = outcome["success"]

@@ -10,7 +10,9 @@ box), ``Objects/object_<k>`` (an Xform at the object's world pose, one Mesh per 
 class and physical values in customData), ``Background/`` (backdrop walls, ceiling and room lights, when the sample has a
 room), ``Distractors/distractor_<k>`` (when it has distractors: its visual Mesh at its static
 pose), ``Robot`` (an Xform at
-the base pose; its description file and joint positions in customData), ``Lights/`` (a DomeLight
+the base pose, the articulation: a link Xform per URDF link at the sample's joint positions with
+its decimated visual meshes, UsdPhysics joints; description file and joint positions in
+customData: :mod:`datagen.exports.usd_robot`), ``Lights/`` (a DomeLight
 for the ambient level, a DistantLight for the key light, SphereLights shaped as spots) and
 ``Cameras/<name>`` (one Camera per view: workspace, view1, ... of ``render.views``, wrist; its
 transform and apertures reproduce the stored K and extrinsics, the exact matrices are also in
@@ -25,12 +27,12 @@ from typing import Any
 
 import numpy as np
 import trimesh
-from pxr import Gf, Usd, UsdGeom, UsdLux, UsdValidation, Vt
+from pxr import Gf, Usd, UsdGeom, UsdLux, UsdValidation
 
 from datagen.assets.backdrop import wall_boxes
 from datagen.assets.shapes import build_geometry
-from datagen.assets.tabletop_layout import static_parts
-from datagen.exports import usd_looks
+from datagen.assets.tabletop_layout import DEFAULT_WORKSPACE, Workspace, static_parts
+from datagen.exports import usd_looks, usd_robot
 
 APERTURE_PER_PIXEL = 0.01  # USD camera aperture units per image pixel (only ratios matter)
 _CV_TO_USD_CAMERA = np.diag(
@@ -104,11 +106,17 @@ def _centred(centre) -> np.ndarray:
     return trimesh.transformations.translation_matrix(-np.asarray(centre, float))
 
 
-def _static_parts(stage, key: str, materials: dict[str, Any], out_dir: Path | None) -> None:
+def _static_parts(
+    stage,
+    key: str,
+    materials: dict[str, Any],
+    out_dir: Path | None,
+    ws: Workspace = DEFAULT_WORKSPACE,
+) -> None:
     """The floor, table and tray as the simulator builds them: ``/World/<Surface>[/<part>]``,
     an Xform at the part's position with one box Mesh per box, the surface's look on each."""
     looks = {}
-    for part in static_parts():
+    for part in static_parts(ws):
         if part.surface not in looks:
             looks[part.surface] = usd_looks.material(stage, key, part.surface, materials[part.surface], out_dir)  # fmt: skip
         path = f"/World/{part.surface.capitalize()}"
@@ -152,7 +160,8 @@ def scene_stage(meta: dict[str, Any], out_dir: str | Path | None = None) -> Usd.
     world.GetPrim().SetCustomDataByKey("datagen:scene", meta["scene"])
     world.GetPrim().SetCustomDataByKey("datagen:randomisation", json.dumps(meta["randomisation"], sort_keys=True))  # fmt: skip
     materials = meta["randomisation"]["materials"]
-    _static_parts(stage, key, materials, out_dir)
+    ws = Workspace(float(meta["robot"].get("workspace_scale", 1.0)))
+    _static_parts(stage, key, materials, out_dir, ws)
     _xform(stage, "/World/Objects")
     for obj, material in zip(meta["objects"], materials["objects"], strict=True):
         path = f"/World/Objects/object_{obj['instance_id']}"
@@ -167,9 +176,7 @@ def scene_stage(meta: dict[str, Any], out_dir: str | Path | None = None) -> Usd.
     if "background" in meta["randomisation"]:
         _background(stage, key, meta["randomisation"]["background"], out_dir)
     _distractors(stage, key, meta["randomisation"].get("distractors", []), out_dir)
-    robot = _xform(stage, "/World/Robot", np.asarray(meta["robot"]["base_pose"]["matrix"]))
-    robot.GetPrim().SetCustomDataByKey("datagen:description", meta["robot"]["description"])
-    robot.GetPrim().SetCustomDataByKey("datagen:qpos", Vt.DoubleArray(meta["robot"]["qpos"]))
+    usd_robot.define_robot(stage, "/World/Robot", meta["robot"], key)
     _xform(stage, "/World/Lights")
     _lights(stage, meta["randomisation"]["lighting"])
     _xform(stage, "/World/Cameras")

@@ -1,6 +1,6 @@
 """Grasp attempts: candidate grasps (samplers), their physical execution, and outcome labels.
 
-Grasp pose convention (ManiSkill's ``build_grasp_pose`` for ``panda_hand_tcp``): a 4x4
+Grasp pose convention (ManiSkill's ``build_grasp_pose`` for the gripper's TCP link): a 4x4
 world transform of the tool centre point, the point midway between the finger pads; its z axis
 is the approach direction (pointing from the hand into the object), its y axis the closing
 direction (the fingers move along +-y), x = y cross z. Distances in metres.
@@ -13,9 +13,6 @@ from typing import Any
 
 import numpy as np
 
-from datagen.robot_specs.panda import PANDA
-
-PANDA_MAX_WIDTH = PANDA.gripper.max_width  # metres between the finger pads, fully open
 FAILURE_MODES = ("missed", "slipped", "collision", "unreachable", "no_candidate")
 
 

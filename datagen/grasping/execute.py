@@ -16,12 +16,11 @@ from typing import Any
 import numpy as np
 import sapien
 
-from datagen.grasping import PANDA_MAX_WIDTH, GraspCandidate, GraspOutcome
+from datagen.grasping import GraspCandidate, GraspOutcome
+from datagen.grasping.gripper_geometry import gripper_geometry
 from datagen.grasping.planner import make_planner, plan_straight, plan_transit, remove_obstacles
-from datagen.robot_specs.panda import PANDA
+from datagen.grasping.recording import Recorder, StepState
 from datagen.worlds.tabletop import GraspScene
-
-N_ARM = PANDA.arm_joints
 
 
 @dataclass(frozen=True)
@@ -30,49 +29,96 @@ class ExecutionParams:
     lift_height: float = 0.1  # metres, world z
     hold_time: float = 1.0  # simulated seconds after the lift
     open_margin: float = 0.01  # metres added to the candidate width (when not open_fully)
-    open_fully: bool = True  # open to PANDA_MAX_WIDTH instead of width + margin
+    open_fully: bool = True  # open to the gripper's max width instead of width + margin
     arm_drive: tuple[float, float, float] = (1e3, 1e2, 100.0)  # stiffness, damping, force limit
     gripper_drive: tuple[float, float, float] = (1e3, 1e2, 100.0)  # N/m, N·s/m, N
     max_close_time: float = 1.0  # simulated seconds for opening or closing the fingers
     settle_time: float = 0.1  # simulated seconds after each motion
     collision_impulse: float = 0.005  # N·s per step; robot vs non-target contacts above it count
     lift_success_ratio: float = 0.5  # success needs rise >= ratio * lift_height
-    closed_width: float = 0.002  # metres: fingers this close count as closed on nothing
+    closed_width: float = 0.002  # metres beyond fully closed: closer counts as closed on nothing
 
 
 class _Runner:
     """Steps the scene with joint targets and keeps the bookkeeping for the label."""
 
-    def __init__(self, scene: GraspScene, target_id: int, params: ExecutionParams):
+    def __init__(
+        self,
+        scene: GraspScene,
+        target_id: int,
+        params: ExecutionParams,
+        recorder: Recorder | None = None,
+    ):
         self.scene, self.robot, self.params = scene.scene, scene.robot, params
+        self.recorder, self.impulse = recorder, 0.0  # impulse: the last step's
         self.dt = self.scene.get_timestep()
-        self.joints = self.robot.get_active_joints()
+        spec = scene.spec
+        joints = {joint.get_name(): joint for joint in self.robot.get_active_joints()}
+        order = [joint.get_name() for joint in self.robot.get_active_joints()]
+        self.arm = [joints[name] for name in spec.arm_joints]
+        self.fingers = [joints[name] for name in spec.gripper.finger_joints]
+        self.arm_index = [order.index(name) for name in spec.arm_joints]  # into get_qpos()
+        self.finger_index = [order.index(name) for name in spec.gripper.finger_joints]
+        self.joint_index = [order.index(name) for name in spec.joint_names]
         links = {link.get_name(): link for link in self.robot.get_links()}
-        self.tcp = links[PANDA.gripper.tcp_link]
+        self.tcp = links[spec.gripper.tcp_link]
         self.robot_ids = {link.entity.per_scene_id for link in links.values()}
-        self.finger_ids = [links[name].entity.per_scene_id for name in PANDA.gripper.finger_links]
+        self.finger_ids = [links[name].entity.per_scene_id for name in spec.gripper.finger_links]
+        self.geometry, self.jaw = gripper_geometry(spec), spec.gripper.jaw
+        self.closed = float(self.geometry.widths[0])  # metres between the pads, fully closed
         self.target = next(o.entity for o in scene.objects if o.instance_id == target_id)
         self.steps = 0
-        for i, joint in enumerate(self.joints):
-            k, d, f = params.arm_drive if i < N_ARM else params.gripper_drive
-            joint.set_drive_property(stiffness=k, damping=d, force_limit=f)
-        self.arm_target = self.robot.get_qpos()[:N_ARM].astype(float)
-        self.finger_target = float(self.robot.get_qpos()[N_ARM])
+        for joint in self.arm:
+            joint.set_drive_property(*params.arm_drive)
+        for joint in self.fingers:
+            joint.set_drive_property(*params.gripper_drive)
+        self.arm_target = self.robot.get_qpos()[self.arm_index].astype(float)
+        self.finger_target = float(self.robot.get_qpos()[self.finger_index[0]])
 
     def step(self, arm: np.ndarray, arm_vel: np.ndarray | None = None) -> float:
         """One physics step; returns the largest robot vs non-target contact impulse."""
-        for i in range(N_ARM):
-            self.joints[i].set_drive_target(float(arm[i]))
-            self.joints[i].set_drive_velocity_target(0.0 if arm_vel is None else float(arm_vel[i]))
-        for joint in self.joints[N_ARM:]:
+        for i, joint in enumerate(self.arm):
+            joint.set_drive_target(float(arm[i]))
+            joint.set_drive_velocity_target(0.0 if arm_vel is None else float(arm_vel[i]))
+        for joint in self.fingers:
             joint.set_drive_target(self.finger_target)
+        if self.recorder is not None:
+            self._record(arm, arm_vel)
         self.robot.set_qf(
             self.robot.compute_passive_force(gravity=True, coriolis_and_centrifugal=True)
         )
         self.scene.step()
         self.steps += 1
         self.arm_target = np.asarray(arm, float)
-        return self.collision_impulse()
+        self.impulse = self.collision_impulse()
+        return self.impulse
+
+    def _record(self, arm: np.ndarray, arm_vel: np.ndarray | None) -> None:
+        velocity = np.zeros(len(self.arm)) if arm_vel is None else np.asarray(arm_vel, float)
+        command = np.concatenate([np.asarray(arm, float), velocity, [self.finger_target]])
+        if self.recorder.command(self.steps, command):
+            self.recorder.state(self.steps, self.observe())
+
+    def observe(self) -> StepState:
+        """The state the recorder keeps (reads only: recording leaves the physics alone)."""
+        left, right = self.finger_contacts()
+        tcp, target = self.tcp.entity_pose, self.target.get_pose()
+        return StepState(
+            qpos=self.robot.get_qpos()[self.joint_index],
+            qvel=self.robot.get_qvel()[self.joint_index],
+            gripper_opening=self.width(),
+            tcp_pose=np.concatenate([tcp.p, tcp.q]),
+            target_pose=np.concatenate([target.p, target.q]),
+            contact=(float(left), float(right), self.impulse),
+        )
+
+    def begin_phase(self, name: str) -> None:
+        if self.recorder is not None:
+            self.recorder.begin_phase(name, self.steps)
+
+    def finish(self) -> None:
+        if self.recorder is not None:
+            self.recorder.finish(self.steps, self.observe())
 
     def hold(self, seconds: float) -> float:
         return max(
@@ -89,13 +135,15 @@ class _Runner:
         )
         return max(worst, self.hold(self.params.settle_time))
 
-    def move_fingers(self, target: float) -> None:
-        """Drives both fingers to ``target`` (metres each) until they stop."""
-        self.finger_target = target
+    def move_fingers(self, width: float) -> None:
+        """Drives the fingers to open ``width`` metres apart until they stop."""
+        self.finger_target = self.finger_value(width)
         still = 0
         for _ in range(round(self.params.max_close_time / self.dt)):
             self.step(self.arm_target)
-            still = still + 1 if np.abs(self.robot.get_qvel()[N_ARM:]).max() < 1e-3 else 0
+            still = (
+                still + 1 if np.abs(self.robot.get_qvel()[self.finger_index]).max() < 1e-3 else 0
+            )
             if still >= 10:
                 break
 
@@ -112,43 +160,63 @@ class _Runner:
                 worst = max(worst, impulse)
         return worst
 
-    def held(self) -> bool:
-        """The target touches both fingers."""
+    def finger_contacts(self) -> tuple[bool, bool]:
+        """Whether the target touches the first (left) and the second (right) finger."""
         target, touching = self.target.per_scene_id, set()
         for a, b, _ in self._contacts():
             if target in (a, b):
                 touching |= {a, b} & set(self.finger_ids)
-        return len(touching) == 2
+        return self.finger_ids[0] in touching, self.finger_ids[1] in touching
+
+    def held(self) -> bool:
+        """The target touches both fingers."""
+        return all(self.finger_contacts())
+
+    def finger_value(self, width: float) -> float:
+        """The finger joints' target for an opening of ``width`` metres: half of it for each
+        of two prismatic fingers, a jaw's angle from its URDF (gripper_geometry)."""
+        return self.geometry.joint_for_width(width) if self.jaw else width / 2
 
     def width(self) -> float:
-        return float(np.sum(self.robot.get_qpos()[N_ARM:]))
+        """Metres between the finger pads now."""
+        q = self.robot.get_qpos()[self.finger_index]
+        return self.geometry.width_for_joint(float(q[0])) if self.jaw else float(np.sum(q))
 
     def qpos(self) -> np.ndarray:
         return self.robot.get_qpos().astype(float)
 
 
 def execute_grasp(
-    scene: GraspScene, target_instance_id: int, candidate: GraspCandidate, params: ExecutionParams
+    scene: GraspScene,
+    target_instance_id: int,
+    candidate: GraspCandidate,
+    params: ExecutionParams,
+    recorder: Recorder | None = None,
 ) -> GraspOutcome:
-    """Runs the attempt in ``scene`` (which it changes) and labels it."""
-    run = _Runner(scene, target_instance_id, params)
+    """Runs the attempt in ``scene`` (which it changes) and labels it; ``recorder``, if given,
+    records it step by step (phases: ``datagen.dataset.trajectory.PHASES``)."""
+    run = _Runner(scene, target_instance_id, params, recorder)
     details: dict[str, Any] = {"params": asdict(params)}
 
     def outcome(success: bool, mode: str | None, rise: float = 0.0) -> GraspOutcome:
+        run.finish()
         details["steps"] = run.steps
         details["simulated_time"] = round(run.steps * run.dt, 6)
         return GraspOutcome(success, mode, round(rise, 6), round(run.width(), 6), details)
 
-    width = (
-        PANDA_MAX_WIDTH
-        if params.open_fully
-        else min(PANDA_MAX_WIDTH, candidate.width + params.open_margin)
-    )
-    run.move_fingers(width / 2)
+    max_width = run.geometry.max_width
+    width = max_width if params.open_fully else min(max_width, candidate.width + params.open_margin)
+    run.begin_phase("open")
+    run.move_fingers(width)
 
-    grasp = sapien.Pose(np.asarray(candidate.pose_world, float))
+    # the planner moves the TCP link; the candidate is the grasp frame, between the pads
+    tcp_in_grasp = run.geometry.tcp_in_grasp(width)
+    tcp_target = np.asarray(candidate.pose_world, float)
+    if not np.array_equal(tcp_in_grasp, np.eye(4)):  # a jaw gripper's TCP is off-centre
+        tcp_target = tcp_target @ tcp_in_grasp
+    grasp = sapien.Pose(tcp_target)
     pre = sapien.Pose(grasp.p - params.pregrasp_distance * candidate.approach, grasp.q)
-    planner = make_planner(run.scene, run.robot, scene.objects)
+    planner = make_planner(run.scene, run.robot, scene.objects, scene.spec)
     transit = plan_transit(planner, pre, run.qpos(), run.dt)
     details["transit"] = {"status": transit["status"], "method": transit["method"]}
     if transit["status"] != "Success":
@@ -157,21 +225,25 @@ def execute_grasp(
     # Plan the approach from the planned pre-grasp configuration, before moving, so that an
     # unreachable grasp pose costs no simulation.
     pre_q = run.qpos()
-    pre_q[:N_ARM] = transit["position"][-1]
+    pre_q[run.arm_index] = transit["position"][-1]
     approach = plan_straight(planner, grasp, pre_q, run.dt)
     details["approach"] = {"status": approach["status"]}
     if approach["status"] != "Success":
         return outcome(False, "unreachable")
 
+    run.begin_phase("transit")
     transit_impulse = run.follow(transit)
+    run.begin_phase("approach")
     approach_impulse = run.follow(approach)
     details["transit"]["max_contact_impulse"] = round(transit_impulse, 6)
     details["approach"]["max_contact_impulse"] = round(approach_impulse, 6)
     collided = max(transit_impulse, approach_impulse) > params.collision_impulse
 
-    run.move_fingers(0.0)
+    run.begin_phase("close")
+    run.move_fingers(0.0)  # closed
+    run.begin_phase("lift")
     start_z = float(run.target.get_pose().p[2])
-    held_after_close = run.held() and run.width() > params.closed_width
+    held_after_close = run.held() and run.width() > run.closed + params.closed_width
     details["close"] = {"width": round(run.width(), 6), "held": held_after_close}
 
     tcp = run.tcp.entity_pose
@@ -181,9 +253,10 @@ def execute_grasp(
     details["lift"] = {"status": lift["status"]}
     if lift["status"] == "Success":
         run.follow(lift)
+    run.begin_phase("hold")
     run.hold(params.hold_time)
     rise = float(run.target.get_pose().p[2]) - start_z
-    held_at_end = run.held() and run.width() > params.closed_width
+    held_at_end = run.held() and run.width() > run.closed + params.closed_width
     details["held_at_end"] = held_at_end
 
     if (

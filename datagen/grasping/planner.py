@@ -1,4 +1,5 @@
-"""Deterministic mplib planning for the Panda's ``panda_hand_tcp`` in a grasping scene.
+"""Deterministic mplib planning for the arm's TCP link (its record's ``gripper.tcp_link``) in a
+grasping scene.
 
 Transit to the pre-grasp pose avoids the scene's static boxes (table, legs, tray) and every
 object's oriented bounding box; straight-line (screw) moves ignore them, so that the physics
@@ -18,12 +19,12 @@ import numpy as np
 import sapien
 from mplib.pymp.collision_detection import fcl
 
-from datagen.robot_specs.panda import PANDA
-from datagen.worlds.tabletop import SceneObject, panda_urdf
+from datagen.robot_specs import RobotSpec
+from datagen.robot_specs.compose import generated_srdf
+from datagen.worlds.tabletop import SceneObject
 
 log = logging.getLogger(__name__)
 
-MOVE_GROUP = PANDA.gripper.tcp_link
 N_RANDOM_IK_SEEDS = 12
 INTERP_STEP = 0.02  # radians between collision checks on a straight joint-space path
 
@@ -33,16 +34,20 @@ def pose7(pose: sapien.Pose) -> np.ndarray:
 
 
 def make_planner(
-    scene: sapien.Scene, robot: sapien.physx.PhysxArticulation, objects: list[SceneObject]
+    scene: sapien.Scene,
+    robot: sapien.physx.PhysxArticulation,
+    objects: list[SceneObject],
+    spec: RobotSpec,
 ) -> mplib.Planner:
-    urdf = str(panda_urdf())
+    srdf = spec.srdf_path() or generated_srdf(spec.urdf_path())
     planner = mplib.Planner(
-        urdf=urdf,
-        srdf=urdf.replace(".urdf", ".srdf"),
+        urdf=str(spec.urdf_path()),
+        srdf=str(srdf),
         user_link_names=[link.get_name() for link in robot.get_links()],
         user_joint_names=[joint.get_name() for joint in robot.get_active_joints()],
-        move_group=MOVE_GROUP,
+        move_group=spec.gripper.tcp_link,
     )
+    planner.ready_pose = spec.ready_pose
     planner.set_base_pose(pose7(robot.get_root_pose()))
     planner.joint_vel_limits = np.asarray(planner.joint_vel_limits) * 0.9
     planner.joint_acc_limits = np.asarray(planner.joint_acc_limits) * 0.9
@@ -73,14 +78,15 @@ def remove_obstacles(planner: mplib.Planner) -> None:
 
 def _ik_seeds(planner: mplib.Planner, qpos: np.ndarray) -> list[np.ndarray]:
     lo, hi = np.asarray(planner.joint_limits, float).reshape(-1, 2).T
+    arm = planner.move_group_joint_indices
     ready = qpos.copy()
-    ready[: len(PANDA.ready_pose)] = PANDA.ready_pose
+    ready[arm] = planner.ready_pose
     rng = np.random.default_rng(0)  # a fixed list, not a source of randomness between runs
-    randoms = [
-        np.where(np.isfinite(lo + hi), rng.uniform(lo, hi), qpos) for _ in range(N_RANDOM_IK_SEEDS)
-    ]
-    for q in randoms:
-        q[len(PANDA.ready_pose) :] = qpos[len(PANDA.ready_pose) :]
+    randoms = []
+    for _ in range(N_RANDOM_IK_SEEDS):
+        q = qpos.copy()
+        q[arm] = np.where(np.isfinite(lo + hi), rng.uniform(lo, hi), qpos)[arm]
+        randoms.append(q)
     return [qpos.copy(), ready, *randoms]
 
 

@@ -7,6 +7,7 @@ from __future__ import annotations
 from typing import Any
 
 from datagen.config import BuildConfig
+from datagen.config.robot import robot_workspace
 from datagen.randomisers.background import sample_background
 from datagen.randomisers.camera import extra_view_name, sample_camera, sample_extra_view
 from datagen.randomisers.distractors import sample_distractors
@@ -16,6 +17,7 @@ from datagen.randomisers.objects import sample_objects
 from datagen.randomisers.poses import sample_drop_poses
 from datagen.randomisers.robot import sample_robot
 from datagen.randomisers.textures import add_textures
+from datagen.randomisers.workspace import scaled_to_robot
 from datagen.seeding import sample_rng
 
 
@@ -34,6 +36,8 @@ def sample_scene(
     def rng(name: str):
         return sample_rng(seed, index, name, attempt)
 
+    config = scaled_to_robot(config)  # a small arm's scene; the config itself for scale 1
+    ws = robot_workspace(config.robot)
     objects = sample_objects(rng("objects"), config.objects)
     params: dict[str, Any] = {
         "objects": objects,
@@ -57,7 +61,7 @@ def sample_scene(
     if config.distractors.enabled:  # absent when off: the scene stays as it was
         room = params["background"]["room"] if "background" in params else None
         params["distractors"] = sample_distractors(
-            rng("distractors"), config.distractors, config.materials, params["camera"], room
+            rng("distractors"), config.distractors, config.materials, params["camera"], room, ws
         )
     if config.render.views > 1:  # absent for one view: a one-view sample stays as it was
         names = [extra_view_name(k) for k in range(1, config.render.views)]
@@ -82,4 +86,5 @@ def redrawn_drop_poses(
     (seed, index, attempt) alone."""
     stream = f"drop_poses.redraw{redraw}"
     rng = sample_rng(seed, index, stream, attempt)
-    return stream, sample_drop_poses(rng, config.objects, count, tray_centre, tray_inner_half)
+    objects = scaled_to_robot(config).objects
+    return stream, sample_drop_poses(rng, objects, count, tray_centre, tray_inner_half)

@@ -25,14 +25,7 @@ from typing import Any
 import numpy as np
 
 from datagen.assets.shapes import build_geometry
-from datagen.assets.tabletop_layout import (
-    ROBOT_BASE,
-    TABLE_HALF,
-    TABLE_TOP,
-    TRAY_CENTRE,
-    TRAY_INNER_HALF,
-    TRAY_WALL,
-)
+from datagen.assets.tabletop_layout import DEFAULT_WORKSPACE, Workspace
 from datagen.config.appearance import DistractorsConfig
 from datagen.config.sections import SHAPE_FAMILIES, MaterialsConfig
 from datagen.geometry import random_quaternion
@@ -60,16 +53,17 @@ class _View:
     up: np.ndarray
     tan_half: float  # tangent of half the vertical field of view
     distance: float  # eye to target, metres
+    ws: Workspace  # the table, tray and robot base it looks at
 
     @classmethod
-    def of(cls, camera: dict[str, Any]) -> _View:
+    def of(cls, camera: dict[str, Any], ws: Workspace = DEFAULT_WORKSPACE) -> _View:
         eye, target = np.asarray(camera["eye"], float), np.asarray(camera["target"], float)
         distance = float(np.linalg.norm(target - eye))
         forward = (target - eye) / distance
         right = np.cross(forward, [0.0, 0.0, 1.0])
         right /= np.linalg.norm(right)
         tan_half = float(np.tan(np.deg2rad(camera["fovy_deg"]) / 2))
-        return cls(eye, forward, right, np.cross(right, forward), tan_half, distance)
+        return cls(eye, forward, right, np.cross(right, forward), tan_half, distance, ws)
 
     def random_ray(self, rng: np.random.Generator) -> np.ndarray:
         """Direction through a random image point (within the half height across, whatever
@@ -87,9 +81,10 @@ class _View:
         depth, limit = float(ray @ self.forward), self.tan_half * float(ray @ self.forward)
         if depth <= 0 or abs(ray @ self.right) > limit or abs(ray @ self.up) > limit:
             return False
-        if point[2] >= TABLE_TOP or self.eye[2] <= TABLE_TOP:
+        top = self.ws.table_top
+        if point[2] >= top or self.eye[2] <= top:
             return True
-        return bool((np.abs(self.meets(ray, TABLE_TOP)) > TABLE_HALF).any())
+        return bool((np.abs(self.meets(ray, top)) > self.ws.table_half).any())
 
 
 def _yaw_quaternion(rng: np.random.Generator) -> list[float]:
@@ -103,24 +98,25 @@ def _standing(xy: np.ndarray, surface_z: float, lowest: float) -> list[float]:
     return np.round([xy[0], xy[1], surface_z - lowest], 6).tolist()
 
 
-def _free_on_table(xy: np.ndarray, radius: float) -> bool:
-    (ix, iy), wall = TRAY_INNER_HALF, TRAY_WALL[0] + TRAY_CLEARANCE + radius
-    in_tray = abs(xy[0] - TRAY_CENTRE[0]) < ix + wall and abs(xy[1] - TRAY_CENTRE[1]) < iy + wall
-    near_robot = np.hypot(xy[0] - ROBOT_BASE[0], xy[1] - ROBOT_BASE[1]) < ROBOT_CLEARANCE + radius
+def _free_on_table(xy: np.ndarray, radius: float, ws: Workspace) -> bool:
+    (ix, iy), wall = ws.tray_inner_half, ws.tray_wall[0] + TRAY_CLEARANCE * ws.scale + radius
+    (cx, cy, _), (bx, by, _) = ws.tray_centre, ws.robot_base
+    in_tray = abs(xy[0] - cx) < ix + wall and abs(xy[1] - cy) < iy + wall
+    near_robot = np.hypot(xy[0] - bx, xy[1] - by) < ROBOT_CLEARANCE * ws.scale + radius
     return not in_tray and not near_robot
 
 
 def _table_position(rng, view: _View, bounds: np.ndarray, radius: float) -> list[float] | None:
     """Where the ray through a random point of the view meets the table top, if that is on the
     table and free (a view may see none of the table outside the tray)."""
-    limit = np.asarray(TABLE_HALF) - radius
+    limit = np.asarray(view.ws.table_half) - radius
     for _ in range(_TRIES):
         ray = view.random_ray(rng)
         if ray[2] >= 0:
             continue
-        xy = view.meets(ray, TABLE_TOP)
-        if (np.abs(xy) <= limit).all() and _free_on_table(xy, radius):
-            return _standing(xy, TABLE_TOP, bounds[0][2])
+        xy = view.meets(ray, view.ws.table_top)
+        if (np.abs(xy) <= limit).all() and _free_on_table(xy, radius, view.ws):
+            return _standing(xy, view.ws.table_top, bounds[0][2])
     return None
 
 
@@ -129,7 +125,7 @@ def _air_position(rng, view: _View, radius: float) -> list[float]:
     angle, off = rng.uniform(0, 2 * np.pi), rng.uniform(*AIR_OFF_CENTRE) * view.tan_half
     sideways = off * distance * (np.cos(angle) * view.right + np.sin(angle) * view.up)
     point = view.eye + distance * view.forward + sideways
-    point[2] = max(point[2], TABLE_TOP + radius + 0.02)  # above the table, never in it
+    point[2] = max(point[2], view.ws.table_top + radius + 0.02)  # above the table, never in it
     return np.round(point, 6).tolist()
 
 
@@ -149,7 +145,7 @@ def _background_position(rng, view: _View, bounds, radius, room) -> list[float] 
             continue
         xy = view.meets(ray, 0.0)
         inside = (xy >= lo).all() and (xy <= hi).all()
-        beyond_table = (np.abs(xy) > np.asarray(TABLE_HALF) + radius).any()
+        beyond_table = (np.abs(xy) > np.asarray(view.ws.table_half) + radius).any()
         if inside and beyond_table and view.sees(np.array([*xy, 0.9 * height])):
             return _standing(xy, 0.0, bounds[0][2])
     return None
@@ -168,11 +164,12 @@ def sample_distractors(
     materials: MaterialsConfig,
     camera: dict[str, Any],
     room: dict[str, Any] | None = None,
+    ws: Workspace = DEFAULT_WORKSPACE,
 ) -> list[dict[str, Any]]:
     """Distractors of one scene, by placement; ``camera`` is the workspace camera's values,
     ``room`` the background's room (``{"x": [lo, hi], "y": [lo, hi], ...}``) if there is one."""
     counts = {"table": cfg.on_table, "air": cfg.in_air, "background": cfg.background}
-    view = _View.of(camera)
+    view = _View.of(camera, ws)
     distractors = []
     for placement in PLACEMENTS:
         low, high = counts[placement]

@@ -1,38 +1,68 @@
 """What datagen knows of each robot, as plain values (no simulator), one module per robot
-(:mod:`datagen.robot_specs.panda`): its description file, joints, links, gripper geometry,
-ready pose and camera mount. The worlds, the randomisers, grasping and the sample metadata all
-ask the robot's record, so each fact is written once.
+(:mod:`datagen.robot_specs.panda`, ...) and one line in :data:`datagen.registries.ROBOTS`: its
+description file, joints, links, gripper, ready pose, mount, reach, licence and camera mount.
+The worlds, the randomisers, grasping, the exports and the sample metadata ask the robot's
+record, so each fact is written once (docs/robots.md).
+
+A description is located by a string: ``mani_skill:<path>`` (a file shipped in the mani-skill
+wheel, under ``mani_skill/assets/``), ``datagen:<path>`` (a file shipped in this package, under
+``datagen/robot_specs/descriptions/``), ``composed:<module:function>`` (a function writing a
+description put together from shipped parts, returning its path), or a file path (a user's URDF).
 """
 
 from __future__ import annotations
 
+import importlib
+import importlib.util
 from dataclasses import dataclass
+from pathlib import Path
 
 Vector3 = tuple[float, float, float]
+DESCRIPTIONS = Path(__file__).parent / "descriptions"
 
 
 @dataclass(frozen=True)
 class GripperSpec:
-    """A parallel gripper, in its hand link's frame (metres): the fingers slide along +-y, z points
-    out of the hand towards the tool centre point (TCP)."""
+    """A two-finger gripper: two prismatic fingers sliding along +-y of the TCP frame, or a jaw
+    gripper, one revolute joint swinging one finger against the other, which is part of the
+    hand. z of the TCP frame points out of the hand along the fingers, y is the closing
+    direction, from ``pads[1]`` to ``pads[0]``. The geometry the grasp samplers check, the
+    opening (width) of each joint value and the grasp frame are derived from the description
+    (:mod:`datagen.grasping.gripper_geometry`)."""
 
     hand_link: str
-    tcp_link: str  # the TCP: midway between the finger pads, the motion planner's move group
-    finger_links: tuple[str, str]
-    finger_travel: tuple[float, float]  # metres each finger moves, closed .. fully open
-    tcp_from_hand: float  # the TCP along z
-    finger_origin: float  # the finger joints along z
-    pad: Vector3  # a finger's rubber tip box (x, y thickness, z length)
-    pad_centre: float  # along z from the finger joints
-    finger_body: Vector3  # the box around a finger's diagonal and screw mount
-    finger_body_start: float  # its near end along z from the finger joints
-    finger_body_gap: float  # along y between a pad's inner face and the body
-    hand_bounds: tuple[Vector3, Vector3]  # the hand's collision mesh (lower, upper corners)
+    tcp_link: str  # the motion planner's move group: midway between the pads (at half opening)
+    finger_links: tuple[str, str]  # a jaw gripper: (the moving jaw, the link holding the fixed one)
+    finger_joints: tuple[str, ...]  # two prismatic (metres each) or one revolute (radians)
+    finger_travel: tuple[float, float]  # the joint(s) closed .. fully open, metres or radians
+    # the links whose origins lie on the fingers' inner faces; the width is their distance
+    # along y (None: the finger links, as for the Franka hand, whose origins meet when closed)
+    pad_links: tuple[str, str] | None = None
+
+    @property
+    def jaw(self) -> bool:
+        """One revolute joint: the width is a function of the jaw angle read from the URDF."""
+        return len(self.finger_joints) == 1
+
+    @property
+    def pads(self) -> tuple[str, str]:
+        return self.pad_links or self.finger_links
 
     @property
     def max_width(self) -> float:
-        """Metres between the finger pads, fully open."""
+        """Metres between the finger pads, fully open (prismatic fingers; a jaw's is
+        ``gripper_geometry(spec).max_width``)."""
+        if self.jaw:
+            raise ValueError(
+                f"gripper {self.finger_joints}: a jaw's width comes from its URDF, "
+                "use datagen.grasping.gripper_geometry.gripper_geometry(spec).max_width"
+            )
         return 2 * self.finger_travel[1]
+
+    @property
+    def links(self) -> tuple[str, ...]:
+        """The links labelled ``gripper`` (not ``robot``) in the annotations."""
+        return tuple(dict.fromkeys((self.hand_link, self.tcp_link, *self.finger_links)))
 
 
 @dataclass(frozen=True)
@@ -49,13 +79,65 @@ class CameraMount:
 @dataclass(frozen=True)
 class RobotSpec:
     name: str
-    description: str  # its URDF under ``mani_skill/assets/`` (the SRDF beside it)
-    arm_joints: int  # the first active joints move the arm; the fingers' follow
+    summary: str  # one line, shown in docs/robots.md
+    description: str  # where its URDF is (module docstring)
+    licence: str  # of the description and its meshes
+    arm_joints: tuple[str, ...]  # the active joints that move the arm, base to flange
     ready_pose: tuple[float, ...]  # the arm joints (radians) a scene starts around
     gripper: GripperSpec
-    wrist_camera: CameraMount
+    reach: float  # metres from the base's mount to the farthest TCP position
+    srdf: str | None = None  # located like ``description``; None: collision pairs generated
+    mount: Vector3 = (0.0, 0.0, 0.0)  # metres added to the world's robot base position
+    wrist_camera: CameraMount | None = None
+    # a small arm's tabletop: table, tray, base position and camera scaled about the world
+    # origin so that it reaches the whole tray floor; 1.0 keeps the Panda-sized scene
+    workspace_scale: float = 1.0
+    # object sizes and drop heights: set by the gripper (which does not shrink with the arm)
+    object_scale: float = 1.0
+    # five arm joints (pan, three pitches, wrist roll): a grasp's approach must lie in the
+    # vertical plane through the base, which the antipodal sampler then keeps to
+    approach_in_base_plane: bool = False
+
+    @property
+    def joint_names(self) -> tuple[str, ...]:
+        """The sampled and recorded joint order: the arm's, then the fingers'."""
+        return (*self.arm_joints, *self.gripper.finger_joints)
 
     @property
     def description_path(self) -> str:
-        """The description as the sample metadata names it."""
-        return f"mani_skill/assets/{self.description}"
+        """The description as the sample metadata names it (no machine path)."""
+        scheme, _, rest = self.description.partition(":")
+        if scheme == "mani_skill":
+            return f"mani_skill/assets/{rest}"
+        if scheme == "datagen":
+            return f"datagen/robot_specs/descriptions/{rest}"
+        if scheme == "composed":
+            return f"datagen:{self.name}"
+        return Path(self.description).name
+
+    def urdf_path(self) -> Path:
+        return locate(self.description)
+
+    def srdf_path(self) -> Path | None:
+        return None if self.srdf is None else locate(self.srdf)
+
+
+def maniskill_asset(relative: str) -> Path:
+    """``mani_skill/assets/<relative>``; a clear error if mani-skill is missing."""
+    spec = importlib.util.find_spec("mani_skill")
+    if spec is None or not spec.submodule_search_locations:
+        raise RuntimeError(f"mani-skill is not installed: it provides {relative}")
+    return Path(spec.submodule_search_locations[0]) / "assets" / relative
+
+
+def locate(where: str) -> Path:
+    """The file a description string names (module docstring)."""
+    scheme, _, rest = where.partition(":")
+    if scheme == "mani_skill":
+        return maniskill_asset(rest)
+    if scheme == "datagen":
+        return DESCRIPTIONS / rest
+    if scheme == "composed":
+        module, _, function = rest.partition(":")
+        return Path(getattr(importlib.import_module(module), function)())
+    return Path(where)

@@ -1,29 +1,28 @@
-"""Franka Emika Panda, as ManiSkill ships it (``robots/panda/panda_v2.urdf``)."""
+"""Franka Emika Panda, as ManiSkill ships it (``robots/panda/panda_v2.urdf`` and its SRDF)."""
 
 from __future__ import annotations
 
 from datagen.robot_specs import CameraMount, GripperSpec, RobotSpec
 
+FRANKA_HAND = GripperSpec(
+    hand_link="panda_hand",
+    tcp_link="panda_hand_tcp",
+    finger_links=("panda_leftfinger", "panda_rightfinger"),
+    finger_joints=("panda_finger_joint1", "panda_finger_joint2"),
+    finger_travel=(0.0, 0.04),
+)
+
 PANDA = RobotSpec(
     name="panda",
-    description="robots/panda/panda_v2.urdf",
-    arm_joints=7,
+    summary="Franka Emika Panda with its hand (ManiSkill's panda_v2)",
+    description="mani_skill:robots/panda/panda_v2.urdf",
+    srdf="mani_skill:robots/panda/panda_v2.srdf",
+    licence="Apache-2.0 (franka_ros description, as shipped by ManiSkill)",
+    arm_joints=tuple(f"panda_joint{i}" for i in range(1, 8)),
     # arm raised and folded back so the tray stays in view
     ready_pose=(0.0, -0.95, 0.0, -2.75, 0.0, 1.95, 0.785),
-    gripper=GripperSpec(
-        hand_link="panda_hand",
-        tcp_link="panda_hand_tcp",
-        finger_links=("panda_leftfinger", "panda_rightfinger"),
-        finger_travel=(0.0, 0.04),
-        tcp_from_hand=0.1034,
-        finger_origin=0.0584,
-        pad=(0.0175, 0.0152, 0.0185),
-        pad_centre=0.04525,
-        finger_body=(0.022, 0.022, 0.038),
-        finger_body_start=0.001,
-        finger_body_gap=0.004,
-        hand_bounds=((-0.0317, -0.1040, -0.0260), (0.0317, 0.1005, 0.0660)),  # hand.stl
-    ),
+    gripper=FRANKA_HAND,
+    reach=0.855,
     # ManiSkill's panda_wristcam
     wrist_camera=CameraMount(
         link="panda_hand",

@@ -2,33 +2,37 @@
 
 Randomised tray scene (the grasp_tabletop scene and randomisers) -> annotated pre-grasp frame
 -> target object -> grasp candidate from the configured sampler -> executed with the Panda ->
-outcome label -> optional post-grasp frame. Every random choice comes from (seed, index).
+outcome label -> optional post-grasp frame. With ``campaign.record_hz`` > 0 the execution is
+recorded step by step (``trajectory.npz``) and, with ``campaign.frame_hz`` > 0, filmed
+(``frame<k>.rgb.png``, ``frame<k>.wrist.rgb.png``: colour only, the labels of a moving scene are
+not kept). Every random choice comes from (seed, index); recording draws none.
 """
 
 from __future__ import annotations
 
+import dataclasses
 from pathlib import Path
 from typing import Any
 
+import cv2
 import numpy as np
 import trimesh
 
-from datagen.assets.tabletop_layout import (
-    TABLE_TOP,
-    TRAY_CENTRE,
-    TRAY_INNER_HALF,
-    TRAY_WALL,
-    tray_boxes,
-)
+from datagen.assets.tabletop_layout import Workspace, tray_boxes
 from datagen.config import BuildConfig
 from datagen.dataset.loader import load
+from datagen.engines.sim.encode import png_bytes
+from datagen.engines.sim.picture_conversion import rgb_from_colour
 from datagen.engines.sim.render import keep_renderer_alive
 from datagen.geometry import pose_record
 from datagen.grasping import GraspOutcome
 from datagen.grasping.execute import ExecutionParams, execute_grasp
+from datagen.grasping.gripper_geometry import gripper_geometry
+from datagen.grasping.recording import Recorder
 from datagen.grasping.samplers import GraspTarget, Obstacles
 from datagen.grasping.stats import campaign_stats
 from datagen.outcomes import sample_outcome
+from datagen.randomisers.workspace import scaled_to_robot
 from datagen.registries import SAMPLERS
 from datagen.sample import Sample
 from datagen.scenes.grasp_tabletop import annotate_scene, to_sample
@@ -43,10 +47,10 @@ def _parts_world(obj: SceneObject) -> list[trimesh.Trimesh]:
     return [part.copy().apply_transform(pose) for part in obj.geometry.parts]
 
 
-def _in_tray(obj: SceneObject) -> bool:
+def _in_tray(obj: SceneObject, ws: Workspace) -> bool:
     x, y, z = obj.entity.pose.p
-    (cx, cy, cz), (hx, hy) = TRAY_CENTRE, TRAY_INNER_HALF
-    return abs(x - cx) <= hx and abs(y - cy) <= hy and cz <= z <= cz + TRAY_WALL[1] + 0.15
+    (cx, cy, cz), (hx, hy) = ws.tray_centre, ws.tray_inner_half
+    return abs(x - cx) <= hx and abs(y - cy) <= hy and cz <= z <= cz + ws.tray_wall[1] + 0.15
 
 
 def choose_target(rng: np.random.Generator, scene: GraspScene, view: dict[str, Any]) -> SceneObject:
@@ -56,26 +60,56 @@ def choose_target(rng: np.random.Generator, scene: GraspScene, view: dict[str, A
         [
             o
             for o in scene.objects
-            if _in_tray(o) and visible.get(o.instance_id, 0.0) >= MIN_VISIBLE_FRACTION
+            if _in_tray(o, scene.workspace)
+            and visible.get(o.instance_id, 0.0) >= MIN_VISIBLE_FRACTION
         ]
-        or [o for o in scene.objects if _in_tray(o)]
+        or [o for o in scene.objects if _in_tray(o, scene.workspace)]
         or scene.objects
     )
     return candidates[int(rng.integers(len(candidates)))]
 
 
-def _tray_meshes() -> list[trimesh.Trimesh]:
+def _tray_meshes(ws: Workspace) -> list[trimesh.Trimesh]:
     meshes = []
-    for half, offset in tray_boxes():
+    for half, offset in tray_boxes(ws):
         box = trimesh.creation.box(extents=2 * np.asarray(half))
-        box.apply_translation(np.add(offset, TRAY_CENTRE))
+        box.apply_translation(np.add(offset, ws.tray_centre))
         meshes.append(box)
     return meshes
 
 
+def _recorder(config: BuildConfig, scene: GraspScene, parts: dict[str, bytes]) -> Recorder | None:
+    """A recorder whose frames (workspace camera, wrist camera if built) land in ``parts``."""
+    campaign = config.campaign
+    if campaign.record_hz <= 0:
+        return None
+    cameras = {
+        name: scene.cameras[name] for name in ("workspace", "wrist") if name in scene.cameras
+    }
+
+    def film(k: int) -> None:
+        scene.scene.update_render()  # render poses only; the physics is untouched
+        for name, camera in cameras.items():
+            camera.take_picture()
+            rgb = rgb_from_colour(camera.get_picture("Color"))
+            prefix = f"frame{k}." if name == "workspace" else f"frame{k}.{name}."
+            parts[f"{prefix}rgb.png"] = png_bytes(
+                cv2.cvtColor(rgb, cv2.COLOR_RGB2BGR), config.output.png_level
+            )
+
+    return Recorder(
+        scene.scene.get_timestep(),
+        campaign.record_hz,
+        scene.spec.joint_names,
+        scene.spec.arm_joints,
+        campaign.frame_hz,
+        film,
+    )
+
+
 def produce(config: BuildConfig, seed: int, index: int, attempt: int = 0) -> Sample:
     keep_renderer_alive()
-    campaign = config.campaign
+    campaign = scaled_to_robot(config).campaign  # pre-grasp and lift distances for a small arm
     scene = build_scene(config, seed, index, attempt)
     pre = annotate_scene(scene, config, seed, index, attempt=attempt)
     workspace = pre.metadata["views"]["workspace"]
@@ -83,10 +117,15 @@ def produce(config: BuildConfig, seed: int, index: int, attempt: int = 0) -> Sam
 
     obstacles = Obstacles(
         meshes_world=[p for o in scene.objects if o is not target for p in _parts_world(o)]
-        + _tray_meshes(),
-        table_z=TABLE_TOP,
+        + _tray_meshes(scene.workspace),
+        table_z=scene.workspace.table_top,
     )
-    sampler = SAMPLERS[campaign.sampler].load().from_campaign(campaign)
+    gripper = gripper_geometry(scene.spec)
+    sampler = SAMPLERS[campaign.sampler].load().from_campaign(campaign, gripper)
+    if scene.spec.approach_in_base_plane and hasattr(sampler, "base_plane"):
+        pan = next(j for j in scene.robot.get_active_joints() if j.name == scene.spec.arm_joints[0])
+        axis = pan.get_global_pose().p  # the shoulder's vertical axis, off the base's origin
+        sampler = dataclasses.replace(sampler, base_plane=(float(axis[0]), float(axis[1])))
     result = sampler.sample(
         sample_rng(seed, index, "grasp", attempt),
         GraspTarget(
@@ -96,6 +135,8 @@ def produce(config: BuildConfig, seed: int, index: int, attempt: int = 0) -> Sam
         max_tries=campaign.sampler_tries,
     )
     candidate = result.candidate
+    recorded: dict[str, bytes] = {}  # the trajectory part and the frames
+    recorder = _recorder(config, scene, recorded)
     if candidate is None:
         outcome = GraspOutcome(
             False, "no_candidate", 0.0, 0.0, {"reason": result.reason, "tries": result.tries}
@@ -107,7 +148,9 @@ def produce(config: BuildConfig, seed: int, index: int, attempt: int = 0) -> Sam
             hold_time=campaign.hold_time,
             open_fully=False,  # open to the width the sampler checked for collisions
         )
-        outcome = execute_grasp(scene, target.instance_id, candidate, params)
+        outcome = execute_grasp(scene, target.instance_id, candidate, params, recorder)
+        if recorder is not None:
+            recorded["trajectory.npz"] = recorder.encode()
 
     extrinsics = np.asarray(workspace["camera"]["extrinsics_world_to_camera"])
     grasp = None
@@ -138,7 +181,9 @@ def produce(config: BuildConfig, seed: int, index: int, attempt: int = 0) -> Sam
         post = annotate_scene(scene, config, seed, index, ("workspace",), attempt)
         pre.views["post"] = post.views["workspace"]  # encoded as post.rgb.png, post.depth.png, ...
         record["post_view_objects"] = post.metadata["views"]["workspace"]["objects"]
-    return to_sample(pre, config.output.png_level)
+    sample = to_sample(pre, config.output.png_level)
+    sample.parts |= recorded
+    return sample
 
 
 def campaign_summary(out_dir: Path, made: int, seconds: float) -> dict[str, Any]:

@@ -24,9 +24,9 @@ from datagen.engines.sim.camera_effects import sample_camera_effects
 from datagen.engines.sim.depth_sensor import sample_depth_sensor, specular
 from datagen.engines.sim.encode import DEFAULT_PNG_LEVEL, View, encode_view, metadata_bytes
 from datagen.engines.sim.render import DEPTH_SCALE, capture, keep_renderer_alive
+from datagen.engines.sim.robot_labels import part_instance_ids, part_view_records, robot_parts
 from datagen.engines.sim.view_effects import apply_view_effects
 from datagen.geometry import pose_record
-from datagen.robot_specs.panda import PANDA
 from datagen.sample import Sample, sample_key
 from datagen.seeding import sample_rng
 from datagen.worlds.tabletop import GraspScene, build_scene, grasp_classes
@@ -116,6 +116,9 @@ def annotate_scene(
     class_id = {name: i for i, name in enumerate(classes)}
     objects = _labelled_objects(scene, class_id)
     stuff_class_ids = {entity_id: class_id[name] for entity_id, name in scene.stuff.items()}
+    # the arm and the gripper: instances after the objects and distractors
+    parts = robot_parts(scene.robot.get_links(), scene.stuff, class_id, len(objects) + 1)
+    part_instances = part_instance_ids(parts)
 
     shiny = _specular_instances(scene, config)
     views, view_meta = {}, {}
@@ -123,7 +126,7 @@ def annotate_scene(
         if cameras is not None and name not in cameras:
             continue
         frame = capture(camera)
-        instance, semantic = label_maps(frame, objects, stuff_class_ids)
+        instance, semantic = label_maps(frame, objects, stuff_class_ids, part_instances)
         meta = {
             "camera": {
                 "width": int(camera.width),
@@ -137,6 +140,7 @@ def annotate_scene(
                 "depth_scale": DEPTH_SCALE,
             },
             "objects": object_view_records(frame, instance, objects, float(camera.near)),
+            "robot_parts": part_view_records(frame, instance, parts, float(camera.near)),
         }
         views[name], view_meta[name] = apply_view_effects(
             View(frame.rgb, frame.depth, instance, semantic),
@@ -147,6 +151,7 @@ def annotate_scene(
             _effects(config, seed, index, attempt, name),
             _sensor(config, seed, index, attempt, name, shiny),
             config.camera_effects.keep_clean,
+            parts,
         )
 
     objects_meta = []
@@ -174,13 +179,16 @@ def annotate_scene(
         "objects": objects_meta,
         "views": view_meta,
         "robot": {
-            "name": PANDA.name,
-            "description": PANDA.description_path,
+            "name": scene.spec.name,
+            "description": scene.spec.description_path,
             "base_pose": pose_record(
                 np.asarray(scene.robot.root_pose.to_transformation_matrix(), float)
             ),
-            "qpos": np.round(scene.robot.get_qpos(), 6).tolist(),
-        },
+            "joint_names": [joint.name for joint in scene.robot.get_active_joints()],
+            "qpos": np.round(scene.robot.get_qpos(), 6).tolist(),  # radians or metres
+        }
+        # a small arm's table, tray and objects, scaled (absent: 1, the Panda's workspace)
+        | ({"workspace_scale": scene.workspace.scale} if scene.workspace.scale != 1.0 else {}),
         "randomisation": scene.params,
     }
     return AnnotatedSample(index, views, metadata)

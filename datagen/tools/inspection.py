@@ -3,8 +3,9 @@
 Writes next to the dataset: ``inspect/overview.png`` (annotated grid; grasp attempts drawn on
 their pre-grasp frame, green for success and red for failure) and ``inspect/distributions.png``
 (histograms of randomised parameters and of visibility), for frames ``inspect/randomisation.png``
-(the appearance randomisation: textures, rooms, distractors, camera effects, depth sensor), and
-returns the summary. The summary
+(the appearance randomisation: textures, rooms, distractors, camera effects, depth sensor), for
+recorded grasp attempts ``inspect/trajectories.png`` (the joint positions over time of up to
+``TRAJECTORY_SAMPLES`` attempts, green for success and red for failure), and returns the summary. The summary
 and plots are chosen by the samples' metadata format (``SUMMARIES``), never by the scene
 family's name; campaign statistics are added wherever the metadata holds grasp attempts.
 
@@ -24,7 +25,8 @@ from typing import Any
 import cv2
 import numpy as np
 
-from datagen.dataset.loader import DatasetError, load
+from datagen.dataset.loader import DatasetError, ShardDataset, load
+from datagen.dataset.trajectory import decode_trajectory
 from datagen.exports.files import inside, replace_file, tool_folder, written
 from datagen.grasping.stats import campaign_stats
 from datagen.outcomes import grasp_outcome, navigation_outcome
@@ -43,6 +45,7 @@ from datagen.tools.sample_checks import (
 )
 
 GRID_SAMPLES = 12
+TRAJECTORY_SAMPLES = 24
 
 
 # name -> the values of one sample; a name whose fields a family's metadata lacks is left out
@@ -99,6 +102,45 @@ def _plot_distributions(values: dict[str, list[float]], title: str, path: Path) 
     for ax in axes.ravel()[len(values) :]:
         ax.axis("off")
     fig.suptitle(title)
+    fig.tight_layout()
+    fig.savefig(path, dpi=80)
+
+
+def _trajectories(dataset: ShardDataset, indices: list[int], on_skip: OnSkip) -> dict[int, dict]:
+    """The decoded ``trajectory.npz`` of the first ``TRAJECTORY_SAMPLES`` of ``indices`` that
+    have one; a bad one is reported and left out of this plot (the summary keeps its sample)."""
+    with_part = [i for i in indices if "trajectory.npz" in dataset.part_names(i)]
+    return each_sample(
+        dataset,
+        with_part[:TRAJECTORY_SAMPLES],
+        lambda i: decode_trajectory(dataset.raw(i, {"trajectory.npz"})["trajectory.npz"]),
+        on_skip,
+    )
+
+
+def _plot_trajectories(trajectories: list[tuple[dict, bool]], path: Path) -> None:
+    """One panel per joint (of the first attempt's robot): position over time per attempt."""
+    from matplotlib.figure import Figure
+
+    joints = trajectories[0][0]["names"]["joint_names"]
+    columns = 3
+    fig = Figure(figsize=(12, 3 * -(-len(joints) // columns)))
+    axes = fig.subplots(-(-len(joints) // columns), columns, squeeze=False).ravel()
+    for trajectory, success in trajectories:
+        if trajectory["names"]["joint_names"] != joints:
+            continue
+        for j, ax in enumerate(axes[: len(joints)]):
+            colour = "#3a9a4a" if success else "#c0392b"
+            ax.plot(trajectory["time"], trajectory["qpos"][:, j], color=colour, lw=0.8, alpha=0.7)
+    for j, ax in enumerate(axes):
+        if j < len(joints):
+            ax.set_title(joints[j], fontsize=10)
+            ax.set_xlabel("time (s)", fontsize=8)
+        else:
+            ax.axis("off")
+    fig.suptitle(
+        f"joint positions (rad; m for prismatic joints) of {len(trajectories)} recorded attempts"
+    )
     fig.tight_layout()
     fig.savefig(path, dpi=80)
 
@@ -210,4 +252,9 @@ def inspect_dataset(
     pictures = [replace_file(inside(out, "distributions.png"), lambda tmp: _plot_distributions(values, title, tmp))]  # fmt: skip
     if fmt == "datagen.sample/1":
         pictures.append(replace_file(inside(out, "randomisation.png"), lambda tmp: plot_randomisation(metas, title, tmp)))  # fmt: skip
+    kept = [i for i in usable if i not in undrawable and "attempt" in usable[i]]
+    recorded = _trajectories(dataset, kept, skipped)
+    if recorded:
+        runs = [(t, bool(grasp_outcome(usable[i]["attempt"])["success"])) for i, t in recorded.items()]  # fmt: skip
+        pictures.append(replace_file(inside(out, "trajectories.png"), lambda tmp: _plot_trajectories(runs, tmp)))  # fmt: skip
     return summary, [overview, *pictures]

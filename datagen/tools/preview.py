@@ -235,7 +235,8 @@ def sequence_tile(item: dict[str, Any]) -> np.ndarray:
 def camera_tile(item: dict[str, Any]) -> np.ndarray:
     """One loaded sample of cameras: the workspace camera's annotated colour image (and its
     grasp, if any) above its depth map, above a strip of its other cameras annotated (the
-    extra views of ``render.views``, the wrist camera), if it has any."""
+    extra views of ``render.views``, the wrist camera), if it has any, above the film of a
+    recorded grasp attempt (:func:`film_strip`), if it was filmed."""
     view = item["meta"]["views"]["workspace"]
     image = draw_annotations(item["rgb"], item["seg"], view)
     attempt = item["meta"].get("attempt")
@@ -244,7 +245,36 @@ def camera_tile(item: dict[str, Any]) -> np.ndarray:
     put_label(image, item["key"], (6, 18), 0.55)
     others = [v for v in labelled_views(item["meta"]) if v.name in item.get("views", {})]
     strip = [other_views_strip(item, others, image.shape[1])] if others else []
+    if item.get("trajectory", {}).get("frames"):
+        strip.append(film_strip(item["trajectory"], image.shape[1]))
     return np.vstack([image, depth_colour(item["depth"]), *strip])
+
+
+FILM_FRAMES, FILM_COLUMNS = 6, 3  # frames of a filmed attempt shown, spread over its duration
+
+
+def film_strip(trajectory: dict[str, Any], width: int) -> np.ndarray:
+    """Up to ``FILM_FRAMES`` frames of a filmed grasp attempt in rows of ``FILM_COLUMNS``,
+    ``width`` pixels wide, each labelled with its time and phase, the wrist camera's frame
+    under the workspace camera's when filmed."""
+    frames = trajectory["frames"]
+    chosen = np.unique(np.linspace(0, len(frames) - 1, min(FILM_FRAMES, len(frames))).astype(int))
+    rows, phases = trajectory["step"], trajectory["names"]["phases"]
+    kinds = ["rgb", "wrist_rgb"] if all("wrist_rgb" in f for f in frames) else ["rgb"]
+    cell_w = width // FILM_COLUMNS
+    cell_h = max(1, frames[0]["rgb"].shape[0] * cell_w // frames[0]["rgb"].shape[1])
+    block = cell_h * len(kinds)  # one frame: its cameras stacked
+    strip = np.zeros((block * -(-len(chosen) // FILM_COLUMNS), width, 3), np.uint8)
+    for j, k in enumerate(chosen):
+        row = max(0, int(np.searchsorted(rows, trajectory["frame_step"][k], side="right")) - 1)
+        y, x = (j // FILM_COLUMNS) * block, (j % FILM_COLUMNS) * cell_w
+        for r, kind in enumerate(kinds):
+            cell = _fit(cv2.cvtColor(frames[k][kind], cv2.COLOR_RGB2BGR), cell_h, cell_w)
+            if r == 0:
+                label = f"{frames[k]['time']:.2f}s {phases[int(trajectory['phase'][row])]}"
+                put_label(cell, label, (4, 14), 0.4)
+            strip[y + r * cell_h : y + (r + 1) * cell_h, x : x + cell_w] = cell
+    return strip
 
 
 def other_views_strip(item: dict[str, Any], views: list, width: int) -> np.ndarray:

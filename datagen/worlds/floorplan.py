@@ -17,6 +17,7 @@ import sapien
 
 from datagen.config import BuildConfig
 from datagen.navigation.episode import Episode
+from datagen.robot_specs import maniskill_asset
 from datagen.worlds.realise import apply_lighting
 from datagen.worlds.robots import FETCH, load_robot
 from datagen.worlds.surfaces import box_entity, render_material
@@ -147,7 +148,7 @@ def _goal_marker(scene, episode: Episode, values) -> Thing:
 
 
 def _fetch(scene: sapien.Scene, camera_values: dict[str, Any]) -> sapien.physx.PhysxArticulation:
-    robot = load_robot(scene, FETCH, fix_root_link=True)  # parsed once per process
+    robot = load_robot(scene, maniskill_asset(FETCH), fix_root_link=True)  # parsed once per process
     targets = TUCKED_ARM | {
         "torso_lift_joint": camera_values["torso_lift"],
         "head_tilt_joint": math.radians(camera_values["pitch_deg"]),  # positive tilts down

@@ -158,12 +158,19 @@ def apply_camera(camera: sapien.render.RenderCameraComponent, values: dict[str, 
     camera.entity.set_pose(sapien.Pose(look_at(values["eye"], values["target"])))
 
 
-def apply_robot(robot: sapien.physx.PhysxArticulation, values: dict[str, Any]) -> None:
-    """Sets the joints and holds them there with stiff PD drives (stiffness N·m/rad)."""
-    qpos = np.asarray(values["qpos"], np.float32)
+def apply_robot(
+    robot: sapien.physx.PhysxArticulation, values: dict[str, Any], joint_names: tuple[str, ...]
+) -> None:
+    """Sets the joints (``values["qpos"]`` in the order of ``joint_names``: the arm's, then the
+    fingers') and holds them there with stiff PD drives (stiffness N·m/rad)."""
     joints = robot.get_active_joints()
-    if len(joints) != len(qpos):
-        raise ValueError(f"robot has {len(joints)} active joints, sampled qpos has {len(qpos)}")
+    if sorted(j.name for j in joints) != sorted(joint_names):
+        raise ValueError(
+            f"the robot's active joints are {[j.name for j in joints]}, its record names "
+            f"{list(joint_names)}"
+        )
+    sampled = dict(zip(joint_names, values["qpos"], strict=True))
+    qpos = np.asarray([sampled[j.name] for j in joints], np.float32)
     robot.set_qpos(qpos)
     for joint, target in zip(joints, qpos, strict=True):
         joint.set_drive_property(stiffness=2000.0, damping=200.0)

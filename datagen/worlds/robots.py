@@ -1,5 +1,5 @@
-"""Robot descriptions shipped inside the mani-skill package (no download needed), and their
-parsed articulation builders, cached per process.
+"""Robots' parsed articulation builders, cached per process (descriptions are located by
+:mod:`datagen.robot_specs`).
 
 Parsing the Panda's URDF and SRDF (XML, link trees, mesh paths) costs about 6 ms a scene; the
 parsed :class:`ArticulationBuilder` holds no physics state (every ``build`` makes new entities,
@@ -11,38 +11,29 @@ builder (``set_scene``) for its duration: scenes of one process are built one at
 from __future__ import annotations
 
 import functools
-import importlib.util
 from pathlib import Path
 
 import sapien
 from sapien.wrapper.articulation_builder import ArticulationBuilder
 
-FETCH = "robots/fetch/fetch.urdf"
-
-
-def maniskill_asset(relative: str) -> Path:
-    """``mani_skill/assets/<relative>``; a clear error if mani-skill is missing."""
-    spec = importlib.util.find_spec("mani_skill")
-    if spec is None or not spec.submodule_search_locations:
-        raise RuntimeError(f"mani-skill is not installed: it provides {relative}")
-    return Path(spec.submodule_search_locations[0]) / "assets" / relative
+FETCH = "robots/fetch/fetch.urdf"  # under mani_skill/assets/
 
 
 @functools.lru_cache(maxsize=4)
-def _articulation_builder(relative: str, fix_root_link: bool) -> ArticulationBuilder:
+def _articulation_builder(urdf: Path, fix_root_link: bool) -> ArticulationBuilder:
     loader = sapien.Scene().create_urdf_loader()  # the parser wants a scene; builds set their own
     loader.fix_root_link = fix_root_link
-    builder = loader.load_file_as_articulation_builder(str(maniskill_asset(relative)))
+    builder = loader.load_file_as_articulation_builder(str(urdf))
     builder.set_scene(None)  # holds no scene between builds
     return builder
 
 
 def load_robot(
-    scene: sapien.Scene, relative: str, fix_root_link: bool = True
+    scene: sapien.Scene, urdf: Path, fix_root_link: bool = True
 ) -> sapien.physx.PhysxArticulation:
-    """The robot ``mani_skill/assets/<relative>`` added to ``scene``: what
+    """The robot described by ``urdf`` added to ``scene``: what
     ``scene.create_urdf_loader().load(...)`` gives, from the process's parsed builder."""
-    builder = _articulation_builder(relative, fix_root_link)
+    builder = _articulation_builder(Path(urdf), fix_root_link)
     builder.set_scene(scene)
     try:
         return builder.build()

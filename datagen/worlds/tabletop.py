@@ -1,4 +1,5 @@
-"""Grasping scene: ManiSkill's Panda on a table before a tray of procedurally generated objects.
+"""Grasping scene: an arm (``robot.name``, the Panda by default) on a table before a tray of
+procedurally generated objects.
 
 World frame: z up, metres; the table top is at z = TABLE_TOP, the robot base stands on its
 edge at negative x and the tray lies in front of it. Objects are dropped into the tray and
@@ -8,25 +9,18 @@ settled by physics before any camera renders.
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from pathlib import Path
 from typing import Any
 
 import numpy as np
 import sapien
 
 from datagen.assets.shapes import ObjectGeometry
-from datagen.assets.tabletop_layout import (
-    ROBOT_BASE,
-    TRAY_CENTRE,
-    TRAY_FLOOR,
-    TRAY_INNER_HALF,
-    StaticPart,
-    static_parts,
-)
+from datagen.assets.tabletop_layout import StaticPart, Workspace, static_parts
 from datagen.config import BuildConfig
+from datagen.config.robot import robot_spec, robot_workspace
 from datagen.config.sections import SHAPE_FAMILIES
 from datagen.randomisers import redrawn_drop_poses, sample_scene
-from datagen.robot_specs.panda import PANDA
+from datagen.robot_specs import RobotSpec
 from datagen.worlds.realise import (
     add_background,
     add_distractors,
@@ -36,7 +30,7 @@ from datagen.worlds.realise import (
     apply_robot,
     lit_by_room,
 )
-from datagen.worlds.robots import load_robot, maniskill_asset
+from datagen.worlds.robots import load_robot
 from datagen.worlds.settle import settle
 from datagen.worlds.surfaces import box_entity, render_material
 from datagen.worlds.tray_targets import MAX_REDRAWS, TargetsOutsideTray, outside_tray
@@ -45,11 +39,14 @@ from datagen.worlds.tray_targets import MAX_REDRAWS, TargetsOutsideTray, outside
 # then the distractors (objects that are not grasp targets), whatever their shape, then the
 # backdrop walls and ceiling (background.enabled). The new classes come last so the ids of the
 # earlier ones stay what they were; both are classes whether or not a build has any, so ids are
-# the same across configs (docs/dataset-format.md).
+# the same across configs (docs/dataset-format.md). The robot's gripper links (its spec's
+# ``gripper.links``) are class ``gripper``, its other links class ``robot``.
 STUFF_CLASSES = ("background", "floor", "table", "tray", "robot")
 DISTRACTOR_CLASS = "distractor"
 WALL_CLASS = "wall"
-CLASSES = (*STUFF_CLASSES, *SHAPE_FAMILIES, DISTRACTOR_CLASS, WALL_CLASS)
+GRIPPER_CLASS = "gripper"
+LAST_CLASSES = (DISTRACTOR_CLASS, WALL_CLASS, GRIPPER_CLASS)
+CLASSES = (*STUFF_CLASSES, *SHAPE_FAMILIES, *LAST_CLASSES)
 CLASS_ID = {name: i for i, name in enumerate(CLASSES)}
 
 
@@ -60,17 +57,13 @@ def grasp_classes(config: BuildConfig) -> tuple[str, ...]:
         from datagen.assets.mesh_library import load_library
 
         meshes = load_library(config.objects.assets_dir).classes
-        return (*STUFF_CLASSES, *meshes, DISTRACTOR_CLASS, WALL_CLASS)
+        return (*STUFF_CLASSES, *meshes, *LAST_CLASSES)
     return CLASSES
 
 
-def panda_urdf() -> Path:
-    return maniskill_asset(PANDA.description)
-
-
-def load_panda(scene: sapien.Scene) -> sapien.physx.PhysxArticulation:
-    """The Panda, fixed base, from the process's parsed URDF (datagen.worlds.robots)."""
-    return load_robot(scene, PANDA.description, fix_root_link=True)
+def load_arm(scene: sapien.Scene, spec: RobotSpec) -> sapien.physx.PhysxArticulation:
+    """The arm of ``spec``, fixed base, from the process's parsed URDF (datagen.worlds.robots)."""
+    return load_robot(scene, spec.urdf_path(), fix_root_link=True)
 
 
 @dataclass
@@ -90,6 +83,8 @@ class GraspScene:
     objects: list[SceneObject]
     robot: sapien.physx.PhysxArticulation
     params: dict[str, Any]
+    spec: RobotSpec
+    workspace: Workspace
     # per_scene_id of every rendered entity that is not an object -> class name
     stuff: dict[int, str] = field(default_factory=dict)
     distractors: list[SceneObject] = field(default_factory=list)  # instance ids after objects
@@ -114,13 +109,14 @@ def build_scene(config: BuildConfig, seed: int, index: int, attempt: int = 0) ->
     """A fresh SAPIEN scene for sample ``index`` of the build, settled and ready to render, with
     every target in the tray: a scene where one is not is built again from re-drawn drop poses
     (``datagen.worlds.tray_targets``); raises TargetsOutsideTray after ``MAX_REDRAWS``."""
-    tray_floor_top = (TRAY_CENTRE[0], TRAY_CENTRE[1], TRAY_CENTRE[2] + TRAY_FLOOR)
-    params = sample_scene(config, seed, index, tray_floor_top, TRAY_INNER_HALF, attempt)
+    ws = robot_workspace(config.robot)
+    tray_floor_top, tray_inner_half = ws.tray_floor_top, ws.tray_inner_half
+    params = sample_scene(config, seed, index, tray_floor_top, tray_inner_half, attempt)
     redraws: list[dict[str, str]] = []
     while True:
         scene = construct_scene(config, params)
         settle_scene(config, scene)
-        outside = outside_tray(scene.objects)
+        outside = outside_tray(scene.objects, ws)
         if not outside:
             return scene
         if len(redraws) == MAX_REDRAWS:
@@ -130,7 +126,7 @@ def build_scene(config: BuildConfig, seed: int, index: int, attempt: int = 0) ->
             )
         count = len(params["objects"])
         stream, poses = redrawn_drop_poses(
-            config, seed, index, len(redraws) + 1, count, tray_floor_top, TRAY_INNER_HALF, attempt
+            config, seed, index, len(redraws) + 1, count, tray_floor_top, tray_inner_half, attempt
         )
         redraws = [*redraws, {"stream": stream, "why": "; ".join(outside)}]
         params = {**params, "drop_poses": poses, "redraws": redraws}
@@ -159,17 +155,20 @@ def construct_scene(config: BuildConfig, params: dict[str, Any]) -> GraspScene:
     scene.set_timestep(config.physics.timestep)
     stuff: dict[int, str] = {}
 
-    for part in static_parts():
+    spec = robot_spec(config.robot)
+    ws = Workspace(spec.workspace_scale)
+    for part in static_parts(ws):
         for entity in _add_part(scene, part, materials[part.surface]):
             stuff[entity.per_scene_id] = part.surface
     for entity in add_background(scene, params.get("background")):  # none when it is off
         stuff[entity.per_scene_id] = WALL_CLASS
 
-    robot = load_panda(scene)
-    robot.set_root_pose(sapien.Pose(ROBOT_BASE))
-    apply_robot(robot, params["robot"])
+    robot = load_arm(scene, spec)
+    robot.set_root_pose(sapien.Pose(list(np.add(ws.robot_base, spec.mount))))
+    apply_robot(robot, params["robot"], spec.joint_names)
     for link in robot.get_links():
-        stuff[link.entity.per_scene_id] = "robot"
+        gripper = link.name in spec.gripper.links
+        stuff[link.entity.per_scene_id] = GRIPPER_CLASS if gripper else "robot"
 
     added = add_objects(scene, params["objects"], params["drop_poses"], materials["objects"])
     objects = [
@@ -195,11 +194,13 @@ def construct_scene(config: BuildConfig, params: dict[str, Any]) -> GraspScene:
         cameras[name] = scene.add_camera(name, r.width, r.height, 1.0, r.near, r.far)
         apply_camera(cameras[name], values)
     if r.wrist_camera:
-        mount = PANDA.wrist_camera
+        mount = spec.wrist_camera
+        if mount is None:
+            raise ValueError(f"render.wrist_camera: the robot {spec.name!r} has no wrist camera")
         link = next(link for link in robot.get_links() if link.name == mount.link)
         pose = sapien.Pose(list(mount.position), list(mount.quat_wxyz))
         fovy = np.deg2rad(mount.fovy_deg)
         cameras["wrist"] = scene.add_mounted_camera(
             "wrist", link.entity, pose, r.width, r.height, fovy, mount.near, r.far
         )
-    return GraspScene(scene, cameras, objects, robot, params, stuff, distractors)
+    return GraspScene(scene, cameras, objects, robot, params, spec, ws, stuff, distractors)

@@ -10,7 +10,7 @@ from typing import Protocol
 
 import sapien
 
-from datagen.assets.tabletop_layout import in_tray
+from datagen.assets.tabletop_layout import DEFAULT_WORKSPACE, Workspace, in_tray
 
 MAX_REDRAWS = 5
 
@@ -34,13 +34,13 @@ def centre_of_mass(target: Target) -> list[float]:
     return [float(v) for v in (body.entity_pose * body.cmass_local_pose).p]
 
 
-def outside_tray(targets: Sequence[Target]) -> list[str]:
+def outside_tray(targets: Sequence[Target], ws: Workspace = DEFAULT_WORKSPACE) -> list[str]:
     """One line per target outside the tray: ``object 3 (mug) at (x, y, z) outside the tray``,
     x, y, z in world metres; empty when all are in."""
     lines = []
     for target in targets:
         point = centre_of_mass(target)
-        if not in_tray(point):
+        if not in_tray(point, ws):
             where = ", ".join(f"{v:.3f}" for v in point)
             lines.append(
                 f"object {target.instance_id} ({target.class_name}) at ({where}) outside the tray"

@@ -31,11 +31,22 @@ def config_keys() -> list[tuple[str, str, list[dict[str, str]]]]:
     hints = typing.get_type_hints(BuildConfig)
     for f in dataclasses.fields(BuildConfig):
         if dataclasses.is_dataclass(hints[f.name]):
-            rows = [_row(f"{f.name}.", g, tp, meanings, shape) for g, tp in _fields(hints[f.name])]
+            rows = _rows(f"{f.name}.", hints[f.name], meanings, shape)
             sections.append((f.name, hints[f.name].__name__, rows))
         else:
             top.append(_row("", f, hints[f.name], meanings, shape))
     return sections
+
+
+def _rows(prefix: str, cls: type, meanings: dict, shape) -> list[dict[str, str]]:
+    """The rows of a section, a nested section's keys (``robot.urdf.file``) in its place."""
+    rows = []
+    for g, tp in _fields(cls):
+        if dataclasses.is_dataclass(tp):
+            rows += _rows(f"{prefix}{g.name}.", tp, meanings, shape)
+        else:
+            rows.append(_row(prefix, g, tp, meanings, shape))
+    return rows
 
 
 def _fields(cls: type) -> list[tuple[dataclasses.Field, Any]]:

@@ -21,7 +21,11 @@ from datagen.seeding import sample_rng
 
 VIEWS = 4
 SMALL = RenderConfig(width=96, height=72)
-CONFIG = BuildConfig(render=RenderConfig(width=96, height=72, views=VIEWS, wrist_camera=True))
+# the close-up camera (configs/grasp_closeup.yaml): objects many pixels wide even at 96 x 72
+CLOSEUP = CameraConfig(eye=(-0.22, 0.28, 1.22), target=(0.08, 0.0, 0.76), fovy_deg=(42.0, 52.0))
+CONFIG = BuildConfig(
+    render=RenderConfig(width=96, height=72, views=VIEWS, wrist_camera=True), camera=CLOSEUP
+)
 IMAGE_PARTS = ("rgb.png", "depth.png", "seg.png", "semantic.png")
 
 

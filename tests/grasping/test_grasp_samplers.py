@@ -8,12 +8,15 @@ import trimesh
 
 from datagen.assets.shapes import build_geometry
 from datagen.errors import ConfigError
-from datagen.grasping import PANDA_MAX_WIDTH
-from datagen.grasping.gripper import ConvexBody, collides, gripper_boxes
+from datagen.grasping.gripper import ConvexBody
+from datagen.grasping.gripper_geometry import gripper_geometry
 from datagen.grasping.samplers import GraspTarget, Obstacles
-from datagen.registries import SAMPLERS
+from datagen.registries import ROBOTS, SAMPLERS
 
 TABLE = 0.75
+PANDA_HAND = gripper_geometry(ROBOTS["panda"].load())
+PANDA_MAX_WIDTH = PANDA_HAND.max_width
+collides = PANDA_HAND.collides
 
 
 def on_table(mesh: trimesh.Trimesh, xy=(0.0, 0.0)) -> GraspTarget:
@@ -147,7 +150,7 @@ def test_random_sampler_near_object_above_table():
 
 
 def make_sampler(name: str, **params):
-    return SAMPLERS[name].load()(**params)
+    return SAMPLERS[name].load()(PANDA_HAND, **params)
 
 
 def test_unknown_sampler_name_lists_the_registered_ones():
@@ -184,14 +187,21 @@ def test_gripper_collision_check():
 
 
 def test_gripper_boxes_follow_the_width():
-    boxes = gripper_boxes(0.08)
-    assert len(boxes) == 5
+    """The Panda hand's boxes, read from panda_v2.urdf's collision shapes: four per finger (screw
+    mount, sledge, diagonal, rubber tip) and the bounds of hand.stl."""
+    boxes = PANDA_HAND.boxes(0.08)
+    assert len(boxes) == 9
     pads = [t[:3, 3] for t, e in boxes if np.allclose(e, (0.0175, 0.0152, 0.0185))]
-    assert sorted(p[1] for p in pads) == pytest.approx([-0.0476, 0.0476])
-    swept = gripper_boxes(0.08, approach_distance=0.1)
+    assert sorted(p[1] for p in pads) == pytest.approx([-0.04758, 0.04758], abs=1e-6)  # URDF
+    hand_transform, hand_extents = boxes[-1]
+    assert hand_extents == pytest.approx((0.0634, 0.2045, 0.092), abs=2e-4)  # hand.stl's bounds
+    assert hand_transform[2, 3] == pytest.approx(0.02 - 0.1034, abs=2e-4)  # behind the TCP
+    swept = PANDA_HAND.boxes(0.08, approach_distance=0.1)
     for (t0, e0), (t1, e1) in zip(boxes, swept, strict=True):
-        assert e1[2] == pytest.approx(e0[2] + 0.1)
-        assert t1[2, 3] + e1[2] / 2 == pytest.approx(t0[2, 3] + e0[2] / 2)  # front face stays
+        front = t0[2, 3] + np.abs(t0[2, :3]) @ (e0 / 2)
+        back = t0[2, 3] - np.abs(t0[2, :3]) @ (e0 / 2)
+        assert t1[2, 3] + np.abs(t1[2, :3]) @ (e1 / 2) >= front - 1e-9  # covers the pose
+        assert t1[2, 3] - np.abs(t1[2, :3]) @ (e1 / 2) <= back - 0.1 + 1e-9  # and the approach
 
 
 def test_box_vs_convex_matches_linear_programming():

@@ -73,7 +73,9 @@ def test_2d_boxes_and_visibility_agree_with_the_masks(two_worker_build):
         assert targets == set(range(1, len(item["meta"]["objects"]) + 1))
         others = sorted(r["instance_id"] for r in records if r["role"] != "target")
         assert others == list(range(len(targets) + 1, len(records) + 1))  # distractors after
-        assert set(np.unique(item["seg"])) - {0} <= {r["instance_id"] for r in records}
+        parts = item["meta"]["views"]["workspace"]["robot_parts"]  # the arm and the gripper
+        labelled = {r["instance_id"] for r in records} | {p["instance_id"] for p in parts}
+        assert set(np.unique(item["seg"])) - {0} <= labelled
         for record in records:
             ys, xs = np.nonzero(item["seg"] == record["instance_id"])
             assert record["visible_pixels"] == len(xs)

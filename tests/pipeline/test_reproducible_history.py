@@ -56,6 +56,8 @@ def produce_in_new_process(config: str, scene: str, indices: list[int]) -> dict[
         ("configs/grasp_tabletop.yaml", "grasp_tabletop", [3, 7, 1], 2),
         ("configs/grasp_campaign.yaml", "grasp_attempts", [1], 0),
         ("configs/nav_maze.yaml", "navigation", [1], 0),
+        ("configs/campaign_iiwa14.yaml", "grasp_attempts", [1], 0),
+        ("configs/campaign_xarm7.yaml", "grasp_attempts", [2], 0),
     ],
 )
 def test_sample_bytes_do_not_depend_on_the_worker_history(config, scene, history, index):

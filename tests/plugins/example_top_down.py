@@ -8,19 +8,21 @@ from dataclasses import dataclass
 import numpy as np
 
 from datagen.config.sections import CampaignConfig
-from datagen.grasping import PANDA_MAX_WIDTH, GraspCandidate
+from datagen.grasping import GraspCandidate
+from datagen.grasping.gripper_geometry import GripperGeometry
 from datagen.grasping.samplers.base import GraspTarget, Obstacles, SampleResult
 from datagen.registries import Plugin
 
 
 @dataclass(frozen=True)
 class TopDownSampler:
+    gripper: GripperGeometry  # the robot's: its opening and collision boxes
     clearance: float = 0.01  # metres added to the object's width
     name: str = "top_down"
 
     @classmethod
-    def from_campaign(cls, campaign: CampaignConfig) -> TopDownSampler:
-        return cls()
+    def from_campaign(cls, campaign: CampaignConfig, gripper: GripperGeometry) -> TopDownSampler:
+        return cls(gripper)
 
     def sample(self, rng, target: GraspTarget, obstacles: Obstacles, max_tries: int = 200):
         points = np.vstack([part.vertices for part in target.parts_world])
@@ -28,7 +30,7 @@ class TopDownSampler:
         extent = hi - lo
         axis = int(np.argmin(extent[:2]))  # close across the narrower side
         width = float(extent[axis] + self.clearance)
-        if width > PANDA_MAX_WIDTH:
+        if width > self.gripper.max_width:
             return SampleResult(None, 1, f"too wide: {width:.3f} m")
         closing = np.eye(3)[axis]
         approach = np.array([0.0, 0.0, -1.0])

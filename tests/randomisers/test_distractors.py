@@ -97,8 +97,9 @@ def test_distractors_have_their_own_stream_and_off_leaves_the_scene_as_it_was():
         again["distractors"] == sample_scene(on, 7, 0, TRAY_CENTRE, TRAY_INNER_HALF)["distractors"]
     )
     rng = sample_rng(7, 0, "distractors")
+    room = again["background"]["room"]  # background distractors stand inside it
     assert again["distractors"] == sample_distractors(
-        rng, on.distractors, on.materials, again["camera"]
+        rng, on.distractors, on.materials, again["camera"], room
     )
 
 
@@ -123,7 +124,8 @@ def test_distractors_are_rendered_and_labelled_with_their_class_and_role(annotat
     meta = annotated.metadata
     classes = meta["classes"]
     distractor_id = classes.index("distractor")
-    assert classes[-2:] == ["distractor", "wall"]  # appended: earlier class ids never move
+    # appended: earlier class ids never move
+    assert classes[-3:] == ["distractor", "wall", "gripper"]
     records = meta["views"]["workspace"]["objects"]
     targets = [r for r in records if r["role"] == "target"]
     distractors = [r for r in records if r["role"] == "distractor"]

@@ -17,7 +17,7 @@ from torch.utils.data import DataLoader
 import datagen
 from datagen.assets.shapes import build_geometry
 from datagen.config import BuildConfig, config_from_dict
-from datagen.config.sections import OutputConfig, RenderConfig
+from datagen.config.sections import CameraConfig, OutputConfig, RenderConfig
 from datagen.dataset.loader import load, read_manifest
 from datagen.dataset.pointcloud import read_ply
 from datagen.dataset.views import is_sequence, labelled_views
@@ -31,6 +31,8 @@ CONFIG = BuildConfig(
     seed=21,
     render=RenderConfig(width=160, height=120, wrist_camera=True, views=2),
     output=OutputConfig(shard_size=3, sinks=("webdataset", "coco", "hdf5", "pointcloud", "usd")),
+    # the close-up camera (configs/grasp_closeup.yaml): at 160 x 120 a pixel spans a few mm there
+    camera=CameraConfig(eye=(-0.22, 0.28, 1.22), target=(0.08, 0.0, 0.76), fovy_deg=(42.0, 52.0)),
 )
 
 
@@ -62,7 +64,8 @@ def test_coco_loads_in_pycocotools_and_matches_the_samples(built):
             assert (built / "coco" / "images" / image["file_name"]).read_bytes() == dataset.raw(i)[f"{prefix}rgb.png"]  # fmt: skip
             view = item["meta"]["views"][name]
             assert image["extrinsics_world_to_camera"] == view["camera"]["extrinsics_world_to_camera"]  # fmt: skip
-            visible = [o for o in view["objects"] if o["visible"]]
+            # objects, then the robot's arm and gripper (instances after the objects)
+            visible = [o for o in [*view["objects"], *view["robot_parts"]] if o["visible"]]
             annotations = coco.loadAnns(coco.getAnnIds(imgIds=[image["id"]]))
             assert len(annotations) == len(visible)
             for obj, ann in zip(

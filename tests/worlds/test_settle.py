@@ -7,9 +7,10 @@ import numpy as np
 import pytest
 import sapien
 
+from datagen.registries import ROBOTS
 from datagen.worlds.realise import apply_robot
 from datagen.worlds.settle import CHECK_EVERY, REST_CHECKS, at_rest, settle, surface_speeds
-from datagen.worlds.tabletop import load_panda
+from datagen.worlds.tabletop import load_arm
 
 HALF = 0.03  # metres, half the box's edge
 
@@ -58,18 +59,18 @@ def test_zero_settle_velocity_runs_the_full_time():
 @pytest.mark.sim
 def test_the_robot_keeps_its_joints_while_objects_settle_and_wakes_after():
     scene, body = _box_scene(0.3)
-    robot = load_panda(scene)
+    robot = load_arm(scene, ROBOTS["panda"].load())
     robot.set_root_pose(sapien.Pose([-0.6, 0, 0]))  # clear of the falling box
     qpos = [0.0, -0.95, 0.0, -2.75, 0.0, 1.95, 0.785, 0.02, 0.02]
-    apply_robot(robot, {"qpos": qpos})
+    apply_robot(robot, {"qpos": qpos}, ROBOTS["panda"].load().joint_names)
     settle(scene, [body], [HALF], robot, 300, 0.0)
     assert np.abs(robot.get_qpos() - np.asarray(qpos, np.float32)).max() < 1e-5
     assert not robot.get_links()[0].sleeping
     awake = sapien.Scene()
     awake.set_timestep(0.005)
-    sagging = load_panda(awake)
+    sagging = load_arm(awake, ROBOTS["panda"].load())
     sagging.set_root_pose(sapien.Pose([-0.6, 0, 0]))
-    apply_robot(sagging, {"qpos": qpos})
+    apply_robot(sagging, {"qpos": qpos}, ROBOTS["panda"].load().joint_names)
     for _ in range(300):
         awake.step()
     assert np.abs(sagging.get_qpos() - np.asarray(qpos, np.float32)).max() > 1e-3

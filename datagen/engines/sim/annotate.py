@@ -47,14 +47,21 @@ class LabelledObject:
 
 
 def label_maps(
-    frame: Frame, objects: list[LabelledObject], stuff_class_ids: dict[int, int]
+    frame: Frame,
+    objects: list[LabelledObject],
+    stuff_class_ids: dict[int, int],
+    stuff_instances: dict[int, int] | None = None,
 ) -> tuple[np.ndarray, np.ndarray]:
-    """Instance map (uint16, 0 = not an object) and semantic class map (uint8, 0 = background)."""
+    """Instance map (uint16, 0 = no instance) and semantic class map (uint8, 0 = background).
+    ``stuff_instances``: entity id -> instance id of stuff that is also an instance (the robot's
+    links, ``datagen.engines.sim.robot_labels``)."""
+    stuff_instances = stuff_instances or {}
     ids = [0, int(frame.entity_ids.max()), *stuff_class_ids, *(o.entity_id for o in objects)]
     instance_lut = np.zeros(max(ids) + 1, np.uint16)
     class_lut = np.zeros(max(ids) + 1, np.uint8)
     for entity_id, class_id in stuff_class_ids.items():
         class_lut[entity_id] = class_id
+        instance_lut[entity_id] = stuff_instances.get(entity_id, 0)
     for obj in objects:
         instance_lut[obj.entity_id] = obj.instance_id
         class_lut[obj.entity_id] = obj.class_id

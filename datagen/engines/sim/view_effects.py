@@ -22,6 +22,7 @@ from datagen.engines.sim.camera_effects import apply_camera_effects
 from datagen.engines.sim.depth_sensor import sensor_depth
 from datagen.engines.sim.encode import View
 from datagen.engines.sim.lens import DISTORTION_MODEL, Lens, distort, lens_for, project_distorted
+from datagen.engines.sim.robot_labels import LabelledPart, distorted_part_records
 from datagen.engines.sim.stage_clock import timed
 
 
@@ -66,9 +67,11 @@ def apply_view_effects(
     effects: dict[str, Any] | None,
     sensor: dict[str, Any] | None,
     keep_clean: bool,
+    parts: list[LabelledPart] | None = None,
 ) -> tuple[View, dict[str, Any]]:
     """(the view's stored images, its metadata) after the effects. ``effects`` / ``sensor``:
-    the drawn values (None: that part is off); they are stored in the metadata as given."""
+    the drawn values (None: that part is off); they are stored in the metadata as given.
+    ``parts``: the robot's labelled parts, whose records are ``robot_parts``."""
     meta = dict(view_meta)
     with timed("effects"):
         if sensor is not None:
@@ -101,6 +104,10 @@ def apply_view_effects(
             meta["objects"] = distorted_records(
                 meta["objects"], view.instance, objects, extrinsics, lens
             )
+            if parts:
+                meta["robot_parts"] = distorted_part_records(
+                    meta["robot_parts"], view.instance, parts
+                )
         clean = view.rgb if keep_clean else None
         view = replace(view, rgb=apply_camera_effects(view.rgb, effects), rgb_clean=clean)
         meta["camera_effects"] = effects

@@ -17,8 +17,9 @@ from dataclasses import dataclass
 import numpy as np
 
 from datagen.config.sections import CampaignConfig
-from datagen.grasping import PANDA_MAX_WIDTH, GraspCandidate
-from datagen.grasping.gripper import ConvexBody, collides
+from datagen.grasping import GraspCandidate
+from datagen.grasping.gripper import ConvexBody
+from datagen.grasping.gripper_geometry import GripperGeometry
 from datagen.grasping.samplers.base import GraspTarget, Obstacles, SampleResult
 
 EPS = 1e-6  # metres
@@ -45,20 +46,47 @@ def _perpendicular_basis(axis: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return u, np.cross(axis, u)
 
 
+BASE_PLANE_TILT_DEG = 10.0
+
+
+def _in_base_plane(centre, closing, base_xy) -> np.ndarray:
+    """The approach perpendicular to ``closing`` in the vertical plane through the base and
+    ``centre``, pointing down, if it is within ``BASE_PLANE_TILT_DEG`` of vertical: a
+    five-joint arm reaches a low grasp from above only (measured on so100 and koch: tilted
+    approaches over the tray fail IK)."""
+    radial = np.array([centre[0] - base_xy[0], centre[1] - base_xy[1], 0.0])
+    normal = np.cross(radial, [0.0, 0.0, 1.0])
+    approach = np.cross(closing, normal)
+    if np.linalg.norm(approach) < 1e-6 * np.linalg.norm(normal):
+        approach = np.array([0.0, 0.0, -1.0])
+    approach = approach / np.linalg.norm(approach)
+    approach = approach if approach[2] <= 0 else -approach
+    if approach[2] > -np.cos(np.deg2rad(BASE_PLANE_TILT_DEG)):
+        return np.zeros((0, 3))
+    return approach[None]
+
+
 @dataclass(frozen=True)
 class AntipodalSampler:
+    gripper: GripperGeometry
     friction: float = 0.5  # Coulomb coefficient mu; the cone's half-angle is atan(mu)
     clearance: float = 0.01  # metres added to the contact distance for the opening width
-    max_width: float = PANDA_MAX_WIDTH
     pregrasp_distance: float = 0.1  # metres of straight approach checked for collisions
     approach_angles: int = 24  # approach directions tried about the closing axis
     downward_z: float = -0.3  # approaches with a z component below this are tried first
     allow_side: bool = True  # then try the others (still collision-checked)
+    # a 5-joint arm's shoulder axis (x, y), world metres: it reaches only approaches in the
+    # vertical plane through that axis (shoulder pan, then three pitch joints, then wrist roll)
+    base_plane: tuple[float, float] | None = None
     name: str = "antipodal"
 
     @classmethod
-    def from_campaign(cls, campaign: CampaignConfig) -> AntipodalSampler:
-        return cls(friction=campaign.friction, pregrasp_distance=campaign.pre_grasp_distance)
+    def from_campaign(cls, campaign: CampaignConfig, gripper: GripperGeometry) -> AntipodalSampler:
+        return cls(gripper, campaign.friction, pregrasp_distance=campaign.pre_grasp_distance)
+
+    @property
+    def max_width(self) -> float:
+        return self.gripper.max_width
 
     def sample(
         self,
@@ -139,6 +167,8 @@ class AntipodalSampler:
             2 * np.pi / self.approach_angles
         )
         approaches = np.cos(angles)[:, None] * u + np.sin(angles)[:, None] * v
+        if self.base_plane is not None:
+            approaches = _in_base_plane(centre, closing, self.base_plane)
         down = approaches[:, 2] < self.downward_z
         order = [*rng.permutation(np.flatnonzero(down))]
         if self.allow_side:
@@ -149,6 +179,8 @@ class AntipodalSampler:
                 [np.cross(closing, approaches[k]), closing, approaches[k]]
             )
             pose[:3, 3] = centre
-            if not collides(pose, width, blocking, obstacles.table_z, self.pregrasp_distance):
+            if not self.gripper.collides(
+                pose, width, blocking, obstacles.table_z, self.pregrasp_distance
+            ):
                 return pose
         return None

@@ -13,6 +13,7 @@ from datagen.assets.shapes import ObjectGeometry
 from datagen.config.sections import CampaignConfig
 from datagen.grasping import GraspCandidate
 from datagen.grasping.gripper import ConvexBody
+from datagen.grasping.gripper_geometry import GripperGeometry
 
 TABLE_Z = 0.75  # metres, the grasping scene's table top
 
@@ -56,12 +57,13 @@ class SampleResult:
 
 
 class GraspSampler(Protocol):
-    """What ``datagen.registries.SAMPLERS`` names: a class built from the campaign section."""
+    """What ``datagen.registries.SAMPLERS`` names: a class built from the campaign section and
+    the robot's gripper (its opening and collision boxes)."""
 
     name: str
 
     @classmethod
-    def from_campaign(cls, campaign: CampaignConfig) -> GraspSampler: ...
+    def from_campaign(cls, campaign: CampaignConfig, gripper: GripperGeometry) -> GraspSampler: ...
 
     def sample(
         self,

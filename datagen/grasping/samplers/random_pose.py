@@ -8,7 +8,8 @@ import numpy as np
 import trimesh
 
 from datagen.config.sections import CampaignConfig
-from datagen.grasping import PANDA_MAX_WIDTH, GraspCandidate
+from datagen.grasping import GraspCandidate
+from datagen.grasping.gripper_geometry import GripperGeometry
 from datagen.grasping.samplers.base import GraspTarget, Obstacles, SampleResult
 
 
@@ -20,12 +21,13 @@ def random_rotation(rng: np.random.Generator) -> np.ndarray:
 
 @dataclass(frozen=True)
 class RandomSampler:
+    gripper: GripperGeometry
     margin: float = 0.03  # metres the target's bounding box is grown by
     name: str = "random"
 
     @classmethod
-    def from_campaign(cls, campaign: CampaignConfig) -> RandomSampler:
-        return cls()
+    def from_campaign(cls, campaign: CampaignConfig, gripper: GripperGeometry) -> RandomSampler:
+        return cls(gripper)
 
     def sample(
         self,
@@ -43,7 +45,9 @@ class RandomSampler:
             pose = np.eye(4)
             pose[:3, :3] = random_rotation(rng)
             pose[:3, 3] = position
-            candidate = GraspCandidate(pose, PANDA_MAX_WIDTH, self.name, info={"tries": tries})
+            candidate = GraspCandidate(
+                pose, self.gripper.max_width, self.name, info={"tries": tries}
+            )
             return SampleResult(candidate, tries, "sampled")
         return SampleResult(
             None, max_tries, f"no TCP position above the table (z > {obstacles.table_z})"

@@ -1,0 +1,122 @@
+"""The ``robot`` section: which arm a tabletop scene has (``robot.name``, a built-in or plug-in
+in :data:`datagen.registries.ROBOTS`), or a user's own arm from a URDF (``robot.urdf``) with no
+code: its arm and finger joints, TCP link and opening range (docs/robots.md)."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from datagen.assets.tabletop_layout import Workspace
+from datagen.config.sections import _range
+from datagen.errors import ConfigError
+from datagen.registries import ROBOTS
+from datagen.robot_specs import GripperSpec, RobotSpec
+from datagen.robot_specs.urdf import Urdf, read_urdf
+
+
+@dataclass(frozen=True)
+class UrdfRobotConfig:
+    file: str = ""  # a URDF, relative to the config file; "" uses robot.name's description
+    arm_joints: tuple[str, ...] = ()  # the active joints that move the arm, base to flange
+    finger_joints: tuple[str, ...] = ()  # the two prismatic finger joints (metres each)
+    tcp_link: str = ""  # midway between the finger pads, z pointing out of the hand
+    finger_travel: tuple[float, float] = field(
+        default=(0.0, 0.04), metadata=_range(0.0, 0.5, "metres each finger moves, closed..open")
+    )
+    ready_pose: tuple[float, ...] = ()  # radians per arm joint; () = each joint's mid-range
+    srdf: str = ""  # collision pairs the planner may skip; "" = generated once and cached
+
+
+@dataclass(frozen=True)
+class RobotConfig:
+    name: str = "panda"
+    joint_jitter: float = field(
+        default=0.15, metadata=_range(0.0, 1.0, "radians around the ready pose, per arm joint")
+    )
+    urdf: UrdfRobotConfig = field(default_factory=UrdfRobotConfig)
+
+
+def robot_spec(cfg: RobotConfig, source: str = "<config>") -> RobotSpec:
+    """The record of the configured arm; a ConfigError naming the key when it is not usable."""
+    if not cfg.urdf.file:
+        return ROBOTS.check(cfg.name, f"{source}: robot.name").load()
+    if cfg.name in ROBOTS:
+        raise ConfigError(
+            f"{source}: robot.name: a robot from robot.urdf.file needs a name of its own, "
+            f"got the built-in {cfg.name!r}"
+        )
+    return urdf_robot(cfg.name, cfg.urdf, source)
+
+
+def robot_workspace(cfg: RobotConfig) -> Workspace:
+    """The table, tray and base scaled to the configured arm (``RobotSpec.workspace_scale``)."""
+    return Workspace(robot_spec(cfg).workspace_scale)
+
+
+def urdf_robot(name: str, cfg: UrdfRobotConfig, source: str) -> RobotSpec:
+    path = Path(cfg.file)
+    if not path.is_file():
+        raise ConfigError(f"{source}: robot.urdf.file: expected a URDF file, got {cfg.file!r}")
+    urdf = read_urdf(path.resolve())
+    arm = [_joint(urdf, j, ("revolute", "continuous", "prismatic"), "arm_joints", source) for j in cfg.arm_joints]  # fmt: skip
+    if not arm:
+        raise ConfigError(f"{source}: robot.urdf.arm_joints: expected the arm's joint names")
+    fingers = [_joint(urdf, j, ("prismatic",), "finger_joints", source) for j in cfg.finger_joints]
+    if len(fingers) != 2 or fingers[0].parent != fingers[1].parent:
+        raise ConfigError(
+            f"{source}: robot.urdf.finger_joints: expected two prismatic joints on one hand link, "
+            f"got {list(cfg.finger_joints)}"
+        )
+    if cfg.tcp_link not in urdf.links:
+        raise ConfigError(
+            f"{source}: robot.urdf.tcp_link: expected a link of {path.name}, got {cfg.tcp_link!r}"
+        )
+    limits = [j.limits or (-np.pi, np.pi) for j in arm]
+    ready = cfg.ready_pose or tuple(round((lo + hi) / 2, 6) for lo, hi in limits)
+    if len(ready) != len(arm):
+        raise ConfigError(
+            f"{source}: robot.urdf.ready_pose: expected {len(arm)} values (one per arm joint), "
+            f"got {len(ready)}"
+        )
+    gripper = GripperSpec(
+        hand_link=fingers[0].parent,
+        tcp_link=cfg.tcp_link,
+        finger_links=(fingers[0].child, fingers[1].child),
+        finger_joints=(fingers[0].name, fingers[1].name),
+        finger_travel=cfg.finger_travel,
+    )
+    return RobotSpec(
+        name=name,
+        summary=f"a user's arm from {path.name}",
+        description=str(path.resolve()),
+        licence="the user's",
+        arm_joints=tuple(cfg.arm_joints),
+        ready_pose=tuple(float(v) for v in ready),
+        gripper=gripper,
+        reach=chain_length(urdf, cfg.tcp_link),
+        srdf=str(Path(cfg.srdf).resolve()) if cfg.srdf else None,
+    )
+
+
+def _joint(urdf: Urdf, name: str, kinds: tuple[str, ...], key: str, source: str):
+    joint = urdf.joints.get(name)
+    if joint is None or joint.kind not in kinds:
+        raise ConfigError(
+            f"{source}: robot.urdf.{key}: expected {' or '.join(kinds)} joints of the URDF, "
+            f"got {name!r}" + ("" if joint is None else f" ({joint.kind})")
+        )
+    return joint
+
+
+def chain_length(urdf: Urdf, link: str) -> float:
+    """Metres along the joint origins from the root to ``link``: an upper bound of its reach."""
+    parents = {j.child: j for j in urdf.joints.values()}
+    total = 0.0
+    while link in parents:
+        joint = parents[link]
+        total += float(np.linalg.norm(joint.origin[:3, 3]))
+        link = joint.parent
+    return round(total, 4)

@@ -1,0 +1,58 @@
+"""TheRobotStudio SO-100, as ManiSkill ships it (``robots/so100/so100.urdf`` and its SRDF): five
+arm joints and a jaw gripper, the revolute ``gripper`` joint swinging ``Moving_Jaw`` against the
+jaw of ``Fixed_Jaw``. Composed on first use with a TCP and two pad frames in datagen's convention
+and turned to face +x (:mod:`datagen.robot_specs.compose`)."""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+from datagen.robot_specs import GripperSpec, RobotSpec
+from datagen.robot_specs.compose import Frame, FrameComposition, compose_framed_urdf
+
+COMPOSITION = FrameComposition(
+    name="so100",
+    source="mani_skill:robots/so100/so100.urdf",
+    frames=(
+        # midway between the pads at half opening (gripper -0.43 rad); z along the jaws (-y of
+        # Fixed_Jaw), y from the fixed jaw to the moving one (-x of Fixed_Jaw)
+        Frame("so100_tcp", "Fixed_Jaw", (-0.0171, -0.09606, 0.0), (math.pi / 2, -math.pi / 2, 0.0)),
+        # on the inner faces of the collision shapes, at the depth of ManiSkill's jaw tips
+        Frame("so100_fixed_pad", "Fixed_Jaw", (0.0079, -0.097, 0.0)),
+        Frame("so100_moving_pad", "Moving_Jaw", (-0.0123, -0.073, 0.0)),
+    ),
+    base_yaw=math.pi / 2,  # ManiSkill's so100 faces -y of its Base
+)
+
+
+def urdf() -> Path:
+    return compose_framed_urdf(COMPOSITION)
+
+
+SO100 = RobotSpec(
+    name="so100",
+    summary="TheRobotStudio SO-100 low-cost arm with its jaw gripper (ManiSkill's so100)",
+    description="composed:datagen.robot_specs.so100:urdf",
+    srdf="mani_skill:robots/so100/so100.srdf",
+    licence="Apache-2.0 (TheRobotStudio SO-ARM100, as shipped by ManiSkill)",
+    arm_joints=("shoulder_pan", "shoulder_lift", "elbow_flex", "wrist_flex", "wrist_roll"),
+    # arm raised, jaws pointing down: TCP ~(0.17, 0, 0.11) m from the base; wrist_flex near
+    # its limit of 1.8 rad
+    ready_pose=(0.145, -0.51, 0.277, 1.75, 1.804),
+    gripper=GripperSpec(
+        hand_link="Fixed_Jaw",
+        tcp_link="so100_tcp",
+        finger_links=("Moving_Jaw", "Fixed_Jaw"),
+        finger_joints=("gripper",),
+        # closed .. 0.6 rad: the width grows to 0.100 m; past ~0.85 rad it shrinks again
+        finger_travel=(-1.1, 0.6),
+        pad_links=("so100_moving_pad", "so100_fixed_pad"),
+    ),
+    reach=0.45,  # FK: farthest TCP from the shoulder_lift axis over 20000 samples
+    # the tray floor reachable top-down everywhere (scripts/workspace_reach.py so100 0.33)
+    workspace_scale=0.33,
+    object_scale=0.5,  # objects of 1.5-5 cm (the Panda's 3-10 cm): what a small jaw holds
+    approach_in_base_plane=True,
+    mount=(0.0, 0.0, 0.001),  # 1 mm clear of the table top, which the planner counts as touching
+)
