@@ -33,21 +33,30 @@ def pose7(pose: sapien.Pose) -> np.ndarray:
     return np.concatenate([pose.p, pose.q]).astype(np.float64)
 
 
+class ArmPlanner(mplib.Planner):
+    """mplib's planner for one arm, which also knows the arm's ready pose (radians): the IK's
+    second seed, after the current joints."""
+
+    def __init__(self, ready_pose: tuple[float, ...], **kwargs: Any):
+        super().__init__(**kwargs)
+        self.ready_pose = ready_pose
+
+
 def make_planner(
     scene: sapien.Scene,
     robot: sapien.physx.PhysxArticulation,
     objects: list[SceneObject],
     spec: RobotSpec,
-) -> mplib.Planner:
+) -> ArmPlanner:
     srdf = spec.srdf_path() or generated_srdf(spec.urdf_path())
-    planner = mplib.Planner(
+    planner = ArmPlanner(
+        spec.ready_pose,
         urdf=str(spec.urdf_path()),
         srdf=str(srdf),
         user_link_names=[link.get_name() for link in robot.get_links()],
         user_joint_names=[joint.get_name() for joint in robot.get_active_joints()],
         move_group=spec.gripper.tcp_link,
     )
-    planner.ready_pose = spec.ready_pose
     planner.set_base_pose(pose7(robot.get_root_pose()))
     planner.joint_vel_limits = np.asarray(planner.joint_vel_limits) * 0.9
     planner.joint_acc_limits = np.asarray(planner.joint_acc_limits) * 0.9
@@ -76,7 +85,7 @@ def remove_obstacles(planner: mplib.Planner) -> None:
         planner.remove_normal_object(name)
 
 
-def _ik_seeds(planner: mplib.Planner, qpos: np.ndarray) -> list[np.ndarray]:
+def _ik_seeds(planner: ArmPlanner, qpos: np.ndarray) -> list[np.ndarray]:
     lo, hi = np.asarray(planner.joint_limits, float).reshape(-1, 2).T
     arm = planner.move_group_joint_indices
     ready = qpos.copy()
@@ -90,7 +99,7 @@ def _ik_seeds(planner: mplib.Planner, qpos: np.ndarray) -> list[np.ndarray]:
     return [qpos.copy(), ready, *randoms]
 
 
-def solve_ik(planner: mplib.Planner, pose: sapien.Pose, qpos: np.ndarray) -> list[np.ndarray]:
+def solve_ik(planner: ArmPlanner, pose: sapien.Pose, qpos: np.ndarray) -> list[np.ndarray]:
     """Collision-free IK solutions (full qpos) from fixed seeds, nearest to ``qpos`` first."""
     goal = planner.transform_goal_to_wrt_base(pose7(pose))
     idx = planner.move_group_joint_indices
@@ -115,7 +124,7 @@ def _straight_path_free(planner: mplib.Planner, start: np.ndarray, goal: np.ndar
 
 
 def plan_transit(
-    planner: mplib.Planner, pose: sapien.Pose, qpos: np.ndarray, time_step: float
+    planner: ArmPlanner, pose: sapien.Pose, qpos: np.ndarray, time_step: float
 ) -> dict[str, Any]:
     """Trajectory of the arm joints to ``pose``; ``status`` is "Success" or why it failed."""
     qpos = np.asarray(qpos, float)

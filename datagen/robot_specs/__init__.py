@@ -49,17 +49,6 @@ class GripperSpec:
         return self.pad_links or self.finger_links
 
     @property
-    def max_width(self) -> float:
-        """Metres between the finger pads, fully open (prismatic fingers; a jaw's is
-        ``gripper_geometry(spec).max_width``)."""
-        if self.jaw:
-            raise ValueError(
-                f"gripper {self.finger_joints}: a jaw's width comes from its URDF, "
-                "use datagen.grasping.gripper_geometry.gripper_geometry(spec).max_width"
-            )
-        return 2 * self.finger_travel[1]
-
-    @property
     def links(self) -> tuple[str, ...]:
         """The links labelled ``gripper`` (not ``robot``) in the annotations."""
         return tuple(dict.fromkeys((self.hand_link, self.tcp_link, *self.finger_links)))

@@ -237,27 +237,26 @@ def compose_srdf(composition: Composition, seed: int = 0) -> Path:
     Named ``<urdf stem>.pairs.srdf``, not ``<urdf stem>.srdf``, which mplib's Planner overwrites
     when it is given no SRDF."""
     urdf = compose_urdf(composition)
-    path = urdf.with_name(f"{urdf.stem}.pairs-{seed}.srdf")
-    if path.is_file():
-        return path
-    root = ET.Element("robot", name=composition.name)
-    for (first, second), reason in sorted(collision_pairs(urdf, seed).items()):
-        ET.SubElement(root, "disable_collisions", link1=first, link2=second, reason=reason)
-    ET.indent(root, space="  ")
-    return _write_once(
-        path, '<?xml version="1.0"?>\n' + ET.tostring(root, encoding="unicode") + "\n"
+    return _pairs_srdf(
+        urdf.with_name(f"{urdf.stem}.pairs-{seed}.srdf"), composition.name, urdf, seed
     )
 
 
 def generated_srdf(urdf: Path, seed: int = 0) -> Path:
     """An SRDF of :func:`collision_pairs` for a URDF that comes without one (a user's arm), in
     the cache, named by the URDF's digest."""
-    digest = hashlib.sha256(Path(urdf).read_bytes()).hexdigest()[:16]
-    path = cache_dir() / f"{Path(urdf).stem}-{digest}.pairs-{seed}.srdf"
+    urdf = Path(urdf)
+    digest = hashlib.sha256(urdf.read_bytes()).hexdigest()[:16]
+    path = cache_dir() / f"{urdf.stem}-{digest}.pairs-{seed}.srdf"
+    return _pairs_srdf(path, urdf.stem, urdf, seed)
+
+
+def _pairs_srdf(path: Path, name: str, urdf: Path, seed: int) -> Path:
+    """``path``, holding :func:`collision_pairs` of ``urdf`` as SRDF, written once."""
     if path.is_file():
         return path
-    root = ET.Element("robot", name=Path(urdf).stem)
-    for (first, second), reason in sorted(collision_pairs(Path(urdf), seed).items()):
+    root = ET.Element("robot", name=name)
+    for (first, second), reason in sorted(collision_pairs(urdf, seed).items()):
         ET.SubElement(root, "disable_collisions", link1=first, link2=second, reason=reason)
     ET.indent(root, space="  ")
     return _write_once(

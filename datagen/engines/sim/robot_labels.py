@@ -13,8 +13,8 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 import sapien
-from scipy import ndimage
 
+from datagen.engines.sim.annotate import visible_pixels_and_boxes
 from datagen.engines.sim.silhouette import silhouette_pixels
 from datagen.geometry import image_points
 
@@ -94,18 +94,10 @@ def _amodal_pixels(part: LabelledPart, frame: Frame, near: float) -> tuple[int, 
 
 def pixel_labels(instance_map: np.ndarray, parts: list[LabelledPart]) -> list[dict[str, Any]]:
     """Per part, its visible pixels and box in ``instance_map`` (None: no pixel visible)."""
-    max_id = max((p.instance_id for p in parts), default=0)
-    counts = np.bincount(instance_map.ravel(), minlength=max_id + 1)
-    extents = ndimage.find_objects(instance_map, max_label=max_id) if max_id else []
-    out = []
-    for part in parts:
-        visible = int(counts[part.instance_id])
-        bbox = None
-        if visible:
-            rows, cols = extents[part.instance_id - 1]
-            bbox = [cols.start, rows.start, cols.stop - 1, rows.stop - 1]
-        out.append({"visible": visible > 0, "visible_pixels": visible, "bbox_xyxy": bbox})
-    return out
+    return [
+        {"visible": visible > 0, "visible_pixels": visible, "bbox_xyxy": bbox}
+        for visible, bbox in visible_pixels_and_boxes(instance_map, [p.instance_id for p in parts])
+    ]
 
 
 def part_view_records(
