@@ -15,5 +15,13 @@ echo "[test] mkdocs build --strict (the documentation site, built outside the tr
 SITE="$(mktemp -d)"
 .venv/bin/mkdocs build --strict --quiet -d "$SITE"
 rm -rf "$SITE"
-echo "[test] pytest"
-exec .venv/bin/pytest "$@"
+if [ "$#" -gt 0 ]; then
+  echo "[test] pytest $*"
+  exec .venv/bin/pytest "$@"
+fi
+# The whole suite in two runs that split it: first the quick loop exactly as docs/testing.md
+# prints it (the pure tests), then every test it leaves out.
+echo "[test] pytest: the pure tests (the quick loop of docs/testing.md)"
+.venv/bin/pytest -q -m "not sim and not mqtt and not ray and not slow"
+echo "[test] pytest: the tests that use the simulator, the broker, Ray or minutes"
+exec .venv/bin/pytest -m "sim or mqtt or ray or slow"

@@ -80,3 +80,11 @@ def test_every_registry_entry_loads():
         assert callable(plugin.load())
     for layout in LAYOUTS.values():
         assert callable(resolve(layout.make)) and callable(resolve(layout.params))
+
+
+def test_the_command_line_starts_without_the_geometry_or_the_simulator():
+    # every `datagen ...` pays for what its import pulls in, before it does anything
+    heavy = ("trimesh", "sapien", "mani_skill", "torch", "open3d", "pxr", "ray", "h5py")
+    code = f"import sys, datagen.cli; print([m for m in {heavy!r} if m in sys.modules])"
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    assert out.stdout.strip() == "[]", out.stdout

@@ -29,9 +29,6 @@ import numpy as np
 import trimesh
 from scipy.spatial import ConvexHull
 
-# the household shape families; each is built along the object frame's axes, so the
-# axis-aligned box is its tight oriented box
-HOUSEHOLD_FAMILIES = ("bottle", "can", "mug", "bowl", "lidded_box", "tool")
 COMPOSITE_KINDS = ("revolve", "shell", "handle")  # visual mesh is not the union of the parts
 REVOLVE_SECTIONS = 32  # around the axis; visual and frusta share them
 SHELL_SECTORS = 12  # convex wall segments around a vessel's axis

@@ -18,6 +18,7 @@ import numpy as np
 import trimesh
 
 from datagen.assets import household
+from datagen.assets.family_names import HOUSEHOLD_FAMILIES
 
 
 @dataclass(frozen=True)
@@ -92,7 +93,7 @@ def _cached_geometry(shape_json: str) -> ObjectGeometry:
         if found is not None:
             visual = found.visual.copy().apply_scale(asset["scale"])
             visual_is_parts = False
-    if shape["family"] in ("box", "cylinder", "sphere", "capsule", *household.HOUSEHOLD_FAMILIES):
+    if shape["family"] in ("box", "cylinder", "sphere", "capsule", *HOUSEHOLD_FAMILIES):
         # primitives and household shapes: the box aligned with the object frame is the tight
         # oriented box
         lo, hi = visual.bounds

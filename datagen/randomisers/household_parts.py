@@ -11,7 +11,7 @@ from typing import Any
 
 import numpy as np
 
-from datagen.assets.household import HOUSEHOLD_FAMILIES
+from datagen.assets.family_names import HOUSEHOLD_FAMILIES
 
 _IDENTITY = [1.0, 0.0, 0.0, 0.0]
 _Z_TO_X = [float(np.cos(np.pi / 4)), 0.0, float(np.sin(np.pi / 4)), 0.0]  # 90 deg about y

@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 import sapien
 
-from datagen.assets import household
+from datagen.assets import family_names, household
 from datagen.assets.shapes import _cached_geometry, build_geometry
 from datagen.assets.tabletop_layout import TRAY_CENTRE, TRAY_FLOOR, TRAY_INNER_HALF
 from datagen.config import BuildConfig
@@ -30,7 +30,7 @@ def _mesh_bytes(mesh) -> bytes:
 
 
 def test_household_families_are_shape_families():
-    assert HOUSEHOLD_FAMILIES is household.HOUSEHOLD_FAMILIES  # one tuple, imported
+    assert HOUSEHOLD_FAMILIES is family_names.HOUSEHOLD_FAMILIES  # one tuple, imported
     assert set(HOUSEHOLD_FAMILIES) <= set(SHAPE_FAMILIES)
     assert ObjectsConfig().families == SHAPE_FAMILIES  # the default draws from all of them
 

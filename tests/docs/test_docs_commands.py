@@ -6,7 +6,7 @@ reference generated from the config schema with every key."""
 
 from __future__ import annotations
 
-import os
+import itertools
 import re
 import subprocess
 import sys
@@ -15,8 +15,6 @@ from pathlib import Path
 import pytest
 
 REPO = Path(__file__).resolve().parents[2]
-# Set for the command's own pytest: it must not run this test again (pytest inside pytest).
-GUARD = "DATAGEN_DOCS_COMMAND_RUNNING"
 HOOK = REPO / "docs" / "hooks" / "config_reference.py"
 MKDOCS = Path(sys.executable).parent / "mkdocs"
 
@@ -29,22 +27,29 @@ def printed_command(tag: str) -> str:
     return found[1]
 
 
-@pytest.mark.slow
-@pytest.mark.skipif(os.environ.get(GUARD) == "1", reason="inside the printed command's own run")
-def test_the_printed_pure_selection_runs_and_passes():
-    command = printed_command("pure-selection")
-    assert '-m "not sim and not mqtt and not ray and not slow"' in command
-    result = subprocess.run(
-        ["bash", "-c", command],
-        cwd=REPO,
-        env=os.environ | {GUARD: "1"},
-        capture_output=True,
-        text=True,
-        timeout=600,
-    )
-    output = result.stdout + result.stderr
-    assert result.returncode == 0, output[-4000:]
-    assert re.search(r"\d+ passed", output) and re.search(r"\d+ deselected", output), output[-4000:]
+def _selection(command: str) -> str:
+    found = re.search(r'-m "([^"]+)"', command)
+    assert found, command
+    return found[1]
+
+
+def test_the_test_command_runs_the_printed_pure_selection_and_then_all_it_leaves_out():
+    """scripts/test.sh (the README's test command, .ci/run) runs the quick loop exactly as
+    printed, then the complementary selection: together every test, each once."""
+    printed = printed_command("pure-selection")
+    assert '-m "not sim and not mqtt and not ray and not slow"' in printed
+    lines = [line.strip() for line in (REPO / "scripts" / "test.sh").read_text().splitlines()]
+    assert printed in lines, "scripts/test.sh does not run the printed pure selection as printed"
+    rest = next((line for line in lines[lines.index(printed) + 1 :] if "-m " in line), None)
+    assert rest and rest.startswith("exec .venv/bin/pytest -m "), rest
+    # marker expressions are Python's boolean syntax: every marker combination is selected by
+    # exactly one of the two
+    first, second = (compile(_selection(c), "-m", "eval") for c in (printed, rest))
+    markers = sorted(set(first.co_names) | set(second.co_names))
+    assert markers == ["mqtt", "ray", "sim", "slow"], markers
+    for values in itertools.product((False, True), repeat=len(markers)):
+        names = dict(zip(markers, values, strict=True))
+        assert eval(first, {}, names) != eval(second, {}, names), names
 
 
 def test_every_block_tagged_for_a_test_is_run_by_one():
