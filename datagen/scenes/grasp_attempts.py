@@ -10,7 +10,6 @@ not kept). Every random choice comes from (seed, index); recording draws none.
 
 from __future__ import annotations
 
-import dataclasses
 from pathlib import Path
 from typing import Any
 
@@ -107,6 +106,15 @@ def _recorder(config: BuildConfig, scene: GraspScene, parts: dict[str, bytes]) -
     )
 
 
+def _approach_plane_through(scene: GraspScene) -> tuple[float, float] | None:
+    """A five-joint arm's shoulder axis (world x, y), off its base's origin; None for others."""
+    if not scene.spec.approach_in_base_plane:
+        return None
+    pan = next(j for j in scene.robot.get_active_joints() if j.name == scene.spec.arm_joints[0])
+    axis = pan.get_global_pose().p
+    return float(axis[0]), float(axis[1])
+
+
 def produce(config: BuildConfig, seed: int, index: int, attempt: int = 0) -> Sample:
     keep_renderer_alive()
     campaign = scaled_to_robot(config).campaign  # pre-grasp and lift distances for a small arm
@@ -122,14 +130,12 @@ def produce(config: BuildConfig, seed: int, index: int, attempt: int = 0) -> Sam
     )
     gripper = gripper_geometry(scene.spec)
     sampler = SAMPLERS[campaign.sampler].load().from_campaign(campaign, gripper)
-    if scene.spec.approach_in_base_plane and hasattr(sampler, "base_plane"):
-        pan = next(j for j in scene.robot.get_active_joints() if j.name == scene.spec.arm_joints[0])
-        axis = pan.get_global_pose().p  # the shoulder's vertical axis, off the base's origin
-        sampler = dataclasses.replace(sampler, base_plane=(float(axis[0]), float(axis[1])))
     result = sampler.sample(
         sample_rng(seed, index, "grasp", attempt),
         GraspTarget(
-            _parts_world(target), np.asarray(target.entity.pose.to_transformation_matrix(), float)
+            _parts_world(target),
+            np.asarray(target.entity.pose.to_transformation_matrix(), float),
+            _approach_plane_through(scene),
         ),
         obstacles,
         max_tries=campaign.sampler_tries,

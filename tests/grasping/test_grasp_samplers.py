@@ -227,3 +227,25 @@ def test_box_vs_convex_matches_linear_programming():
         hits += feasible
         assert box_hits_body(transform, extents, body) == feasible
     assert 30 < hits < 270
+
+
+def test_a_five_joint_arm_gets_approaches_in_its_shoulder_plane_from_above():
+    """``approach_plane_through``: every approach lies in the vertical plane through the
+    shoulder axis and the grasp centre, within 10 degrees of straight down."""
+    shoulder = (-0.3, 0.1)
+    sampler = make_sampler("antipodal")
+    found = 0
+    for seed in range(8):
+        box = trimesh.creation.box(extents=(0.03, 0.05, 0.04))
+        target = on_table(box, xy=(0.05 * seed - 0.2, 0.03 * seed))
+        target = GraspTarget(target.parts_world, target.pose_world, shoulder)
+        result = sampler.sample(np.random.default_rng(seed), target, Obstacles([], TABLE))
+        if result.candidate is None:
+            continue
+        found += 1
+        cand = result.candidate
+        radial = cand.pose_world[:3, 3] - np.array([*shoulder, cand.pose_world[2, 3]])
+        normal = np.cross(radial, [0.0, 0.0, 1.0])
+        assert abs(cand.approach @ normal) < 1e-9 * np.linalg.norm(normal) + 1e-12
+        assert cand.approach[2] <= -np.cos(np.deg2rad(10.0)) + 1e-12
+    assert found >= 6

@@ -75,9 +75,6 @@ class AntipodalSampler:
     approach_angles: int = 24  # approach directions tried about the closing axis
     downward_z: float = -0.3  # approaches with a z component below this are tried first
     allow_side: bool = True  # then try the others (still collision-checked)
-    # a 5-joint arm's shoulder axis (x, y), world metres: it reaches only approaches in the
-    # vertical plane through that axis (shoulder pan, then three pitch joints, then wrist roll)
-    base_plane: tuple[float, float] | None = None
     name: str = "antipodal"
 
     @classmethod
@@ -121,7 +118,15 @@ class AntipodalSampler:
             if width > self.max_width:
                 rejected[f"wider than {self.max_width} m with clearance"] += 1
                 continue
-            pose = self._approach(rng, (p1 + p2) / 2, closing, width, blocking, obstacles)
+            pose = self._approach(
+                rng,
+                (p1 + p2) / 2,
+                closing,
+                width,
+                blocking,
+                obstacles,
+                target.approach_plane_through,
+            )
             if pose is None:
                 rejected["every approach collides"] += 1
                 continue
@@ -160,15 +165,15 @@ class AntipodalSampler:
             return "degenerate ray"
         return p1 + t_exit * direction, body.normals[plane]
 
-    def _approach(self, rng, centre, closing, width, blocking, obstacles):
+    def _approach(self, rng, centre, closing, width, blocking, obstacles, plane_through):
         """A collision-free TCP pose closing along ``closing``, or None."""
         u, v = _perpendicular_basis(closing)
         angles = rng.uniform(0, 2 * np.pi) + np.arange(self.approach_angles) * (
             2 * np.pi / self.approach_angles
         )
         approaches = np.cos(angles)[:, None] * u + np.sin(angles)[:, None] * v
-        if self.base_plane is not None:
-            approaches = _in_base_plane(centre, closing, self.base_plane)
+        if plane_through is not None:
+            approaches = _in_base_plane(centre, closing, plane_through)
         down = approaches[:, 2] < self.downward_z
         order = [*rng.permutation(np.flatnonzero(down))]
         if self.allow_side:

@@ -20,10 +20,15 @@ TABLE_Z = 0.75  # metres, the grasping scene's table top
 
 @dataclass(frozen=True)
 class GraspTarget:
-    """The object to grasp: its convex parts in the world frame, and its pose."""
+    """The object to grasp: its convex parts in the world frame, and its pose; and, for an arm
+    that reaches it only from one vertical plane, that plane."""
 
     parts_world: list[trimesh.Trimesh]
     pose_world: np.ndarray  # (4, 4)
+    # (x, y) world metres of a five-joint arm's shoulder axis (pan, three pitch joints, wrist
+    # roll): its approaches lie in the vertical plane through this axis and the grasp. Samplers
+    # that choose approaches honour it; the random baseline draws any pose.
+    approach_plane_through: tuple[float, float] | None = None
 
     @classmethod
     def from_geometry(cls, geometry: ObjectGeometry, pose_world: np.ndarray) -> GraspTarget:
