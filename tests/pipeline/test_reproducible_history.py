@@ -58,6 +58,7 @@ def produce_in_new_process(config: str, scene: str, indices: list[int]) -> dict[
         ("configs/nav_maze.yaml", "navigation", [1], 0),
         ("configs/campaign_iiwa14.yaml", "grasp_attempts", [1], 0),
         ("configs/campaign_xarm7.yaml", "grasp_attempts", [2], 0),
+        ("configs/campaign_so100.yaml", "grasp_attempts", [1], 0),
     ],
 )
 def test_sample_bytes_do_not_depend_on_the_worker_history(config, scene, history, index):
