@@ -21,6 +21,7 @@ from mplib.pymp.collision_detection import fcl
 
 from datagen.robot_specs import RobotSpec
 from datagen.robot_specs.compose import generated_srdf
+from datagen.robot_specs.planner_copy import planner_urdf
 from datagen.worlds.tabletop import SceneObject
 
 log = logging.getLogger(__name__)
@@ -48,10 +49,11 @@ def make_planner(
     objects: list[SceneObject],
     spec: RobotSpec,
 ) -> ArmPlanner:
-    srdf = spec.srdf_path() or generated_srdf(spec.urdf_path())
+    urdf = planner_urdf(spec)  # a user's arm: a copy in the cache, with convex hulls
+    srdf = spec.srdf_path() or generated_srdf(urdf)
     planner = ArmPlanner(
         spec.ready_pose,
-        urdf=str(spec.urdf_path()),
+        urdf=str(urdf),
         srdf=str(srdf),
         user_link_names=[link.get_name() for link in robot.get_links()],
         user_joint_names=[joint.get_name() for joint in robot.get_active_joints()],

@@ -60,15 +60,17 @@ def _planner_mesh(mesh_file: Path) -> Path:
     the mesh and its convex hull are copied into the cache."""
     if Path(f"{mesh_file}.convex.stl").is_file():
         return mesh_file
-    import trimesh
-
     data = mesh_file.read_bytes()
     recipe = b"merge_vertices; qhull QbB Pp Qt"  # in the key: a new recipe, a new copy
     copy = cache_dir() / "meshes" / hashlib.sha256(data + recipe).hexdigest()[:16] / mesh_file.name
-    mesh = trimesh.load(mesh_file, force="mesh")
-    mesh.merge_vertices()  # thin parts (koch's 2.8 mm chassis) otherwise give an open hull
-    hull = trimesh.convex.convex_hull(mesh, qhull_options="QbB Pp Qt")
-    _write_once(Path(f"{copy}.convex.stl"), hull.export(file_type="stl"))
+    hull_file = Path(f"{copy}.convex.stl")
+    if not hull_file.is_file():  # made once: the hull is written before the mesh's copy
+        import trimesh
+
+        mesh = trimesh.load(mesh_file, force="mesh")
+        mesh.merge_vertices()  # thin parts (koch's 2.8 mm chassis) otherwise give an open hull
+        hull = trimesh.convex.convex_hull(mesh, qhull_options="QbB Pp Qt")
+        _write_once(hull_file, hull.export(file_type="stl"))
     return _write_once(copy, data)
 
 
