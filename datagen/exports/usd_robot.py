@@ -2,15 +2,20 @@
 ``UsdPhysics.ArticulationRootAPI``; customData ``datagen:description``, ``datagen:qpos`` and
 ``datagen:joint_names``) holds one Xform per URDF link at its pose for the sample's joint
 positions (forward kinematics of :meth:`datagen.robot_specs.urdf.Urdf.link_poses`, in the
-robot's root frame) with ``UsdPhysics.RigidBodyAPI``, and under it ``visual_<i>_<j>``: the
-link's visual geometry as Meshes in the link frame (visual origin and mesh scale applied), one
-per material of the mesh file with its base colour as ``displayColor``. Mesh files are decimated
-to about :data:`MAX_FACES_PER_LINK` triangles per link (open3d quadric decimation,
-deterministic), once per process. ``/World/Robot/joints/<joint>``: a UsdPhysics Revolute,
-Prismatic or Fixed joint between the two link prims (limits in degrees or metres, the joint's
-position in customData ``datagen:position``), and ``root_joint`` fixing the root link to the
-world. Everything is inline: the stage refers to no other file (``datagen replay`` refuses
-those).
+robot's root frame) with ``UsdPhysics.RigidBodyAPI`` and, where the URDF gives an inertial,
+``UsdPhysics.MassAPI``. Under it ``visual_<i>_<j>``: the link's visual geometry as Meshes in the
+link frame (visual origin and mesh scale applied), one per material of the mesh file with its
+base colour as ``displayColor``; and ``collision_<i>``: its collision geometry, not rendered
+(purpose guide), with ``UsdPhysics.CollisionAPI`` (a mesh one Mesh with a convex hull
+approximation, primitives as Cube, Cylinder or Sphere). Mesh files are decimated to about
+:data:`MAX_FACES_PER_LINK` triangles per link, visuals and collisions each (open3d quadric
+decimation, deterministic), once per process. ``/World/Robot/joints/<joint>``: a UsdPhysics
+Revolute, Prismatic or Fixed joint between the two link prims (limits in degrees or metres, the
+joint's position in customData ``datagen:position``; each joint the sample sets has a
+``UsdPhysics.DriveAPI`` holding it there), and ``root_joint`` fixing the root link to the world.
+The stage's kilogramsPerUnit is 1. The physics schemas and their units:
+:mod:`datagen.exports.usd_robot_physics`. Everything is inline: the stage refers to no other file
+(``datagen replay`` refuses those).
 """
 
 from __future__ import annotations
@@ -25,7 +30,14 @@ import trimesh
 from pxr import Gf, Tf, UsdGeom, UsdPhysics, Vt
 from scipy.spatial.transform import Rotation
 
-from datagen.robot_specs.urdf import Geometry, Joint, Urdf, read_urdf
+from datagen.exports.usd_robot_physics import (
+    define_drive,
+    define_mass,
+    define_primitive_collider,
+    make_mesh_collider,
+    quat,
+)
+from datagen.robot_specs.urdf import Geometry, Joint, Link, Urdf, read_urdf
 
 MAX_FACES_PER_LINK = 2000
 POINT_DECIMALS = 5  # points rounded to 10 micrometres: shorter text, far below the mesh error
@@ -110,7 +122,7 @@ def geometry_parts(geometry: Geometry, max_faces: int) -> list[Part]:
     return out
 
 
-def _mesh(stage, path: str, part: Part) -> None:
+def _mesh(stage, path: str, part: Part) -> UsdGeom.Mesh:
     usd_mesh = UsdGeom.Mesh.Define(stage, path)
     points = np.round(part.vertices, POINT_DECIMALS).astype(np.float32)
     usd_mesh.CreatePointsAttr(Vt.Vec3fArray.FromNumpy(points))
@@ -120,6 +132,7 @@ def _mesh(stage, path: str, part: Part) -> None:
     lo, hi = points.min(axis=0), points.max(axis=0)
     usd_mesh.CreateExtentAttr(Vt.Vec3fArray([Gf.Vec3f(*map(float, lo)), Gf.Vec3f(*map(float, hi))]))
     usd_mesh.CreateDisplayColorAttr(Vt.Vec3fArray([Gf.Vec3f(*part.colour)]))
+    return usd_mesh
 
 
 def _axis_frame(axis: np.ndarray) -> tuple[str, np.ndarray]:
@@ -131,12 +144,9 @@ def _axis_frame(axis: np.ndarray) -> tuple[str, np.ndarray]:
     return "X", rotation.as_matrix()
 
 
-def _quat(rotation: np.ndarray) -> Gf.Quatf:
-    x, y, z, w = Rotation.from_matrix(rotation).as_quat()
-    return Gf.Quatf(float(w), float(x), float(y), float(z))
-
-
-def _joint(stage, path: str, joint: Joint, links: dict[str, str], position: float) -> None:
+def _joint(
+    stage, path: str, joint: Joint, links: dict[str, str], position: float, driven: bool
+) -> None:
     if joint.kind in ("revolute", "continuous"):
         usd_joint = UsdPhysics.RevoluteJoint.Define(stage, path)
     elif joint.kind == "prismatic":
@@ -147,9 +157,9 @@ def _joint(stage, path: str, joint: Joint, links: dict[str, str], position: floa
     usd_joint.CreateBody1Rel().SetTargets([links[joint.child]])
     token, frame = _axis_frame(joint.axis)
     usd_joint.CreateLocalPos0Attr(Gf.Vec3f(*map(float, joint.origin[:3, 3])))
-    usd_joint.CreateLocalRot0Attr(_quat(joint.origin[:3, :3] @ frame))
+    usd_joint.CreateLocalRot0Attr(quat(joint.origin[:3, :3] @ frame))
     usd_joint.CreateLocalPos1Attr(Gf.Vec3f(0.0, 0.0, 0.0))
-    usd_joint.CreateLocalRot1Attr(_quat(frame))
+    usd_joint.CreateLocalRot1Attr(quat(frame))
     prim = usd_joint.GetPrim()
     if isinstance(usd_joint, UsdPhysics.FixedJoint):
         return
@@ -159,6 +169,8 @@ def _joint(stage, path: str, joint: Joint, links: dict[str, str], position: floa
         usd_joint.CreateLowerLimitAttr(float(joint.limits[0] * scale))
         usd_joint.CreateUpperLimitAttr(float(joint.limits[1] * scale))
     prim.SetCustomDataByKey("datagen:position", float(position))  # radians or metres
+    if driven:
+        define_drive(prim, joint, position)
     if joint.mimic is not None:
         prim.SetCustomDataByKey("datagen:mimic", f"{joint.mimic[0]} * {joint.mimic[1]:g} + {joint.mimic[2]:g}")  # fmt: skip
 
@@ -169,6 +181,25 @@ def _position(joint: Joint, values: dict[str, float]) -> float:
         leader, multiplier, offset = joint.mimic
         return multiplier * values.get(leader, 0.0) + offset
     return values.get(joint.name, 0.0)
+
+
+def _collisions(stage, path: str, link: Link) -> None:
+    """``collision_<i>``: the link's collision elements (usd_robot_physics's docstring)."""
+    budget = MAX_FACES_PER_LINK // max(len(link.collisions), 1)
+    for i, geometry in enumerate(link.collisions):
+        if geometry.kind != "mesh":
+            define_primitive_collider(stage, f"{path}/collision_{i}", geometry)
+            continue
+        parts = geometry_parts(geometry, budget)
+        if not parts:
+            continue
+        offsets = np.cumsum([0] + [len(p.vertices) for p in parts])[:-1]
+        merged = Part(
+            np.concatenate([p.vertices for p in parts]),
+            np.concatenate([p.faces + o for p, o in zip(parts, offsets, strict=True)]),
+            DEFAULT_COLOUR,
+        )
+        make_mesh_collider(_mesh(stage, f"{path}/collision_{i}", merged).GetPrim())
 
 
 def link_paths(root: str, urdf: Urdf) -> dict[str, str]:
@@ -195,6 +226,7 @@ def define_robot(stage, path: str, robot: dict[str, Any], key: str) -> UsdGeom.X
     if len(robot["joint_names"]) != len(robot["qpos"]):
         raise ValueError(f"sample {key}: robot.joint_names and robot.qpos differ in length")
     UsdPhysics.ArticulationRootAPI.Apply(prim)
+    UsdPhysics.SetStageKilogramsPerUnit(stage, 1.0)  # the links' masses are in kg
     urdf = read_urdf(robot_urdf(robot))
     values = dict(zip(robot["joint_names"], map(float, robot["qpos"]), strict=True))
     poses, paths = urdf.link_poses(values), link_paths(path, urdf)
@@ -202,17 +234,20 @@ def define_robot(stage, path: str, robot: dict[str, Any], key: str) -> UsdGeom.X
         link_xform = UsdGeom.Xform.Define(stage, paths[name])
         link_xform.AddTransformOp().Set(_matrix(poses[name]))
         UsdPhysics.RigidBodyAPI.Apply(link_xform.GetPrim())
+        define_mass(link_xform.GetPrim(), link.inertial)
         budget = MAX_FACES_PER_LINK // max(len(link.visuals), 1)
         for i, visual in enumerate(link.visuals):
             for j, part in enumerate(geometry_parts(visual, budget)):
                 _mesh(stage, f"{paths[name]}/visual_{i}_{j}", part)
+        _collisions(stage, paths[name], link)
     UsdGeom.Scope.Define(stage, f"{path}/joints")
     root_joint = UsdPhysics.FixedJoint.Define(stage, f"{path}/joints/root_joint")
     root_joint.CreateBody1Rel().SetTargets([paths[urdf.root]])  # body0 unset: the world
     base = np.asarray(robot["base_pose"]["matrix"], float)
     root_joint.CreateLocalPos0Attr(Gf.Vec3f(*map(float, base[:3, 3])))
-    root_joint.CreateLocalRot0Attr(_quat(base[:3, :3]))
+    root_joint.CreateLocalRot0Attr(quat(base[:3, :3]))
     for joint in urdf.joints.values():
         joint_path = f"{path}/joints/{Tf.MakeValidIdentifier(joint.name)}"
-        _joint(stage, joint_path, joint, paths, _position(joint, values))
+        driven = joint.name in values
+        _joint(stage, joint_path, joint, paths, _position(joint, values), driven)
     return xform

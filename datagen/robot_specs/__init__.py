@@ -19,6 +19,9 @@ from pathlib import Path
 
 Vector3 = tuple[float, float, float]
 DESCRIPTIONS = Path(__file__).parent / "descriptions"
+# the PD drive that holds a scene's robot at its sampled joint positions (and that a USD stage
+# carries): stiffness N·m/rad or N/m, damping N·m·s/rad or N·s/m
+HOLD_STIFFNESS, HOLD_DAMPING = 2000.0, 200.0
 
 
 @dataclass(frozen=True)

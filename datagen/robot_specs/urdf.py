@@ -1,5 +1,6 @@
 """A URDF read as plain values (xml.etree, no simulator): links with their visual and collision
-geometry, joints with origins, axes, limits and mimics, and forward kinematics.
+geometry and mass properties, joints with origins, axes, limits and mimics, and forward
+kinematics.
 
 Used where datagen needs a robot's geometry without a physics scene: the gripper's collision
 volume for the grasp samplers (:mod:`datagen.grasping.gripper_geometry`) and the robot's
@@ -31,10 +32,36 @@ class Geometry:
 
 
 @dataclass(frozen=True)
+class Inertial:
+    """A link's mass properties: ``mass`` kg, ``origin`` (4, 4) the inertial frame in the link's
+    (its translation the centre of mass), ``inertia`` (3, 3) kg m^2 about the centre of mass,
+    in the inertial frame."""
+
+    mass: float
+    origin: np.ndarray
+    inertia: np.ndarray
+
+    def principal(self) -> tuple[np.ndarray, np.ndarray]:
+        """(3,) principal moments, ascending, kg m^2, and (3, 3) a rotation whose columns are
+        the principal axes in the link's frame: ``axes @ diag(moments) @ axes.T`` is the
+        tensor in the link's frame. Each axis has its largest component positive, the third
+        flipped if needed to make a right-handed frame (eigenvectors are defined up to sign)."""
+        rotation = self.origin[:3, :3]
+        tensor = rotation @ self.inertia @ rotation.T
+        moments, axes = np.linalg.eigh((tensor + tensor.T) / 2)
+        signs = np.sign(axes[np.argmax(np.abs(axes), axis=0), range(3)])
+        axes = axes * signs
+        if np.linalg.det(axes) < 0:
+            axes[:, 2] *= -1
+        return moments, axes
+
+
+@dataclass(frozen=True)
 class Link:
     name: str
     visuals: tuple[Geometry, ...]
     collisions: tuple[Geometry, ...]
+    inertial: Inertial | None = None  # None: no <inertial> (or one without <mass>)
 
 
 @dataclass(frozen=True)
@@ -128,6 +155,17 @@ def _geometry(element: ET.Element, folder: Path) -> Geometry | None:
     return None
 
 
+def _inertial(element: ET.Element | None) -> Inertial | None:
+    mass = None if element is None else element.find("mass")
+    if element is None or mass is None:
+        return None
+    inertia = element.find("inertia")
+    keys = ("ixx", "ixy", "ixz", "iyy", "iyz", "izz")
+    xx, xy, xz, yy, yz, zz = (float(_attr(inertia, k) or 0) for k in keys)
+    tensor = np.array([[xx, xy, xz], [xy, yy, yz], [xz, yz, zz]])
+    return Inertial(float(mass.get("value", 0)), _origin(element.find("origin")), tensor)
+
+
 def _joint(element: ET.Element) -> Joint:
     limit, mimic = element.find("limit"), element.find("mimic")
     axis = np.asarray(_floats(_attr(element.find("axis"), "xyz"), (1, 0, 0)), float)
@@ -171,7 +209,10 @@ def read_urdf(path: Path) -> Urdf:
         visuals = [_geometry(v, folder) for v in element.findall("visual")]
         collisions = [_geometry(c, folder) for c in element.findall("collision")]
         name = element.get("name", "")
-        links[name] = Link(name, tuple(g for g in visuals if g), tuple(g for g in collisions if g))
+        inertial = _inertial(element.find("inertial"))
+        links[name] = Link(
+            name, tuple(g for g in visuals if g), tuple(g for g in collisions if g), inertial
+        )
     joints = {j.name: j for j in (_joint(e) for e in root.findall("joint"))}
     children = {j.child for j in joints.values()}
     roots = [name for name in links if name not in children]

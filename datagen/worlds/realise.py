@@ -14,6 +14,7 @@ import sapien
 from datagen.assets.backdrop import wall_boxes
 from datagen.assets.shapes import ObjectGeometry, build_geometry
 from datagen.geometry import look_at
+from datagen.robot_specs import HOLD_DAMPING, HOLD_STIFFNESS
 from datagen.worlds.surfaces import render_shape, surface_entity
 
 SHADOW_CENTRE = [0, 0, 1]  # metres: the key light's shadow volume centre, unless the values say
@@ -173,5 +174,5 @@ def apply_robot(
     qpos = np.asarray([sampled[j.name] for j in joints], np.float32)
     robot.set_qpos(qpos)
     for joint, target in zip(joints, qpos, strict=True):
-        joint.set_drive_property(stiffness=2000.0, damping=200.0)
+        joint.set_drive_property(stiffness=HOLD_STIFFNESS, damping=HOLD_DAMPING)
         joint.set_drive_target(float(target))
