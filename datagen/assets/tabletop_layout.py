@@ -1,7 +1,8 @@
 """The tabletop world's static geometry, described once (metres; world frame z up): the floor,
 the table (top and legs), the robot's base on its edge at negative x and the tray in front of it.
 The constants are the Panda's workspace; a smaller arm gets them scaled about the world origin
-(:class:`Workspace`, from ``RobotSpec.workspace_scale``; the floor is not scaled).
+(:class:`Workspace`, from ``RobotSpec.workspace_scale``; the floor is not scaled), and the tray's
+walls and floor as its objects are (``RobotSpec.object_scale``).
 Pure numbers, realised by the simulator scene (``datagen.worlds.tabletop``) and the USD export
 (``datagen.exports.usd_stage``) from :func:`static_parts`, and shared with grasp planning."""
 
@@ -41,9 +42,13 @@ class StaticPart:
 
 @dataclass(frozen=True)
 class Workspace:
-    """The table, the tray and the robot's base, scaled by ``scale`` (1: the constants above)."""
+    """The table, the tray and the robot's base, scaled by ``scale`` (1: the constants above);
+    the tray's wall (thickness, height) and floor thickness by ``object_scale``: the tray holds
+    the objects, so its walls stay as high beside them as the Panda's (walls scaled with a
+    small arm's reach let its half-size objects bounce out or tunnel through 2 mm walls)."""
 
     scale: float = 1.0
+    object_scale: float = 1.0
 
     def _scaled(self, values):
         return tuple(v * self.scale for v in values)
@@ -70,11 +75,11 @@ class Workspace:
 
     @property
     def tray_wall(self) -> tuple[float, float]:
-        return self._scaled(TRAY_WALL)
+        return (TRAY_WALL[0] * self.object_scale, TRAY_WALL[1] * self.object_scale)
 
     @property
     def tray_floor(self) -> float:
-        return TRAY_FLOOR * self.scale
+        return TRAY_FLOOR * self.object_scale
 
     @property
     def tray_floor_top(self) -> tuple[float, float, float]:

@@ -53,7 +53,8 @@ def robot_spec(cfg: RobotConfig, source: str = "<config>") -> RobotSpec:
 
 def robot_workspace(cfg: RobotConfig) -> Workspace:
     """The table, tray and base scaled to the configured arm (``RobotSpec.workspace_scale``)."""
-    return Workspace(robot_spec(cfg).workspace_scale)
+    spec = robot_spec(cfg)
+    return Workspace(spec.workspace_scale, spec.object_scale)
 
 
 def urdf_robot(name: str, cfg: UrdfRobotConfig, source: str) -> RobotSpec:

@@ -160,7 +160,8 @@ def scene_stage(meta: dict[str, Any], out_dir: str | Path | None = None) -> Usd.
     world.GetPrim().SetCustomDataByKey("datagen:scene", meta["scene"])
     world.GetPrim().SetCustomDataByKey("datagen:randomisation", json.dumps(meta["randomisation"], sort_keys=True))  # fmt: skip
     materials = meta["randomisation"]["materials"]
-    ws = Workspace(float(meta["robot"].get("workspace_scale", 1.0)))
+    robot = meta["robot"]
+    ws = Workspace(float(robot.get("workspace_scale", 1.0)), float(robot.get("object_scale", 1.0)))
     _static_parts(stage, key, materials, out_dir, ws)
     _xform(stage, "/World/Objects")
     for obj, material in zip(meta["objects"], materials["objects"], strict=True):

@@ -188,7 +188,12 @@ def annotate_scene(
             "qpos": np.round(scene.robot.get_qpos(), 6).tolist(),  # radians or metres
         }
         # a small arm's table, tray and objects, scaled (absent: 1, the Panda's workspace)
-        | ({"workspace_scale": scene.workspace.scale} if scene.workspace.scale != 1.0 else {}),
+        | ({"workspace_scale": scene.workspace.scale} if scene.workspace.scale != 1.0 else {})
+        | (
+            {"object_scale": scene.workspace.object_scale}
+            if scene.workspace.object_scale != 1.0
+            else {}
+        ),
         "randomisation": scene.params,
     }
     return AnnotatedSample(index, views, metadata)

@@ -62,8 +62,11 @@ def grasp_classes(config: BuildConfig) -> tuple[str, ...]:
 
 
 def load_arm(scene: sapien.Scene, spec: RobotSpec) -> sapien.physx.PhysxArticulation:
-    """The arm of ``spec``, fixed base, from the process's parsed URDF (datagen.worlds.robots)."""
-    return load_robot(scene, spec.urdf_path(), fix_root_link=True)
+    """The arm of ``spec``, fixed base, from the process's parsed URDF (datagen.worlds.robots),
+    its fingers of ``spec.gripper.friction``."""
+    gripper = spec.gripper
+    friction = None if gripper.friction is None else dict.fromkeys(gripper.links, gripper.friction)
+    return load_robot(scene, spec.urdf_path(), fix_root_link=True, friction=friction)
 
 
 @dataclass
@@ -156,7 +159,7 @@ def construct_scene(config: BuildConfig, params: dict[str, Any]) -> GraspScene:
     stuff: dict[int, str] = {}
 
     spec = robot_spec(config.robot)
-    ws = Workspace(spec.workspace_scale)
+    ws = Workspace(spec.workspace_scale, spec.object_scale)
     for part in static_parts(ws):
         for entity in _add_part(scene, part, materials[part.surface]):
             stuff[entity.per_scene_id] = part.surface

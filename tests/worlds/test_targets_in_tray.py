@@ -4,6 +4,8 @@ re-draw is recorded in ``randomisation.redraws`` (datagen/worlds/tray_targets.py
 
 from __future__ import annotations
 
+import dataclasses
+
 import pytest
 
 from datagen.assets.tabletop_layout import (
@@ -14,6 +16,7 @@ from datagen.assets.tabletop_layout import (
     in_tray,
 )
 from datagen.config import load_config
+from datagen.config.robot import robot_workspace
 from datagen.randomisers import sample_scene
 from datagen.worlds import tabletop
 from datagen.worlds.tabletop import build_scene
@@ -100,15 +103,19 @@ def test_a_sample_still_outside_after_the_last_redraw_fails_naming_it(monkeypatc
 
 @pytest.mark.sim
 @pytest.mark.slow
-def test_every_target_is_in_the_tray_in_200_scenes():
+@pytest.mark.parametrize("robot", ["panda", "iiwa14", "xarm7", "so100", "koch"])
+def test_every_target_is_in_the_tray_in_200_scenes(robot):
     config = load_config(CONFIG)
+    config = config.replace(robot=dataclasses.replace(config.robot, name=robot))
+    ws = robot_workspace(config.robot)
     redrawn = []
     for index in range(SCENES):
         scene = build_scene(config, SEED, index)
-        assert outside_tray(scene.objects) == [], index
+        assert outside_tray(scene.objects, ws) == [], index
         redraws = scene.params.get("redraws")
         assert redraws != [], index  # absent, not empty, when nothing fell out
         if redraws is not None:
             assert 1 <= len(redraws) <= MAX_REDRAWS
             redrawn.append(index)
-    assert set(NEEDS_REDRAWS) <= set(redrawn)  # the re-draw ran, and was needed
+    if robot == "panda":
+        assert set(NEEDS_REDRAWS) <= set(redrawn)  # the re-draw ran, and was needed
