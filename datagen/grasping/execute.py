@@ -71,7 +71,13 @@ class _Runner:
         for joint in self.arm:
             joint.set_drive_property(*params.arm_drive)
         for joint in self.fingers:
-            joint.set_drive_property(*params.gripper_drive)
+            joint.set_drive_property(*(spec.gripper.drive or params.gripper_drive))
+        if spec.gripper.friction is not None:  # set here: the scene settled with the default
+            friction = spec.gripper.friction
+            material = sapien.physx.PhysxMaterial(friction, friction, 0.0)
+            for name in spec.gripper.links:
+                for shape in links[name].get_collision_shapes():
+                    shape.set_physical_material(material)
         self.arm_target = self.robot.get_qpos()[self.arm_index].astype(float)
         self.finger_target = float(self.robot.get_qpos()[self.finger_index[0]])
 
@@ -197,6 +203,8 @@ def execute_grasp(
     records it step by step (phases: ``datagen.dataset.trajectory.PHASES``)."""
     run = _Runner(scene, target_instance_id, params, recorder)
     details: dict[str, Any] = {"params": asdict(params)}
+    if scene.spec.gripper.drive is not None:  # the robot's own, in place of the default
+        details["params"]["gripper_drive"] = list(scene.spec.gripper.drive)
 
     def outcome(success: bool, mode: str | None, rise: float = 0.0) -> GraspOutcome:
         run.finish()

@@ -41,6 +41,14 @@ class GripperSpec:
     # the links whose origins lie on the fingers' inner faces; the width is their distance
     # along y (None: the finger links, as for the Franka hand, whose origins meet when closed)
     pad_links: tuple[str, str] | None = None
+    # the finger joints' drive (stiffness, damping, force limit; N/m, N·s/m, N or N·m/rad,
+    # N·m·s/rad, N·m) while grasping; None: ExecutionParams.gripper_drive (1e3, 1e2, 100), which
+    # a small jaw closes with a hundredfold too hard, squeezing the object out
+    drive: tuple[float, float, float] | None = None
+    # static and dynamic friction (restitution 0) of the gripper links' collision shapes from the
+    # start of a grasp attempt (ManiSkill gives the SO-100's jaws 2); None: SAPIEN's default
+    # material (0.3, restitution 0.1)
+    friction: float | None = None
 
     @property
     def jaw(self) -> bool:

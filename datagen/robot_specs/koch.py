@@ -47,6 +47,8 @@ KOCH = RobotSpec(
         finger_joints=("joint_6",),
         finger_travel=(0.0, 1.6),  # radians, closed .. open: 0.003 .. 0.068 m
         pad_links=("koch_moving_pad", "koch_fixed_pad"),
+        drive=(100.0, 10.0, 1.0),  # N·m/rad, N·m·s/rad, N·m: 15-20 N between the jaw tips
+        friction=2.0,  # as ManiSkill's so100 jaws: the default 0.3 lets a lifted object slip
     ),
     reach=0.34,  # FK: farthest TCP from the joint_2 axis over 20000 samples
     # the tray floor reachable top-down everywhere (scripts/workspace_reach.py koch 0.26)

@@ -48,6 +48,8 @@ SO100 = RobotSpec(
         # closed .. 0.6 rad: the width grows to 0.100 m; past ~0.85 rad it shrinks again
         finger_travel=(-1.1, 0.6),
         pad_links=("so100_moving_pad", "so100_fixed_pad"),
+        drive=(100.0, 10.0, 1.0),  # N·m/rad, N·m·s/rad, N·m: 15-20 N between the jaw tips
+        friction=2.0,  # as ManiSkill's so100 jaws: the default 0.3 lets a lifted object slip
     ),
     reach=0.45,  # FK: farthest TCP from the shoulder_lift axis over 20000 samples
     # the tray floor reachable top-down everywhere (scripts/workspace_reach.py so100 0.33)

@@ -62,11 +62,8 @@ def grasp_classes(config: BuildConfig) -> tuple[str, ...]:
 
 
 def load_arm(scene: sapien.Scene, spec: RobotSpec) -> sapien.physx.PhysxArticulation:
-    """The arm of ``spec``, fixed base, from the process's parsed URDF (datagen.worlds.robots),
-    its fingers of ``spec.gripper.friction``."""
-    gripper = spec.gripper
-    friction = None if gripper.friction is None else dict.fromkeys(gripper.links, gripper.friction)
-    return load_robot(scene, spec.urdf_path(), fix_root_link=True, friction=friction)
+    """The arm of ``spec``, fixed base, from the process's parsed URDF (datagen.worlds.robots)."""
+    return load_robot(scene, spec.urdf_path(), fix_root_link=True)
 
 
 @dataclass

@@ -16,10 +16,9 @@ from datagen.registries import FAMILIES, ROBOTS
 
 pytestmark = [pytest.mark.sim, pytest.mark.slow]
 ARMS = sorted(ROBOTS)
-# so100 and koch build, plan and execute, but no attempt of theirs has held an object yet: their
-# rotating jaws push small objects away while closing (issue 24 stays open on it)
-JAWS = {name for name in ARMS if ROBOTS[name].load().gripper.jaw}
-NO_SUCCESS_YET = pytest.mark.xfail(strict=True, reason="jaw grippers: no grasp held yet")
+# attempts tried before one must hold: four in five of a five-joint arm's find no candidate
+# or no plan (issue 24); the jaw arms hold within these with their GripperSpec drive/friction
+ATTEMPTS = 8
 
 
 def with_robot(config_file: str, name: str, **render):
@@ -49,14 +48,12 @@ def test_the_arm_is_in_every_view(name):
             assert pixels > 0, f"{name}: no robot pixels in {view} of sample {index}"
 
 
-@pytest.mark.parametrize(
-    "name", [pytest.param(n, marks=NO_SUCCESS_YET) if n in JAWS else n for n in ARMS]
-)
+@pytest.mark.parametrize("name", ARMS)
 def test_a_short_antipodal_campaign_succeeds(name):
     config = with_robot("configs/grasp_campaign.yaml", name)
     config = config.replace(campaign=dataclasses.replace(config.campaign, post_grasp_frame=False))
     outcomes = []
-    for index in range(4):
+    for index in range(ATTEMPTS):
         sample = FAMILIES["grasp_attempts"].produce_sample(config, config.seed, index)
         outcome = json.loads(sample.parts["json"])["attempt"]["outcome"]
         outcomes.append((outcome["success"], outcome["failure_mode"]))
