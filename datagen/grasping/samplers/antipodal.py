@@ -98,13 +98,21 @@ class AntipodalSampler:
         first = np.cumsum([0] + [len(part.faces) for part in parts])
         blocking = bodies + obstacles.bodies
         cos_cone = np.cos(np.arctan(self.friction))
+        plane = target.approach_plane_through
+        weights = areas
+        if plane is not None:  # an approach from above closes horizontally: side faces only
+            normals = np.concatenate([part.face_normals for part in parts])
+            weights = np.where(np.hypot(normals[:, 0], normals[:, 1]) > cos_cone, areas, 0.0)
+            if weights.sum() == 0:
+                return SampleResult(None, 0, "no face a horizontal closing can push on")
         rejected: Counter[str] = Counter()
         for tries in range(1, max_tries + 1):
-            face = int(rng.choice(len(areas), p=areas / areas.sum()))
+            face = int(rng.choice(len(areas), p=weights / weights.sum()))
             part = parts[owner[face]]
             p1 = self._point_on(rng, part.triangles[face - first[owner[face]]])
             n1 = part.face_normals[face - first[owner[face]]]
-            contact = self._contact(p1, self._in_cone(rng, -n1), bodies)
+            direction = self._in_cone(rng, -n1) if plane is None else self._level(rng, -n1)
+            contact = self._contact(p1, direction, bodies)
             if isinstance(contact, str):
                 rejected[contact] += 1
                 continue
@@ -125,7 +133,7 @@ class AntipodalSampler:
                 width,
                 blocking,
                 obstacles,
-                target.approach_plane_through,
+                plane,
             )
             if pose is None:
                 rejected["every approach collides"] += 1
@@ -143,6 +151,15 @@ class AntipodalSampler:
         u, v = _perpendicular_basis(axis)
         sin_t = np.sqrt(1 - cos_t**2)
         return cos_t * axis + sin_t * (np.cos(phi) * u + np.sin(phi) * v)
+
+    def _level(self, rng: np.random.Generator, axis: np.ndarray) -> np.ndarray:
+        """A horizontal direction in the friction cone about ``axis`` (whose horizontal part
+        exceeds the cone's cosine), uniform in azimuth: the closing of a five-joint arm's
+        grasp from above."""
+        horizontal = float(np.hypot(axis[0], axis[1]))
+        half = np.arccos(min(1.0, np.cos(np.arctan(self.friction)) / horizontal))
+        phi = np.arctan2(axis[1], axis[0]) + rng.uniform(-half, half)
+        return np.array([np.cos(phi), np.sin(phi), 0.0])
 
     @staticmethod
     def _point_on(rng: np.random.Generator, triangle: np.ndarray) -> np.ndarray:
