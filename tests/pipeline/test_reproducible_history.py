@@ -11,6 +11,7 @@ from __future__ import annotations
 import json
 import subprocess
 import sys
+from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
 import pytest
@@ -59,11 +60,14 @@ def produce_in_new_process(config: str, scene: str, indices: list[int]) -> dict[
         ("configs/campaign_iiwa14.yaml", "grasp_attempts", [1], 0),
         ("configs/campaign_xarm7.yaml", "grasp_attempts", [2], 0),
         ("configs/campaign_so100.yaml", "grasp_attempts", [1], 0),
+        ("configs/campaign_koch.yaml", "grasp_attempts", [2], 0),
     ],
 )
 def test_sample_bytes_do_not_depend_on_the_worker_history(config, scene, history, index):
-    fresh = produce_in_new_process(config, scene, [index])[index]
-    reused = produce_in_new_process(config, scene, [*history, index])
+    with ThreadPoolExecutor(2) as pool:  # two processes side by side: one per core
+        fresh_run = pool.submit(produce_in_new_process, config, scene, [index])
+        reused_run = pool.submit(produce_in_new_process, config, scene, [*history, index])
+        fresh, reused = fresh_run.result()[index], reused_run.result()
     assert len({json.dumps(d, sort_keys=True) for d in reused.values()}) == len(reused)
     assert "json" in fresh and any(name.endswith("rgb.png") for name in fresh)
     changed = sorted(name for name in fresh if fresh[name] != reused[index].get(name))

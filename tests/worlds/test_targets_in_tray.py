@@ -4,7 +4,11 @@ re-draw is recorded in ``randomisation.redraws`` (datagen/worlds/tray_targets.py
 
 from __future__ import annotations
 
-import dataclasses
+import json
+import subprocess
+import sys
+from concurrent.futures import ThreadPoolExecutor
+from pathlib import Path
 
 import pytest
 
@@ -16,7 +20,6 @@ from datagen.assets.tabletop_layout import (
     in_tray,
 )
 from datagen.config import load_config
-from datagen.config.robot import robot_workspace
 from datagen.randomisers import sample_scene
 from datagen.worlds import tabletop
 from datagen.worlds.tabletop import build_scene
@@ -27,6 +30,7 @@ from datagen.worlds.tray_targets import (
     outside_tray,
 )
 
+REPO = Path(__file__).resolve().parents[2]
 CONFIG = "configs/grasp_tabletop.yaml"  # the default grasp scene, with the Panda
 SEED = 7
 SCENES = 200
@@ -101,18 +105,57 @@ def test_a_sample_still_outside_after_the_last_redraw_fails_naming_it(monkeypatc
         _settled(19)
 
 
+# builds scenes START..STOP-1 of the default config with ROBOT, one line of JSON per scene:
+# [index, what is outside the tray, the recorded re-draws or None]
+SCENES_IN_A_PROCESS = """
+import json, sys, dataclasses
+from datagen.config import load_config
+from datagen.config.robot import robot_workspace
+from datagen.worlds.tabletop import build_scene
+from datagen.worlds.tray_targets import outside_tray
+config_file, robot, seed, start, stop = sys.argv[1:]
+config = load_config(config_file)
+config = config.replace(robot=dataclasses.replace(config.robot, name=robot))
+ws = robot_workspace(config.robot)
+for index in range(int(start), int(stop)):
+    scene = build_scene(config, int(seed), index)
+    print(json.dumps([index, outside_tray(scene.objects, ws), scene.params.get("redraws")]))
+"""
+
+
+def _scenes(robot: str, start: int, stop: int) -> list[list]:
+    done = subprocess.run(
+        [
+            sys.executable,
+            "-c",
+            SCENES_IN_A_PROCESS,
+            CONFIG,
+            robot,
+            str(SEED),
+            str(start),
+            str(stop),
+        ],
+        cwd=REPO,
+        capture_output=True,
+        text=True,
+        timeout=600,
+        check=False,
+    )
+    assert done.returncode == 0, done.stderr[-3000:]
+    return [json.loads(line) for line in done.stdout.splitlines()]
+
+
 @pytest.mark.sim
 @pytest.mark.slow
 @pytest.mark.parametrize("robot", ["panda", "iiwa14", "xarm7", "so100", "koch"])
 def test_every_target_is_in_the_tray_in_200_scenes(robot):
-    config = load_config(CONFIG)
-    config = config.replace(robot=dataclasses.replace(config.robot, name=robot))
-    ws = robot_workspace(config.robot)
+    with ThreadPoolExecutor(2) as pool:  # two processes side by side: one per core
+        halves = pool.map(_scenes, [robot] * 2, [0, SCENES // 2], [SCENES // 2, SCENES])
+        scenes = [scene for half in halves for scene in half]
+    assert [index for index, _, _ in scenes] == list(range(SCENES))
     redrawn = []
-    for index in range(SCENES):
-        scene = build_scene(config, SEED, index)
-        assert outside_tray(scene.objects, ws) == [], index
-        redraws = scene.params.get("redraws")
+    for index, outside, redraws in scenes:
+        assert outside == [], index
         assert redraws != [], index  # absent, not empty, when nothing fell out
         if redraws is not None:
             assert 1 <= len(redraws) <= MAX_REDRAWS
