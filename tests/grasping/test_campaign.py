@@ -22,7 +22,7 @@ from datagen.pipeline.run import run_build
 pytestmark = [pytest.mark.sim, pytest.mark.mqtt, pytest.mark.slow]  # real builds
 
 REPO = Path(__file__).resolve().parents[2]
-ATTEMPTS = 10
+ATTEMPTS = 6
 CONFIG = BuildConfig(
     scene="grasp_attempts",
     num_samples=ATTEMPTS,
