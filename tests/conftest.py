@@ -181,6 +181,21 @@ def start_writer(
         w.stop()
 
 
+def python_lines(code: str, *args: object, timeout: float = 600) -> list[str]:
+    """The stdout lines of ``code`` run by this interpreter in a fresh process at the
+    repository root (``python -c code ARGS``); its stderr's tail when it fails."""
+    done = subprocess.run(
+        [sys.executable, "-c", code, *map(str, args)],
+        cwd=Path(__file__).resolve().parents[1],
+        capture_output=True,
+        text=True,
+        timeout=timeout,
+        check=False,
+    )
+    assert done.returncode == 0, done.stderr[-3000:]
+    return done.stdout.splitlines()
+
+
 def _sigint_ignored() -> bool:
     """At the C level: children inherit an ignored or blocked SIGINT and never see Ctrl-C."""
     for line in Path("/proc/thread-self/status").read_text().splitlines():

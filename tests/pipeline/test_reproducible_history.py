@@ -9,12 +9,11 @@ match. Each process calls the scene family's ``produce_sample`` in a loop, as a 
 from __future__ import annotations
 
 import json
-import subprocess
-import sys
 from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
 import pytest
+from conftest import python_lines  # tests/conftest.py
 
 REPO = Path(__file__).resolve().parents[2]
 
@@ -39,16 +38,8 @@ print(json.dumps(digests))
 
 def produce_in_new_process(config: str, scene: str, indices: list[int]) -> dict[int, dict]:
     """{index: {part name: sha256}} of ``indices`` produced one after another in one process."""
-    done = subprocess.run(
-        [sys.executable, "-c", PRODUCE, str(REPO / config), scene, json.dumps(indices)],
-        cwd=REPO,
-        capture_output=True,
-        text=True,
-        timeout=600,
-        check=False,
-    )
-    assert done.returncode == 0, done.stderr[-3000:]
-    return {int(k): v for k, v in json.loads(done.stdout.splitlines()[-1]).items()}
+    lines = python_lines(PRODUCE, REPO / config, scene, json.dumps(indices))
+    return {int(k): v for k, v in json.loads(lines[-1]).items()}
 
 
 @pytest.mark.parametrize(

@@ -5,12 +5,10 @@ re-draw is recorded in ``randomisation.redraws`` (datagen/worlds/tray_targets.py
 from __future__ import annotations
 
 import json
-import subprocess
-import sys
 from concurrent.futures import ThreadPoolExecutor
-from pathlib import Path
 
 import pytest
+from conftest import python_lines  # tests/conftest.py
 
 from datagen.assets.tabletop_layout import (
     IN_TRAY_TOLERANCE,
@@ -30,7 +28,6 @@ from datagen.worlds.tray_targets import (
     outside_tray,
 )
 
-REPO = Path(__file__).resolve().parents[2]
 CONFIG = "configs/grasp_tabletop.yaml"  # the default grasp scene, with the Panda
 SEED = 7
 SCENES = 200
@@ -124,25 +121,8 @@ for index in range(int(start), int(stop)):
 
 
 def _scenes(robot: str, start: int, stop: int) -> list[list]:
-    done = subprocess.run(
-        [
-            sys.executable,
-            "-c",
-            SCENES_IN_A_PROCESS,
-            CONFIG,
-            robot,
-            str(SEED),
-            str(start),
-            str(stop),
-        ],
-        cwd=REPO,
-        capture_output=True,
-        text=True,
-        timeout=600,
-        check=False,
-    )
-    assert done.returncode == 0, done.stderr[-3000:]
-    return [json.loads(line) for line in done.stdout.splitlines()]
+    lines = python_lines(SCENES_IN_A_PROCESS, CONFIG, robot, SEED, start, stop)
+    return [json.loads(line) for line in lines]
 
 
 @pytest.mark.sim
