@@ -57,6 +57,7 @@ class SceneFamily:
     metadata_format: str = "datagen.sample/1"  # how its samples describe their views
     world: str | None = None  # the world its scenes are built in, for exports that need it
     finish: str | None = None  # (out_dir, made, seconds) -> dict merged into the manifest
+    episodes: bool = False  # its samples are episodes over time (datagen.exports.episodes)
 
     def produce_sample(self, config, seed: int, index: int, attempt: int = 0):
         return resolve(self.produce)(config, seed, index, attempt)
@@ -73,6 +74,7 @@ class ExportFormat:
     path: str  # file or folder in the dataset directory
     export: str  # a datagen.records.ExportFunction
     worlds: tuple[str, ...] | None = None  # the scene worlds it can describe; None: any
+    episodes: bool = False  # describes episodes only (datagen.exports.episodes)
 
     def load(self) -> ExportFunction:
         return resolve(self.export)
@@ -273,11 +275,13 @@ FAMILIES: Registry[SceneFamily] = Registry("scene family", "datagen.families", [
         "grasp_attempts", "physically executed grasps with success labels",
         produce="datagen.scenes.grasp_attempts:produce", classes="datagen.worlds.tabletop:grasp_classes",
         section="campaign", world="tabletop", finish="datagen.scenes.grasp_attempts:campaign_summary",
+        episodes=True,
     ),
     SceneFamily(
         "navigation", "Fetch driving expert paths through rooms, corridors and mazes",
         produce="datagen.scenes.navigation_episodes:produce", classes="datagen.worlds.floorplan:navigation_classes",
         section="navigation", metadata_format="datagen.nav_episode/1", world="floorplan",
+        episodes=True,
     ),
 ])  # fmt: skip
 
@@ -292,6 +296,10 @@ EXPORTS: Registry[ExportFormat] = Registry("export format", "datagen.exports", [
     ExportFormat("hdf5", "episodes.h5", "datagen.exports.hdf5:export"),
     ExportFormat("pointcloud", "pointclouds", "datagen.exports.pointcloud:export"),
     ExportFormat("usd", "usd", "datagen.exports.usd:export", worlds=("tabletop",)),
+    ExportFormat("lerobot", "lerobot", "datagen.exports.lerobot:export", episodes=True),
+    ExportFormat("robomimic", "robomimic", "datagen.exports.robomimic:export", episodes=True),
+    ExportFormat("bop", "bop", "datagen.exports.bop:export", worlds=("tabletop",)),
+    ExportFormat("yolo", "yolo", "datagen.exports.yolo:export"),
 ])  # fmt: skip
 STORE = "webdataset"
 

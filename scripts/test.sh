@@ -4,6 +4,9 @@
 set -euo pipefail
 ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 bash "$ROOT/scripts/install.sh"
+# the readers the export tests load datagen's exports with (lerobot 0.4.4, mlcroissant), in an
+# environment of their own (.venv-readers): made once, then checked
+bash "$ROOT/scripts/readers_env.sh"
 cd "$ROOT"
 echo "[test] ruff format --check, ruff check, lint-imports (import contracts in pyproject.toml)"
 .venv/bin/ruff format --check --quiet .

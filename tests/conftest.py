@@ -14,6 +14,7 @@ from pathlib import Path
 import cv2
 import numpy as np
 import pytest
+import yaml
 
 from datagen.engines.transfer.mosquitto import ManagedBroker
 from datagen.sample import Sample
@@ -213,3 +214,63 @@ def _sigint_stays_default(request):
         signal.signal(signal.SIGINT, signal.default_int_handler)
         signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGINT})
         pytest.fail(f"{request.node.nodeid} left SIGINT ignored or blocked in the test process")
+
+
+# --- datasets built once per session by the real command line (workers, broker, writer): tests
+# and doc snippets copy them before writing into them ---------------------------------------------
+CAMPAIGN = {  # 3 attempts filmed at the rows' rate, workspace and wrist cameras
+    "version": 1, "scene": "grasp_attempts", "num_samples": 3, "seed": 5,
+    "render": {"width": 128, "height": 96, "wrist_camera": True},
+    "campaign": {"hold_time": 0.3, "post_grasp_frame": False, "record_hz": 10, "frame_hz": 10},
+}  # fmt: skip
+NAVIGATION = {
+    "version": 1, "scene": "navigation", "num_samples": 2, "seed": 3,
+    "render": {"width": 96, "height": 72, "far": 20.0},
+    "navigation": {"family": "corridor", "frame_rate_hz": 2},
+}  # fmt: skip
+FRAMES = {  # grasp frames from two cameras
+    "version": 1, "scene": "grasp_tabletop", "num_samples": 4, "seed": 2,
+    "render": {"width": 160, "height": 120, "views": 2},
+}  # fmt: skip
+
+
+def _build_dataset(tmp: Path, name: str, config: dict, command: list[str]) -> Path:
+    path, out = tmp / f"{name}.yaml", tmp / name
+    path.write_text(yaml.safe_dump(config))
+    done = subprocess.run(
+        [sys.executable, "-m", "datagen.cli", *command, str(path), "--out", str(out), "--workers", "1"],
+        capture_output=True, text=True, cwd=REPO, timeout=900, check=False,
+    )  # fmt: skip
+    assert done.returncode == 0, done.stderr[-3000:]
+    return out
+
+
+@pytest.fixture(scope="session")
+def campaign_dataset(tmp_path_factory) -> Path:
+    tmp = tmp_path_factory.mktemp("campaign")
+    return _build_dataset(tmp, "campaign", CAMPAIGN, ["campaign", "grasp"])
+
+
+@pytest.fixture(scope="session")
+def navigation_dataset(tmp_path_factory) -> Path:
+    tmp = tmp_path_factory.mktemp("navigation")
+    return _build_dataset(tmp, "navigation", NAVIGATION, ["build"])
+
+
+@pytest.fixture(scope="session")
+def frames_dataset(tmp_path_factory) -> Path:
+    tmp = tmp_path_factory.mktemp("frames")
+    return _build_dataset(tmp, "frames", FRAMES, ["build"])
+
+
+@pytest.fixture(scope="session")
+def readers_python() -> Path:
+    """The interpreter of the separate environment (``.venv-readers``, made by
+    scripts/readers_env.sh, which the test command runs) with lerobot 0.4.4 and mlcroissant, the
+    readers the export tests load datagen's exports with."""
+    python = REPO / ".venv-readers" / "bin" / "python"
+    if not python.exists():
+        pytest.fail(
+            f"{python} is missing: run 'bash scripts/readers_env.sh' (the test command does)"
+        )
+    return python

@@ -74,7 +74,7 @@ def test_a_plugin_family_builds_and_every_generic_tool_reads_it(tmp_path):
         o["visible"] for i in range(5) for o in dataset.metadata(i)["views"]["workspace"]["objects"]
     )
     assert len(rows) == expected and {r["class"] for r in rows} == {"block"}
-    coco = json.loads(next((out / "coco").glob("*.json")).read_text())
+    coco = json.loads((out / "coco" / "annotations.json").read_text())
     assert len(coco["annotations"]) == expected
     assert len(list((out / "pointclouds").glob("*.ply"))) == 5
 

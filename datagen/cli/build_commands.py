@@ -8,12 +8,14 @@ import dataclasses
 import json
 import os
 import shlex
+import sys
 from pathlib import Path
 
 from datagen.cli.common import (
     MAX_WORKERS,
     broker_url,
     build_id,
+    one_line,
     readable_file,
     seed,
     whole_number,
@@ -307,7 +309,24 @@ def run_build_command(args: argparse.Namespace, config=None) -> int:
     if not args.no_preview:
         path = write_preview(out)
         print(f"datagen: preview with annotation overlays: {path}")
+    write_card(out)
     return 0
+
+
+def write_card(out: Path) -> None:
+    """The dataset card (README.md, croissant.json) unless it is newer than the manifest."""
+    from datagen.dataset.manifest import DatasetError
+    from datagen.exports.card import card_is_current, write_dataset_card
+    from datagen.tools.inspection import metadata_summary
+
+    if card_is_current(out):
+        return
+    try:
+        card, _ = write_dataset_card(out, metadata_summary(out))
+    except DatasetError as exc:  # the samples are there; the card of unreadable ones is not
+        print(f"datagen: no dataset card: {one_line(str(exc))}", file=sys.stderr)
+        return
+    print(f"datagen: dataset card: {card}")
 
 
 def _export_bars():

@@ -149,6 +149,7 @@ def run_replay(args: argparse.Namespace) -> int:
 
 
 def run_export(args: argparse.Namespace) -> int:
+    from datagen.cli.build_commands import write_card
     from datagen.cli.progress import progress as start_progress
     from datagen.exports.runner import run_exports
 
@@ -171,6 +172,7 @@ def run_export(args: argparse.Namespace) -> int:
         record = done[name]
         path = Path(args.dataset) / record["path"]
         print(f"datagen: {name}: {path} ({record['bytes'] / 2**20:.1f} MiB)")
+    write_card(Path(args.dataset))  # lists the exports
     return 0
 
 

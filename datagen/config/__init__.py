@@ -308,6 +308,12 @@ def _check_sinks(sinks: list[str], family, source: str) -> None:
             f"{STORE!r} (the store the other formats are exported from), got {sinks}"
         )
     for name in sinks[1:] if sinks[0] == STORE else [s for s in sinks if s != STORE]:
+        if EXPORTS[name].episodes and not family.episodes:
+            raise ConfigError(
+                f"{source}: output.sinks: {name!r} stores episodes, and scene {family.name!r} "
+                f"makes single frames; episodes come from "
+                f"{' or '.join(n for n in FAMILIES if FAMILIES[n].episodes)}"
+            )
         worlds = EXPORTS[name].worlds
         if worlds is not None and family.world not in worlds:
             raise ConfigError(

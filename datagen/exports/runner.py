@@ -24,6 +24,8 @@ from typing import NoReturn
 
 from datagen.dataset.manifest import DatasetError, read_manifest
 from datagen.errors import BuildError
+from datagen.exports.card import write_export_card
+from datagen.exports.episodes import require_episodes
 from datagen.exports.files import disk_full, fsync_tree, inside
 from datagen.records import ExportedDataset, ExportRecord, Manifest
 from datagen.registries import EXPORTS, FAMILIES, STORE, ExportFormat
@@ -52,7 +54,10 @@ def _remove(path: Path) -> None:
 
 
 def check_world(fmt: ExportFormat, manifest: Manifest, root: Path) -> None:
-    """Raises DatasetError unless ``fmt`` can describe the dataset's scenes (its ``worlds``)."""
+    """Raises DatasetError unless ``fmt`` can describe the dataset's scenes (its ``worlds``, and
+    episodes for a format of episodes)."""
+    if fmt.episodes:
+        require_episodes(manifest, root, fmt.name)
     if fmt.worlds is None:
         return
     scene = manifest.get("scene")
@@ -120,6 +125,7 @@ def _export(
 
     try:
         fmt.load()(dataset, manifest, tmp, on_progress=progress)
+        write_export_card(tmp, fmt, dataset)  # README.md + croissant.json in its folder
         fsync_tree(tmp)
     except BaseException as exc:
         _fail(exc, root, fmt, tmp, dataset.keys[exported[0] :][:1])

@@ -27,6 +27,7 @@ BUILD_STATE = "build.json"
 # --overwrite deletes; a folder among them (an export, inspect/) is datagen's as a whole.
 DATAGEN_FILES = (
     MANIFEST, BUILD_STATE, "shard-*.tar", "preview.png", "replay-*.png", "inspect",
+    "README.md", "croissant.json",  # the dataset card
     ".writer-*.journal", ".writer-*.lock", "writer-*.json",  # the writers' journals, locks, parts
     # written, then renamed into place or removed
     f"{MANIFEST}.tmp", f"{BUILD_STATE}.tmp", "writer-*.json.tmp", ".shard-*.tar.rewrite",

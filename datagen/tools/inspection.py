@@ -258,3 +258,24 @@ def inspect_dataset(
         runs = [(t, bool(grasp_outcome(usable[i]["attempt"])["success"])) for i, t in recorded.items()]  # fmt: skip
         pictures.append(replace_file(inside(out, "trajectories.png"), lambda tmp: _plot_trajectories(runs, tmp)))  # fmt: skip
     return summary, [overview, *pictures]
+
+
+def metadata_summary(root: str | Path, on_skip: OnSkip = log_skip) -> dict[str, Any]:
+    """The summary ``inspect`` reports, from the samples' metadata alone (no image decoded, no
+    picture drawn): what a dataset card states. {} for a metadata format with no summary."""
+    dataset = load(root)
+    skipped = Skipped(on_skip)
+    readable = each_sample(dataset, range(len(dataset)), lambda i: read_metadata(dataset, i), skipped)  # fmt: skip
+    fmt = next(iter(readable.values())).get("format") if readable else None
+    if not isinstance(fmt, str) or fmt not in SUMMARIES:
+        return {}
+    kind = SUMMARIES[fmt]
+    usable = each_sample(dataset, readable, lambda i: _summarisable(kind, readable[i]), skipped)
+    metas = list(usable.values())
+    summary = kind.summary(metas) if metas else {}
+    if skipped:
+        summary["skipped_samples"] = len(dataset) - len(metas)
+    attempts = [grasp_outcome(m["attempt"]) for m in metas if "attempt" in m]
+    if attempts:
+        summary["campaign"] = dataset.manifest.get("campaign") or campaign_stats(attempts)
+    return summary

@@ -40,9 +40,11 @@ FENCE = re.compile(r"^(\s*)```(\w*)\s*$")
 COMMENT = re.compile(r"^\s*<!--\s*(.*?)\s*-->\s*$")
 NOT_RUN = ("tested by ", "same as ", "excerpt of ", "runs elsewhere: ", "too long: ")
 # The small real datasets a block may name, and the build that makes each.
-GRASP = "grasp"
-NAV = "nav"
-DATASETS = {"datasets/grasp_tabletop": GRASP, "datasets/mine": GRASP, "datasets/nav_rooms": NAV}
+GRASP, CAMPAIGN, NAV = "grasp", "campaign", "nav"
+DATASETS = {
+    "datasets/grasp_tabletop": GRASP, "datasets/mine": GRASP, "datasets/grasps": CAMPAIGN,
+    "datasets/nav_rooms": NAV,
+}  # fmt: skip
 
 
 @dataclass(frozen=True)
@@ -157,32 +159,27 @@ def _build(out: Path, *command: str) -> None:
 
 
 @pytest.fixture(scope="session")
-def doc_datasets(tmp_path_factory):
-    """Builds the datasets blocks name, each once per session and only when one is needed: a few
-    grasp_tabletop samples at a small resolution (every export), one nav_rooms episode (hdf5)."""
+def doc_datasets(tmp_path_factory, request):
+    """The datasets blocks name, copied once per session (and only when one is needed) from the
+    session's datasets (tests/conftest.py): grasp frames with every frame export made, a filmed
+    grasp campaign with the episode exports, navigation episodes with the hdf5 export."""
     root = tmp_path_factory.mktemp("doc-datasets")
+    sources = {GRASP: "frames_dataset", CAMPAIGN: "campaign_dataset", NAV: "navigation_dataset"}
+    exports = {
+        GRASP: "coco,hdf5,pointcloud,usd,yolo,bop",
+        CAMPAIGN: "lerobot,robomimic",
+        NAV: "hdf5",
+    }
     made: dict[str, Path] = {}
 
     def get(kind: str) -> Path:
-        if kind in made:
-            return made[kind]
-        out = root / kind
-        if kind == GRASP:
-            config = (REPO / "configs" / "grasp_tabletop.yaml").read_text()
-            config = config.replace("width: 640 ", "width: 128 ").replace(
-                "height: 480 ", "height: 96 "
-            )
-            assert "width: 128" in config and "height: 96" in config
-            (root / "grasp.yaml").write_text(config)
-            _build(out, "build", str(root / "grasp.yaml"), "--out", str(out), "--num-samples", "4",
-                   "--workers", "2", "--no-preview")  # fmt: skip
-            _build(out, "export", str(out), "--to", "coco,hdf5,pointcloud,usd")
-        else:
-            _build(out, "build", "configs/nav_rooms.yaml", "--out", str(out), "--num-samples", "1",
-                   "--workers", "1", "--no-preview")  # fmt: skip
-            _build(out, "export", str(out), "--to", "hdf5")
-        made[kind] = out
-        return out
+        if kind not in made:
+            out = root / kind
+            shutil.copytree(request.getfixturevalue(sources[kind]), out, symlinks=True)
+            if exports[kind]:
+                _build(out, "export", str(out), "--to", exports[kind])
+            made[kind] = out
+        return made[kind]
 
     return get
 

@@ -228,6 +228,19 @@ def test_exports_refuse_scenes_outside_their_worlds(tmp_path):
         run_exports(tmp_path, ["parquet"])
 
 
+@pytest.mark.parametrize("name", ["lerobot", "robomimic"])
+def test_episode_formats_refuse_frames_in_one_line(tmp_path, name):
+    """In the config, before a build starts, and on a finished dataset, before writing."""
+    with pytest.raises(ConfigError, match=rf"'{name}' stores episodes, and scene 'grasp_tabletop' makes single frames; episodes come from grasp_attempts or navigation$"):  # fmt: skip
+        config_from_dict({"scene": "grasp_tabletop", "output": {"sinks": ["webdataset", name]}})
+    config_from_dict({"scene": "navigation", "output": {"sinks": ["webdataset", name]}})
+    (tmp_path / "manifest.json").write_text(json.dumps({"shards": [], "scene": "grasp_tabletop"}))
+    with pytest.raises(datagen.DatasetError) as refused:
+        run_exports(tmp_path, [name])
+    assert "\n" not in str(refused.value) and f"cannot export {name!r}" in str(refused.value)
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["manifest.json"]
+
+
 def test_labelled_views_follow_the_metadata_format_not_the_family():
     camera = {"intrinsics": [[100, 0, 32], [0, 100, 24], [0, 0, 1]], "width": 64, "height": 48}
     seen = {"instance_id": 1, "class": "box", "bbox_xyxy": [0, 0, 3, 3], "visible_fraction": 0.5}

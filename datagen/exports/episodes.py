@@ -1,0 +1,214 @@
+"""The episodes inside a dataset, whatever their scene family: what the policy-learning exports
+(LeRobot, robomimic) write, one :class:`Episode` per sample that holds one.
+
+An episode is a sequence of T frames at a fixed rate ``fps``: frame t is at exactly ``t / fps``
+seconds, its state and the action commanded from it on, and the sample's image parts that show
+it, per camera. Which samples hold one, and how they map:
+
+- a recorded grasp attempt (scene ``grasp_attempts``, part ``trajectory.npz``): frames are the
+  filmed frames (``campaign.frame_hz``; cameras ``workspace`` and, with the wrist camera,
+  ``wrist``) at the recorded rows of the same steps, so ``frame_hz`` must divide ``record_hz``
+  (e.g. equal it); an attempt filmed at no rate gives its rows without cameras. State: the joint
+  positions (arm, then fingers); action: the commanded arm joint targets and finger target. An
+  attempt that found no candidate (no ``trajectory.npz``) holds no episode. The final row, taken
+  after the hold off the rate's grid, is left out.
+- a navigation episode (scene ``navigation``): its frames at ``navigation.frame_rate_hz``,
+  camera ``head`` with depth; state: x, y (m), yaw (rad); action: the commanded linear (m/s) and
+  angular (rad/s) velocity. The final frame, rendered at the goal off the rate's grid, is left
+  out when it is off the grid.
+
+Anything else (frames-only scenes) holds none: :func:`require_episodes` says so in one line.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterator
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from datagen.dataset.loader import DatasetError, decode_parts
+from datagen.dataset.trajectory import decode_trajectory
+from datagen.dataset.views import labelled_views
+from datagen.records import ExportedDataset, Manifest
+from datagen.registries import FAMILIES
+
+GRID_TOLERANCE_S = 1e-6  # a frame's time within this of t / fps is on the rate's grid
+
+
+@dataclass
+class Episode:
+    key: str  # the sample's key
+    kind: str  # "grasp" or "navigation"
+    task: str  # in words: "pick up the mug", "drive to the goal through the corridor"
+    fps: float  # Hz
+    state: np.ndarray  # (T, S) float32
+    state_names: list[str]
+    action: np.ndarray  # (T, A) float32
+    action_names: list[str]
+    success: bool
+    cameras: dict[str, list[str]]  # camera -> the sample's colour PNG part of each frame
+    depth: dict[str, list[str]] = field(default_factory=dict)  # camera -> 16-bit mm PNG parts
+    extras: dict[str, np.ndarray] = field(default_factory=dict)  # name -> (T, ...) per frame
+    extra_names: dict[str, list[str]] = field(default_factory=dict)  # its columns, if named
+
+    @property
+    def length(self) -> int:
+        return len(self.state)
+
+    @property
+    def timestamps(self) -> np.ndarray:
+        """(T,) float32 seconds, exactly ``frame_index / fps``."""
+        return (np.arange(self.length) / self.fps).astype(np.float32)
+
+    @property
+    def reward(self) -> np.ndarray:
+        """(T,) float32: 1 on the last frame of a successful episode, else 0 (sparse)."""
+        reward = np.zeros(self.length, np.float32)
+        reward[-1] = float(self.success)
+        return reward
+
+    @property
+    def done(self) -> np.ndarray:
+        """(T,) bool: True on the last frame."""
+        done = np.zeros(self.length, bool)
+        done[-1] = True
+        return done
+
+    def parts(self) -> set[str]:
+        """Every image part the episode's frames refer to."""
+        return {p for names in (*self.cameras.values(), *self.depth.values()) for p in names}
+
+
+def require_episodes(manifest: Manifest, root: object, format_name: str) -> None:
+    """DatasetError in one line unless the dataset's scene family makes episodes."""
+    scene = manifest.get("scene")
+    family = FAMILIES.get(scene) if isinstance(scene, str) else None
+    if family is None or not family.episodes:
+        makers = " or ".join(name for name in FAMILIES if FAMILIES[name].episodes)
+        raise DatasetError(
+            f"{root}: cannot export {format_name!r}: it stores episodes (states, actions, camera "
+            f"frames over time) and scene {scene!r} makes single frames; episodes come from "
+            f"{makers} scenes (docs/exports.md)"
+        )
+
+
+def episodes(dataset: ExportedDataset, manifest: Manifest) -> Iterator[tuple[int, Episode]]:
+    """(sample position, episode) for each sample that holds one, in the dataset's order; one
+    sample's metadata and trajectory in memory at a time (images are read by the caller)."""
+    for i in range(len(dataset)):
+        episode = episode_of(dataset, manifest, i)
+        if episode is not None:
+            yield i, episode
+
+
+def episode_of(dataset: ExportedDataset, manifest: Manifest, i: int) -> Episode | None:
+    meta = dataset.metadata(i)
+    if meta.get("format") == "datagen.nav_episode/1":
+        return _navigation(meta, float(manifest["config"]["navigation"]["frame_rate_hz"]))
+    if isinstance(meta.get("attempt"), dict):
+        names = set(dataset.part_names(i))
+        if "trajectory.npz" not in names:
+            return None
+        raw = dataset.raw(i, {"trajectory.npz"})
+        return _grasp(meta, decode_trajectory(raw["trajectory.npz"]), names)
+    return None
+
+
+def frames_of(raw: dict[str, bytes], parts: list[str]) -> np.ndarray:
+    """The images of ``parts`` decoded and stacked: (T, H, W, 3) uint8 RGB or (T, H, W) uint16."""
+    decoded = []
+    for part in parts:
+        kind = "depth" if part.endswith("depth.png") else "rgb"
+        decoded.append(decode_parts({f"{kind}.png": raw[part]})[kind])
+    return np.stack(decoded)
+
+
+def _words(name: str) -> str:
+    return name.replace("_", " ")
+
+
+def _grasp(meta: dict[str, Any], traj: dict[str, Any], part_names: set[str]) -> Episode:
+    names, key = traj["names"], meta["key"]
+    timestep = float(names["timestep"])
+    row_every, frame_every = int(names["row_every_steps"]), int(names["frame_every_steps"] or 0)
+    steps = traj["step"]
+    if len(traj["frame_step"]):
+        if frame_every % row_every:
+            raise DatasetError(
+                f"sample {key}: frames every {frame_every} physics steps do not fall on the "
+                f"state rows (every {row_every}): build with campaign.frame_hz equal to "
+                f"campaign.record_hz (or a divisor of it)"
+            )
+        rows = np.searchsorted(steps, traj["frame_step"])
+        fps = 1.0 / (frame_every * timestep)
+        cameras = {"workspace": [f"frame{k}.rgb.png" for k in range(len(rows))]}
+        wrist = [f"frame{k}.wrist.rgb.png" for k in range(len(rows))]
+        if all(p in part_names for p in wrist):
+            cameras["wrist"] = wrist
+    else:
+        rows = np.flatnonzero(steps % row_every == 0)  # the last row, after the hold, is off it
+        fps, cameras = 1.0 / (row_every * timestep), {}
+    attempt = meta["attempt"]
+    return Episode(
+        key=key,
+        kind="grasp",
+        task=f"pick up the {_words(attempt['target']['class'])}",
+        fps=fps,
+        state=traj["qpos"][rows].astype(np.float32),
+        state_names=list(names["joint_names"]),
+        action=traj["action"][rows].astype(np.float32),
+        action_names=list(names["action_names"]),
+        success=bool(attempt["outcome"]["success"]),
+        cameras=cameras,
+        extras={
+            "gripper_opening": traj["gripper_opening"][rows, None],  # m
+            "tcp_pose": traj["tcp_pose"][rows],  # world xyz m, quaternion wxyz
+            "target_pose": traj["target_pose"][rows],
+            "qvel": traj["qvel"][rows],
+            "phase": traj["phase"][rows, None].astype(np.int64),
+        },
+        extra_names={
+            "gripper_opening": ["opening_m"],
+            "tcp_pose": ["x", "y", "z", "qw", "qx", "qy", "qz"],
+            "target_pose": ["x", "y", "z", "qw", "qx", "qy", "qz"],
+            "qvel": list(names["joint_names"]),
+            "phase": ["phase"],
+        },
+    )
+
+
+def _navigation(meta: dict[str, Any], fps: float) -> Episode:
+    views = labelled_views(meta)
+    records = [view.record for view in views]
+    kept = [
+        k
+        for k, record in enumerate(records)
+        if abs(float(record["time_s"]) - k / fps) <= GRID_TOLERANCE_S
+    ]
+    views = [views[k] for k in kept]
+    records = [records[k] for k in kept]
+    return Episode(
+        key=meta["key"],
+        kind="navigation",
+        task=f"drive to the goal through the {_words(meta['family'])}",
+        fps=fps,
+        state=np.array([r["pose"] for r in records], np.float32),
+        state_names=["x", "y", "yaw"],
+        action=np.array([r["command"] for r in records], np.float32),
+        action_names=["linear_m_s", "angular_rad_s"],
+        success=bool(meta["episode"]["success"]),
+        cameras={"head": [f"{v.prefix}rgb.png" for v in views]},
+        depth={"head": [f"{v.prefix}depth.png" for v in views]},
+        extras={
+            "goal_in_robot": np.array([r["goal_in_robot"] for r in records], np.float32),
+            "distance_to_goal": np.array([[r["distance_to_goal"]] for r in records], np.float32),
+            "collision": np.array([[r["collision"]] for r in records], np.bool_),
+        },
+        extra_names={
+            "goal_in_robot": ["x_m", "y_m"],
+            "distance_to_goal": ["metres"],
+            "collision": ["collision"],
+        },
+    )
