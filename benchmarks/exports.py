@@ -134,7 +134,8 @@ def main() -> int:
             base, grown = Path(tmp) / f"{name}-base", Path(tmp) / name
             flag = "--attempts" if command[0] == "campaign" else "--num-samples"
             build = [*command[:-1], str(config_path), "--out", str(base), flag, str(args.base)]
-            wall = _run([*build, "--workers", "2", "--no-preview"])
+            quiet = ["--no-preview"] if command[0] == "build" else []  # a campaign draws none
+            wall = _run([*build, "--workers", "2", *quiet])
             print(f"{name}: {args.base} samples built in {wall:.1f} s", flush=True)
             _grow(base, grown, args.samples)
             for fmt in formats:
