@@ -233,7 +233,7 @@ def dataset_card(
         "- `manifest.json`: how it was made, every shard's and sample's sha256;",
         f"- `{CROISSANT}`: the same files described in Croissant 1.0 (MLCommons) for catalogues "
         "and `mlcroissant`.", "",
-        "Load it with datagen (`datagen.dataset.loader.load(DIR)`), with the `webdataset` "
+        "Load it with datagen (`datagen.load(DIR)`), with the `webdataset` "
         "package, or with Hugging Face `datasets` (the `configs` above read the shards).", "",
         "## Classes", "",
         "The id is the value in `semantic.png` (and COCO's `category_id`).", "",

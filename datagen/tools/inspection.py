@@ -262,15 +262,17 @@ def inspect_dataset(
 
 def metadata_summary(root: str | Path, on_skip: OnSkip = log_skip) -> dict[str, Any]:
     """The summary ``inspect`` reports, from the samples' metadata alone (no image decoded, no
-    picture drawn): what a dataset card states. {} for a metadata format with no summary."""
+    picture drawn): what a dataset card states. {} for a metadata format with no summary.
+    Streams: each sample's metadata is checked, then cut to the fields the summary reads
+    (:func:`summary_fields`), so memory stays small beside a dataset of any size."""
     dataset = load(root)
     skipped = Skipped(on_skip)
-    readable = each_sample(dataset, range(len(dataset)), lambda i: read_metadata(dataset, i), skipped)  # fmt: skip
-    fmt = next(iter(readable.values())).get("format") if readable else None
+    first = each_sample(dataset, range(min(len(dataset), 1)), lambda i: read_metadata(dataset, i), skipped)  # fmt: skip
+    fmt = first[0].get("format") if first else None
     if not isinstance(fmt, str) or fmt not in SUMMARIES:
         return {}
     kind = SUMMARIES[fmt]
-    usable = each_sample(dataset, readable, lambda i: _summarisable(kind, readable[i]), skipped)
+    usable = each_sample(dataset, range(len(dataset)), lambda i: summary_fields(_summarisable(kind, read_metadata(dataset, i))), skipped)  # fmt: skip
     metas = list(usable.values())
     summary = kind.summary(metas) if metas else {}
     if skipped:
@@ -279,3 +281,56 @@ def metadata_summary(root: str | Path, on_skip: OnSkip = log_skip) -> dict[str, 
     if attempts:
         summary["campaign"] = dataset.manifest.get("campaign") or campaign_stats(attempts)
     return summary
+
+
+def _texture_only(material: dict[str, Any]) -> dict[str, Any]:
+    texture = material.get("texture")
+    if texture is None:
+        return {}
+    return {"texture": {"family": texture["family"]} if "family" in texture else {}}
+
+
+def summary_fields(meta: SampleMetadata) -> SampleMetadata:
+    """``meta`` cut to what the summaries (``SUMMARIES``) and the campaign statistics read: a few
+    hundred bytes instead of tens of kilobytes per sample."""
+    cut: dict[str, Any] = {"format": meta["format"]}
+    if "attempt" in meta:
+        attempt = meta["attempt"]
+        cut["attempt"] = {
+            "sampler": attempt["sampler"], "target": {"class": attempt["target"]["class"]},
+            "outcome": {k: attempt["outcome"][k] for k in ("success", "failure_mode")},
+        }  # fmt: skip
+    if meta["format"] == "datagen.nav_episode/1":
+        heavy = ("trajectory", "layout", "planned_path")
+        cut["family"] = meta["family"]
+        cut["episode"] = {k: v for k, v in meta["episode"].items() if k not in heavy}
+        cut["frames"] = [
+            {"collision": f["collision"], "things": [{"class": t["class"]} for t in f["things"]]}
+            for f in meta["frames"]
+        ]
+        return cut  # type: ignore[return-value]
+    cut["objects"] = [
+        {"class": o["class"], "shape": {"family": o["shape"]["family"]}} for o in meta["objects"]
+    ]
+    seen = meta["views"]["workspace"]["objects"]
+    cut["views"] = {"workspace": {"objects": [{"visible_fraction": o["visible_fraction"]} for o in seen]}}  # fmt: skip
+    drawn = meta.get("randomisation", {})
+    materials = drawn.get("materials", {})
+    cut["randomisation"] = {
+        "materials": {
+            name: [_texture_only(m) for m in value] if name == "objects" else _texture_only(value)
+            for name, value in materials.items()
+            if name == "objects" or isinstance(value, dict)
+        },
+        "distractors": [
+            {"material": _texture_only(d["material"])} if "material" in d else {}
+            for d in drawn.get("distractors", [])
+        ],
+    }
+    if "distractors" not in drawn:
+        del cut["randomisation"]["distractors"]
+    if "background" in drawn:  # the panels also read its room
+        background = drawn["background"]
+        walls = {k: _texture_only(w) for k, w in background.get("walls", {}).items()}
+        cut["randomisation"]["background"] = {"walls": walls, "room": background["room"]}
+    return cut  # type: ignore[return-value]

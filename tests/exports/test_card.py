@@ -149,3 +149,22 @@ def test_an_export_writes_its_card_and_the_dataset_card_lists_it(
     )  # fmt: skip
     assert ran.returncode == 0, ran.stderr[-3000:]
     assert "000000003 (120, 160)" in ran.stdout
+
+
+@pytest.mark.parametrize("name", ["frames_dataset", "campaign_dataset", "navigation_dataset"])
+def test_the_card_statistics_keep_a_small_part_of_each_sample_and_equal_inspects(name, request):
+    """The card's statistics stream: each sample's metadata is cut to what the summary reads
+    (a twentieth of it or less), and the summary of the cut samples is inspect's."""
+    from datagen.dataset.loader import load
+    from datagen.tools.inspection import SUMMARIES, metadata_summary, summary_fields
+
+    dataset = load(request.getfixturevalue(name))
+    metas = [dataset.metadata(i) for i in range(len(dataset))]
+    kind = SUMMARIES[metas[0]["format"]]
+    cut = [summary_fields(meta) for meta in metas]
+    assert all(
+        len(json.dumps(c)) * 10 < len(json.dumps(m)) for c, m in zip(cut, metas, strict=True)
+    )
+    summary = metadata_summary(dataset.root)
+    summary.pop("campaign", None)  # the manifest's campaign statistics
+    assert summary == kind.summary(metas) == kind.summary(cut)
