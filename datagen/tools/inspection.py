@@ -16,8 +16,9 @@ pictures, and counted as ``skipped_samples`` (``datagen.tools.sample_checks``).
 
 from __future__ import annotations
 
+import json
 from collections import Counter
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -152,7 +153,7 @@ def _histogram(values: list[float], bins: int = 5) -> dict[str, int]:
     }
 
 
-def _sample_summary(metas: list[SampleMetadata]) -> dict[str, Any]:
+def _sample_summary(metas: Sequence[SampleMetadata]) -> dict[str, Any]:
     classes = Counter(o["class"] for m in metas for o in m["objects"])
     visible = [o["visible_fraction"] for m in metas for o in m["views"]["workspace"]["objects"]]
     panels = randomisation_panels(metas)
@@ -166,7 +167,7 @@ def _sample_summary(metas: list[SampleMetadata]) -> dict[str, Any]:
     }
 
 
-def _navigation_summary(metas: list[SampleMetadata]) -> dict[str, Any]:
+def _navigation_summary(metas: Sequence[SampleMetadata]) -> dict[str, Any]:
     episodes = [m["episode"] for m in metas]
     things = Counter(t["class"] for m in metas for f in m["frames"] for t in f["things"])
     return {
@@ -189,7 +190,7 @@ def _navigation_summary(metas: list[SampleMetadata]) -> dict[str, Any]:
 class Summary:
     """How ``inspect`` summarises the samples of one metadata format."""
 
-    summary: Callable[[list[SampleMetadata]], dict[str, Any]]
+    summary: Callable[[Sequence[SampleMetadata]], dict[str, Any]]
     distributions: Callable[[list[SampleMetadata]], dict[str, list[float]]]
     noun: str  # what one sample is called in the plots' title
 
@@ -264,7 +265,7 @@ def metadata_summary(root: str | Path, on_skip: OnSkip = log_skip) -> dict[str, 
     """The summary ``inspect`` reports, from the samples' metadata alone (no image decoded, no
     picture drawn): what a dataset card states. {} for a metadata format with no summary.
     Streams: each sample's metadata is checked, then cut to the fields the summary reads
-    (:func:`summary_fields`), so memory stays small beside a dataset of any size."""
+    (:func:`summary_fields`) and kept as compact JSON bytes, about 1-2 KB a sample."""
     dataset = load(root)
     skipped = Skipped(on_skip)
     first = each_sample(dataset, range(min(len(dataset), 1)), lambda i: read_metadata(dataset, i), skipped)  # fmt: skip
@@ -272,8 +273,8 @@ def metadata_summary(root: str | Path, on_skip: OnSkip = log_skip) -> dict[str, 
     if not isinstance(fmt, str) or fmt not in SUMMARIES:
         return {}
     kind = SUMMARIES[fmt]
-    usable = each_sample(dataset, range(len(dataset)), lambda i: summary_fields(_summarisable(kind, read_metadata(dataset, i))), skipped)  # fmt: skip
-    metas = list(usable.values())
+    usable = each_sample(dataset, range(len(dataset)), lambda i: _packed(summary_fields(_summarisable(kind, read_metadata(dataset, i)))), skipped)  # fmt: skip
+    metas = _Unpacked(list(usable.values()))
     summary = kind.summary(metas) if metas else {}
     if skipped:
         summary["skipped_samples"] = len(dataset) - len(metas)
@@ -281,6 +282,23 @@ def metadata_summary(root: str | Path, on_skip: OnSkip = log_skip) -> dict[str, 
     if attempts:
         summary["campaign"] = dataset.manifest.get("campaign") or campaign_stats(attempts)
     return summary
+
+
+def _packed(meta: SampleMetadata) -> bytes:
+    return json.dumps(meta, separators=(",", ":")).encode()
+
+
+class _Unpacked(Sequence[SampleMetadata]):
+    """Packed metadata read as a list: each item decoded when it is read."""
+
+    def __init__(self, packed: list[bytes]):
+        self.packed = packed
+
+    def __len__(self) -> int:
+        return len(self.packed)
+
+    def __getitem__(self, i):  # an int (a slice is not needed by the summaries)
+        return json.loads(self.packed[i])
 
 
 def _texture_only(material: dict[str, Any]) -> dict[str, Any]:

@@ -9,6 +9,7 @@ randomiser (``configs/grasp_flat.yaml``) shows its panel as "not in this dataset
 from __future__ import annotations
 
 from collections import Counter
+from collections.abc import Sequence
 from pathlib import Path
 from typing import Any, TypedDict
 
@@ -43,7 +44,7 @@ def _texture_name(material: dict[str, Any]) -> str:
     return texture.get("family", "picture")
 
 
-def _views(metas: list[SampleMetadata]) -> list[ViewRecord]:
+def _views(metas: Sequence[SampleMetadata]) -> list[ViewRecord]:
     return [v for m in metas for v in m.get("views", {}).values()]
 
 
@@ -64,7 +65,7 @@ Panels = TypedDict(
 )
 
 
-def randomisation_panels(metas: list[SampleMetadata]) -> Panels:
+def randomisation_panels(metas: Sequence[SampleMetadata]) -> Panels:
     """The panels of the appearance randomisation plot."""
     randomisations = [m.get("randomisation", {}) for m in metas]
     views = _views(metas)
