@@ -87,11 +87,14 @@ def _build(tmp: Path) -> list[Path]:
     for name, (command, config) in BUILDS.items():
         path, out = tmp / f"{name}.yaml", tmp / name
         path.write_text(yaml.safe_dump(config))
-        subprocess.run(
+        quiet = ["--no-preview"] if command[0] == "build" else []  # a campaign draws none
+        done = subprocess.run(
             [sys.executable, "-m", "datagen.cli", *command, str(path), "--out", str(out),
-             "--workers", "1", "--no-preview"],
-            cwd=REPO, check=True, capture_output=True,
+             "--workers", "1", *quiet],
+            cwd=REPO, capture_output=True, text=True,
         )  # fmt: skip
+        if done.returncode != 0:
+            raise SystemExit(f"building {name} failed:\n{done.stderr[-3000:]}")
         roots.append(out)
     return roots
 
