@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import json
 import os
+import shutil
 import subprocess
 import sys
 import uuid
@@ -274,3 +275,13 @@ def readers_python() -> Path:
             f"{python} is missing: run 'bash scripts/readers_env.sh' (the test command does)"
         )
     return python
+
+
+def export_copy(source: Path, root: Path, formats: str) -> subprocess.CompletedProcess:
+    """``source`` (a session dataset) copied to ``root``, then ``datagen export ROOT --to
+    FORMATS`` run there by the real command line; its result (the caller checks it)."""
+    shutil.copytree(source, root)
+    return subprocess.run(
+        [sys.executable, "-m", "datagen.cli", "export", str(root), "--to", formats],
+        capture_output=True, text=True, cwd=REPO, timeout=300, check=False,
+    )  # fmt: skip

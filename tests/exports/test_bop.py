@@ -6,15 +6,13 @@ scene_gt_info, models_info with the PLY models, obj ids with the samples' shapes
 from __future__ import annotations
 
 import json
-import shutil
-import subprocess
-import sys
 from pathlib import Path
 
 import cv2
 import numpy as np
 import pytest
 from bop_reader import bbox, images, load_ply, project  # tests/exports
+from conftest import export_copy  # tests/conftest.py: copy a session dataset, export it
 
 import datagen
 
@@ -27,11 +25,7 @@ PARTS_DRAWN = {"box", "cylinder", "sphere", "capsule", "convex", "compound"}
 
 def _export(source: Path, tmp_path: Path) -> Path:
     root = tmp_path / "ds"
-    shutil.copytree(source, root)
-    done = subprocess.run(
-        [sys.executable, "-m", "datagen.cli", "export", str(root), "--to", "bop"],
-        capture_output=True, text=True, cwd=REPO, timeout=300, check=False,
-    )  # fmt: skip
+    done = export_copy(source, root, "bop")
     assert done.returncode == 0, done.stderr[-3000:]
     return root
 

@@ -11,11 +11,11 @@ import os
 import re
 import shutil
 import subprocess
-import sys
 from pathlib import Path
 
 import numpy as np
 import pytest
+from conftest import export_copy  # tests/conftest.py: copy a session dataset, export it
 
 import datagen
 from datagen.exports import lerobot, lerobot_meta
@@ -153,15 +153,7 @@ def _check(read: dict, out: Path, root: Path, robot_type: str) -> None:
 @pytest.mark.slow
 def test_campaign_export_is_read_by_lerobot(campaign_dataset, readers_python, tmp_path):
     root = tmp_path / "datasets" / "grasps"
-    shutil.copytree(campaign_dataset, root)
-    done = subprocess.run(
-        [sys.executable, "-m", "datagen.cli", "export", str(root), "--to", "lerobot"],
-        capture_output=True,
-        text=True,
-        cwd=REPO,
-        timeout=300,
-        check=False,
-    )
+    done = export_copy(campaign_dataset, root, "lerobot")
     assert done.returncode == 0, done.stderr[-2000:]
     manifest = json.loads((root / "manifest.json").read_text())
     assert manifest["exports"]["lerobot"]["path"] == "lerobot"
@@ -197,15 +189,7 @@ def test_navigation_export_over_many_files_is_read_by_lerobot(
 @pytest.mark.sim
 def test_frames_dataset_is_refused_in_one_line(frames_dataset, tmp_path):
     root = tmp_path / "frames"
-    shutil.copytree(frames_dataset, root)
-    done = subprocess.run(
-        [sys.executable, "-m", "datagen.cli", "export", str(root), "--to", "lerobot"],
-        capture_output=True,
-        text=True,
-        cwd=REPO,
-        timeout=120,
-        check=False,
-    )
+    done = export_copy(frames_dataset, root, "lerobot")
     assert done.returncode != 0
     assert len(done.stderr.strip().splitlines()) == 1 and "episodes" in done.stderr
     assert not (root / "lerobot").exists()

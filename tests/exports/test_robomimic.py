@@ -6,14 +6,12 @@ from __future__ import annotations
 
 import hashlib
 import json
-import shutil
-import subprocess
-import sys
 from pathlib import Path
 
 import h5py
 import numpy as np
 import pytest
+from conftest import export_copy  # tests/conftest.py: copy a session dataset, export it
 
 import datagen
 
@@ -23,11 +21,7 @@ REPO = Path(__file__).resolve().parents[2]
 
 def _export(source: Path, tmp_path: Path) -> h5py.File:
     root = tmp_path / source.name
-    shutil.copytree(source, root)
-    done = subprocess.run(
-        [sys.executable, "-m", "datagen.cli", "export", str(root), "--to", "robomimic"],
-        capture_output=True, text=True, cwd=REPO, timeout=300, check=False,
-    )  # fmt: skip
+    done = export_copy(source, root, "robomimic")
     assert done.returncode == 0, done.stderr[-2000:]
     return h5py.File(root / "robomimic" / "demo.hdf5", "r")
 
@@ -152,10 +146,6 @@ def test_robomimic_export_of_navigation_episodes(navigation_dataset, tmp_path):
 
 def test_robomimic_refuses_single_frames(frames_dataset, tmp_path):
     root = tmp_path / "frames"
-    shutil.copytree(frames_dataset, root)
-    done = subprocess.run(
-        [sys.executable, "-m", "datagen.cli", "export", str(root), "--to", "robomimic"],
-        capture_output=True, text=True, cwd=REPO, timeout=300, check=False,
-    )  # fmt: skip
+    done = export_copy(frames_dataset, root, "robomimic")
     assert done.returncode != 0 and "cannot export 'robomimic'" in done.stderr
     assert len(done.stderr.strip().splitlines()) == 1 and not (root / "robomimic").exists()

@@ -5,14 +5,12 @@ ultralytics' rules (yolo_checker.py) and against the dataset's own records."""
 from __future__ import annotations
 
 import hashlib
-import shutil
-import subprocess
-import sys
 from pathlib import Path
 
 import cv2
 import numpy as np
 import pytest
+from conftest import export_copy  # tests/conftest.py: copy a session dataset, export it
 from yolo_checker import Row, box_pixels, check_tree, polygon_mask  # tests/exports
 
 import datagen
@@ -29,11 +27,7 @@ def _split(key: str) -> str:  # docs/export-yolo.md, written here from the page
 
 def _export(source: Path, tmp_path: Path) -> Path:
     root = tmp_path / source.name
-    shutil.copytree(source, root)
-    done = subprocess.run(
-        [sys.executable, "-m", "datagen.cli", "export", str(root), "--to", "yolo"],
-        capture_output=True, text=True, cwd=REPO, timeout=300, check=False,
-    )  # fmt: skip
+    done = export_copy(source, root, "yolo")
     assert done.returncode == 0, done.stderr[-2000:]
     return root
 
