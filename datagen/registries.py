@@ -114,6 +114,19 @@ class RobotKind:
 
 
 @dataclass(frozen=True)
+class LibrarySource:
+    """A source of the library of real appearance (``photos.sources``, ``datagen library``):
+    its record, a :class:`datagen.library.sources.Source`, referenced as ``"module:attribute"``."""
+
+    name: str
+    summary: str  # one line, shown by `datagen library list` and in docs/photo-library.md
+    spec: str
+
+    def load(self):
+        return resolve(self.spec)
+
+
+@dataclass(frozen=True)
 class PluginFailure:
     """An entry point that was skipped: its name, its distribution and why."""
 
@@ -320,4 +333,12 @@ ROBOTS: Registry[RobotKind] = Registry("robot", "datagen.robots", [
     RobotKind("xarm7", "UFACTORY xArm7 with the Franka hand (ManiSkill's xarm7)", "datagen.robot_specs.xarm7:XARM7"),
     RobotKind("so100", "TheRobotStudio SO-100 low-cost arm with its jaw gripper (ManiSkill's so100)", "datagen.robot_specs.so100:SO100"),
     RobotKind("koch", "Koch v1.1 low-cost arm with its jaw gripper (ManiSkill's koch-v1.1)", "datagen.robot_specs.koch:KOCH"),
+])  # fmt: skip
+
+LIBRARY_SOURCES: Registry[LibrarySource] = Registry("library source", "datagen.library_sources", [
+    LibrarySource("mate-backgrounds", "12 nature photographs (Debian mate-backgrounds, GPL-2+)", "datagen.library.sources:MATE_BACKGROUNDS"),
+    LibrarySource("ukui-wallpapers", "12 digital artworks (Debian ukui-wallpapers, CC-BY-SA-3.0)", "datagen.library.sources:UKUI_WALLPAPERS"),
+    LibrarySource("robosuite-textures", "30 material pictures: wood, plaster, metal, brick, ... (robosuite wheel, MIT)", "datagen.library.sources:ROBOSUITE_TEXTURES"),
+    LibrarySource("skimage-data", "10 photographs and material scans (scikit-image wheel, CC0 / public domain)", "datagen.library.sources:SKIMAGE_DATA"),
+    LibrarySource("robosuite-objects", "6 household object meshes: bottle, bread, can, cereal, lemon, milk (robosuite wheel, MIT)", "datagen.library.sources:ROBOSUITE_OBJECTS"),
 ])  # fmt: skip

@@ -4,7 +4,8 @@
 #           WebSockets for the live monitor), Chromium (the monitor's browser test), the
 #           Vulkan loader, and Mesa lavapipe from bookworm-backports when no Vulkan device
 #           can render;
-#   python: a virtual environment in .venv with datagen and its dependencies.
+#   python: a virtual environment in .venv with datagen and its dependencies;
+#   the picture library (datagen library install) in ~/.cache/datagen/library.
 # A second run checks each step and skips what is already done.
 set -euo pipefail
 
@@ -131,4 +132,11 @@ else
     probe_render || die "SAPIEN still cannot render after installing Mesa from bookworm-backports; run '$VENV/bin/python -m datagen.engines.sim.render_probe' to see why."
     say "rendering: $("$VENV/bin/python" -m datagen.engines.sim.render_probe 2>/dev/null)"
 fi
+# --- the picture library: photographs, material pictures, meshes (docs/photo-library.md) ---------
+# fetched from Debian's and PyPI's registries into $DATAGEN_LIBRARY (~/.cache/datagen/library)
+if ! "$VENV/bin/datagen" library install; then
+    apt_update_once  # apt-get download needs the package lists
+    "$VENV/bin/datagen" library install || die "the picture library could not be installed (see above)"
+fi
+
 say "done: activate with 'source $VENV/bin/activate' or call $VENV/bin/datagen"

@@ -15,7 +15,13 @@ re-recorded; ``configs/grasp_flat.yaml`` keeps the close-up camera, so only its 
 (``gripper`` in the classes, ``robot_parts`` per view); navigation kept its bytes. The grasp
 samplers' gripper boxes now come from the hand's URDF collision shapes (four per finger instead
 of two hand-typed ones), which changes the campaign sample's chosen approach; the campaign sample
-gained ``trajectory.npz`` (the recorded attempt), with every other part unchanged by recording. The
+gained ``trajectory.npz`` (the recorded attempt), with every other part unchanged by recording.
+Issue 26 added photographs of the picture library, flying distractors, class-free colours and the
+wider lighting to the defaults (every part of the default grasp and campaign samples but the
+campaign's trajectory re-recorded; ``grasp_flat`` turns them off, so only its JSON changed: the
+lights' ``temperature_k`` and ``shadow_edge``), and turned texture coordinates so that a picture
+is never drawn mirrored or upside down, which changes the textured walls of the navigation
+frames (their ``rgb.png`` only). The
 digests were recorded with Mesa's lavapipe (llvmpipe) on x86-64, as on CI; another renderer draws
 other pixels, so the test runs only there.
 

@@ -23,9 +23,11 @@ import functools
 import json
 from typing import Any
 
+import cv2
 import numpy as np
 
 TEXTURE_FAMILIES = ("noise", "stripes", "checker", "marble", "grain", "speckle")
+PHOTO_FAMILY = "photo"  # a picture of the installed library (datagen.randomisers.photos)
 IMAGE_FAMILY = "image"  # a picture from materials.textures_dir / background.images_dir
 TILE_SIZE = 128  # pixels per side of a procedural tile
 
@@ -192,6 +194,8 @@ def _tile(key: str) -> np.ndarray:
                 f"(its sha256 differs from the stored {values['sha256'][:12]}...)"
             )
         tile = load_image(values["root"], values["path"])
+    elif values["family"] == PHOTO_FAMILY:
+        tile = photo_tile(values)
     else:
         tile = apply_palette(pattern(values["family"], values["seed"]), values["palette"])
     tile.flags.writeable = False
@@ -217,3 +221,23 @@ def surface_uv(uv_m: np.ndarray, values: dict[str, Any]) -> np.ndarray:
     rotation = np.array([[np.cos(angle), -np.sin(angle)], [np.sin(angle), np.cos(angle)]])
     repeat = np.array([values["scale_m"], values["scale_m"] * values.get("aspect", 1.0)])
     return (np.asarray(uv_m, float) @ rotation.T / repeat).astype(np.float32)
+
+
+def photo_tile(values: dict[str, Any]) -> np.ndarray:
+    """A library picture as its stored values draw it: cropped (``crop``: x0, y0, side as
+    fractions), mirrored (``flip``), hue-rotated, saturation-scaled, then contrast about its
+    mean and a brightness offset; (H, W, 3) uint8 sRGB."""
+    from datagen.library.catalogue import load_picture
+
+    image = load_picture(values["path"], values["sha256"])
+    height, width = image.shape[:2]
+    x0, y0, side = values["crop"]
+    rows = slice(round(y0 * height), max(round(y0 * height) + 1, round((y0 + side) * height)))
+    cols = slice(round(x0 * width), max(round(x0 * width) + 1, round((x0 + side) * width)))
+    crop = image[rows, cols][:, ::-1] if values["flip"] else image[rows, cols]
+    hsv = cv2.cvtColor(np.ascontiguousarray(crop, np.float32) / 255.0, cv2.COLOR_RGB2HSV)
+    hsv[..., 0] = (hsv[..., 0] + values["hue_deg"]) % 360.0  # float HSV: hue in degrees
+    hsv[..., 1] = np.clip(hsv[..., 1] * values["saturation"], 0.0, 1.0)
+    rgb = cv2.cvtColor(hsv, cv2.COLOR_HSV2RGB)
+    rgb = (rgb - rgb.mean()) * values["contrast"] + rgb.mean() + values["brightness"]
+    return np.round(np.clip(rgb, 0.0, 1.0) * 255.0).astype(np.uint8)

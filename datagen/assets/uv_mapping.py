@@ -35,9 +35,12 @@ def box_mapped(mesh: trimesh.Trimesh) -> UVMesh:
     face_normals = np.asarray(mesh.face_normals, float)
     axis = np.argmax(np.abs(face_normals), axis=1)  # (F,)
     uv = np.take_along_axis(corners, _PLANE_AXES[axis][:, None, :], axis=2)  # (F, 3, 2)
-    # mirror the first coordinate on faces facing down an axis, so no face shows a mirror image
-    sign = np.sign(face_normals[np.arange(len(faces)), axis])
-    uv[..., 0] *= np.where(sign < 0, -1.0, 1.0)[:, None]
+    # seen from outside each face, the first coordinate runs right and the second down (a
+    # texture's rows run down): a picture is drawn upright and never mirrored (on y faces the
+    # plane's x runs left as seen from outside)
+    sign = np.where(face_normals[np.arange(len(faces)), axis] < 0, -1.0, 1.0)
+    uv[..., 0] *= np.where(axis == 1, -sign, sign)[:, None]
+    uv[..., 1] *= -1.0
     smooth = np.asarray(mesh.vertex_normals, float)[faces]  # (F, 3, 3)
     cos_crease = np.cos(np.deg2rad(CREASE_DEG))
     keep = np.einsum("fcd,fd->fc", smooth, face_normals) > cos_crease

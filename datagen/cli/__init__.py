@@ -14,11 +14,23 @@ import signal
 import sys
 from pathlib import Path
 
-from datagen.cli import build_commands, dataset_commands, monitor_commands, service_commands
+from datagen.cli import (
+    build_commands,
+    dataset_commands,
+    library_commands,
+    monitor_commands,
+    service_commands,
+)
 from datagen.cli.common import EXIT_INTERRUPTED, EXIT_USER_ERROR, one_line
 from datagen.errors import ConfigError, UserInputError
 
-COMMAND_MODULES = (build_commands, service_commands, dataset_commands, monitor_commands)
+COMMAND_MODULES = (
+    build_commands,
+    service_commands,
+    dataset_commands,
+    monitor_commands,
+    library_commands,
+)
 
 
 def version() -> str:

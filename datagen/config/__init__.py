@@ -22,8 +22,9 @@ from datagen.config.appearance import (
     CameraEffectsConfig,
     DepthSensorConfig,
     DistractorsConfig,
+    PhotosConfig,
 )
-from datagen.config.pictures import check_pictures, resolve_picture_folders
+from datagen.config.pictures import check_photos, check_pictures, resolve_picture_folders
 from datagen.config.robot import RobotConfig, robot_spec
 from datagen.config.sections import (
     SAMPLE_ERROR_POLICIES,
@@ -62,6 +63,7 @@ class BuildConfig:
     lighting: LightingConfig = field(default_factory=LightingConfig)
     background: BackgroundConfig = field(default_factory=BackgroundConfig)
     distractors: DistractorsConfig = field(default_factory=DistractorsConfig)
+    photos: PhotosConfig = field(default_factory=PhotosConfig)
     camera: CameraConfig = field(default_factory=CameraConfig)
     camera_effects: CameraEffectsConfig = field(default_factory=CameraEffectsConfig)
     depth_sensor: DepthSensorConfig = field(default_factory=DepthSensorConfig)
@@ -138,6 +140,7 @@ def config_from_dict(data: Any, source: str = "<config>") -> BuildConfig:
     _check_ranges(config, source, prefix="")
     _check_semantics(config, source)
     check_pictures(config, source)
+    check_photos(config, source)
     return config
 
 

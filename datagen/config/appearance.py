@@ -57,6 +57,17 @@ class DistractorsConfig:
         default=(0.15, 0.6),
         metadata=_range(0.01, 2.0, "largest extent of a background distractor, metres"),
     )
+    flying: tuple[int, int] = field(
+        default=(0, 5), metadata=_range(0, 16, "distractors anywhere in view, at many depths")
+    )
+    flying_depth: tuple[float, float] = field(
+        default=(0.1, 1.6),
+        metadata=_range(0.05, 5.0, "depth of a flying distractor, fraction of camera-to-target"),
+    )
+    flying_size: tuple[float, float] = field(
+        default=(0.03, 0.3),
+        metadata=_range(0.005, 2.0, "largest extent of a flying distractor, metres"),
+    )
 
 
 @dataclass(frozen=True)
@@ -155,4 +166,47 @@ class DepthSensorConfig:
     )
     specular_dropout: tuple[float, float] = field(
         default=(0.3, 0.8), metadata=_range(0.0, 1.0, "chance that a specular pixel has no reading")
+    )
+
+
+@dataclass(frozen=True)
+class PhotosConfig:
+    """Photographs and material pictures of the installed library (``datagen library install``)
+    on the tabletop scenes' surfaces, walls and flying distractors, each drawn with a random crop,
+    scale, rotation and colour jitter. ``sources`` are drawn from; ``held_out`` never are (kept
+    for testing transfer): naming a source in both is an error."""
+
+    enabled: bool = True
+    sources: tuple[str, ...] = ("robosuite-textures", "mate-backgrounds", "ukui-wallpapers")
+    held_out: tuple[str, ...] = ("skimage-data",)
+    surface_probability: float = field(
+        default=0.3,
+        metadata=_range(0.0, 1.0, "chance that an object, the table, tray or floor shows one"),
+    )
+    backdrop_probability: float = field(
+        default=0.6, metadata=_range(0.0, 1.0, "chance that a wall or the ceiling shows one")
+    )
+    distractor_probability: float = field(
+        default=0.7, metadata=_range(0.0, 1.0, "chance that a flying distractor shows one")
+    )
+    crop: tuple[float, float] = field(
+        default=(0.25, 1.0), metadata=_range(0.05, 1.0, "side of the crop, fraction of the picture")
+    )
+    surface_scale_m: tuple[float, float] = field(
+        default=(0.05, 0.6), metadata=_range(0.001, 100.0, "metres across one repeat on a surface")
+    )
+    backdrop_scale_m: tuple[float, float] = field(
+        default=(0.8, 4.0), metadata=_range(0.001, 100.0, "metres across one repeat on a wall")
+    )
+    contrast: tuple[float, float] = field(
+        default=(0.6, 1.4), metadata=_range(0.0, 4.0, "gain about the picture's mean")
+    )
+    brightness: tuple[float, float] = field(
+        default=(-0.15, 0.15), metadata=_range(-1.0, 1.0, "offset, fraction of full scale")
+    )
+    saturation: tuple[float, float] = field(
+        default=(0.4, 1.4), metadata=_range(0.0, 4.0, "gain of the HSV saturation")
+    )
+    hue_deg: tuple[float, float] = field(
+        default=(-30.0, 30.0), metadata=_range(-180.0, 180.0, "hue rotation, degrees")
     )

@@ -12,6 +12,8 @@ from typing import Any
 from datagen.assets.image_library import ImageFolderError, load_library
 from datagen.assets.texture_tiles import TEXTURE_FAMILIES
 from datagen.errors import ConfigError
+from datagen.library.catalogue import LibraryMissing, pictures
+from datagen.registries import FAMILIES, LIBRARY_SOURCES
 
 # (section, key) of every folder of pictures a config may name
 PICTURE_FOLDERS = (("materials", "textures_dir"), ("background", "images_dir"))
@@ -72,4 +74,36 @@ def picture_report(config: Any) -> dict[str, Any]:
         folder = getattr(getattr(config, section_name), key)
         if folder:
             report[f"{section_name}.{key}"] = load_library(folder).report()
+    if uses_photos(config):  # attribution travels with the data
+        keys = ("path", "source", "sha256", "licence", "copyright", "url")
+        report["photos"] = {
+            "sources": list(config.photos.sources),
+            "held_out": list(config.photos.held_out),
+            "files": [{k: e[k] for k in keys} for e in pictures(config.photos.sources)],
+        }
     return {"pictures": report} if report else {}
+
+
+def uses_photos(config: Any) -> bool:
+    return config.photos.enabled and FAMILIES[config.scene].world == "tabletop"
+
+
+def check_photos(config: Any, source: str) -> None:
+    """``photos``: known sources, none both drawn and held out, and (when a tabletop scene
+    draws them) installed: a missing library is a config error saying what to run."""
+    photos = config.photos
+    for key in ("sources", "held_out"):
+        for name in getattr(photos, key):
+            LIBRARY_SOURCES.check(name, f"{source}: photos.{key}")
+    if both := sorted(set(photos.sources) & set(photos.held_out)):
+        raise ConfigError(f"{source}: photos.held_out: {both} also in photos.sources: a held-out source is never drawn")  # fmt: skip
+    FAMILIES.check(config.scene, f"{source}: scene")
+    if not uses_photos(config):
+        return
+    if not photos.sources:
+        raise ConfigError(f"{source}: photos.sources: expected at least one source of {list(LIBRARY_SOURCES)} (or photos.enabled: false)")  # fmt: skip
+    try:
+        if not pictures(photos.sources):
+            raise ConfigError(f"{source}: photos.sources: {list(photos.sources)} hold no picture")
+    except LibraryMissing as exc:
+        raise ConfigError(f"{source}: photos: {exc}") from None

@@ -80,24 +80,39 @@ class MaterialsConfig:
         metadata=_range(0.0, 1.0, "share of textured surfaces showing a picture of textures_dir"),
     )
     normal_maps: bool = False
+    class_independent_probability: float = field(
+        default=0.5,
+        metadata=_range(0.0, 1.0, "chance that surfaces and objects share one colour range"),
+    )
 
 
 @dataclass(frozen=True)
 class LightingConfig:
     ambient: tuple[float, float] = field(
-        default=(0.15, 0.45), metadata=_range(0.0, 2.0, "ambient level")
+        default=(0.05, 0.6), metadata=_range(0.0, 2.0, "ambient level")
     )
-    lights: tuple[int, int] = field(default=(1, 3), metadata=_range(0, 8, "number of lights"))
+    lights: tuple[int, int] = field(default=(1, 4), metadata=_range(0, 8, "number of lights"))
     intensity: tuple[float, float] = field(
-        default=(0.6, 2.0), metadata=_range(0.0, 20.0, "directional light radiance")
+        default=(0.3, 3.0), metadata=_range(0.0, 20.0, "directional light radiance")
     )
     elevation_deg: tuple[float, float] = field(
-        default=(35.0, 85.0), metadata=_range(5.0, 90.0, "light elevation above horizon, degrees")
+        default=(15.0, 89.0), metadata=_range(5.0, 90.0, "light elevation above horizon, degrees")
+    )
+    colour_temperature_k: tuple[float, float] = field(
+        default=(2700.0, 8000.0),
+        metadata=_range(1000.0, 40000.0, "black-body colour temperature of a light, kelvin"),
     )
     colour_temperature_jitter: float = field(
         default=0.15, metadata=_range(0.0, 1.0, "max per-channel colour deviation")
     )
     shadows: bool = True
+    soft_shadow_probability: float = field(
+        default=0.5, metadata=_range(0.0, 1.0, "chance that the key light's shadow is soft")
+    )
+    soft_shadow_radius_m: tuple[float, float] = field(
+        default=(0.1, 0.3),
+        metadata=_range(0.01, 0.5, "radius of a soft key light's area light, metres"),
+    )
 
 
 @dataclass(frozen=True)

@@ -121,6 +121,17 @@ def _licence_text(manifest: dict[str, Any], described: str) -> str:
         lines.append("- background pictures come from the user's `background.images_dir`;")
     if as_dict(config.get("materials")).get("textures_dir"):
         lines.append("- surface textures come from the user's `materials.textures_dir`;")
+    photos = as_dict(as_dict(manifest.get("pictures")).get("photos"))
+    if photos.get("files"):
+        licences: dict[str, set[str]] = {}
+        for entry in photos["files"]:
+            if isinstance(entry, dict):
+                licences.setdefault(str(entry.get("source")), set()).add(str(entry.get("licence")))
+        shown = "; ".join(f"`{s}` ({', '.join(sorted(v))})" for s, v in sorted(licences.items()))
+        lines.append(
+            f"- pictures of datagen's picture library appear on surfaces and walls: {shown}; "
+            "the manifest's `pictures.photos.files` credits each file (docs/photo-library.md);"
+        )
     name, family = robot.get("name"), FAMILIES.get(manifest["scene"])
     if family and family.world == "tabletop" and urdf.get("file"):
         lines.append("- the arm is rendered from the user's description (`robot.urdf.file`).")

@@ -87,5 +87,6 @@ def mesh(
         primvar = UsdGeom.PrimvarsAPI(usd_mesh).CreatePrimvar(
             "st", Sdf.ValueTypeNames.TexCoord2fArray, UsdGeom.Tokens.faceVarying
         )
-        primvar.Set(Vt.Vec2fArray([Gf.Vec2f(float(u), float(v)) for u, v in st]))
+        # USD's t runs up the picture, SAPIEN's v down its rows: the same texel at both
+        primvar.Set(Vt.Vec2fArray([Gf.Vec2f(float(u), float(-v)) for u, v in st]))
     return usd_mesh

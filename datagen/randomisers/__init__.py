@@ -10,10 +10,11 @@ from datagen.config import BuildConfig
 from datagen.config.robot import robot_workspace
 from datagen.randomisers.background import sample_background
 from datagen.randomisers.camera import extra_view_name, sample_camera, sample_extra_view
-from datagen.randomisers.distractors import sample_distractors
+from datagen.randomisers.distractors import sample_distractors, sample_flying
 from datagen.randomisers.lighting import sample_lighting
-from datagen.randomisers.materials import sample_materials
+from datagen.randomisers.materials import class_free_colours, sample_materials
 from datagen.randomisers.objects import sample_objects
+from datagen.randomisers.photos import add_photo_backdrops, add_photo_surfaces
 from datagen.randomisers.poses import sample_drop_poses
 from datagen.randomisers.robot import sample_robot
 from datagen.randomisers.textures import add_textures
@@ -58,11 +59,25 @@ def sample_scene(
         params["background"] = sample_background(
             rng("background"), config.background, config.materials, tray_centre
         )
+    if config.photos.enabled:  # photographs over what was drawn, from streams of their own
+        params["materials"] = add_photo_surfaces(
+            rng("photos.surfaces"), config.photos, params["materials"]
+        )
+        if "background" in params:
+            params["background"] = add_photo_backdrops(
+                rng("photos.backdrops"), config.photos, params["background"]
+            )
+    # with materials.class_independent_probability: one colour range for every class
+    params = class_free_colours(rng("colours"), config.materials, params)
     if config.distractors.enabled:  # absent when off: the scene stays as it was
         room = params["background"]["room"] if "background" in params else None
         params["distractors"] = sample_distractors(
             rng("distractors"), config.distractors, config.materials, params["camera"], room, ws
         )
+        params["distractors"] += sample_flying(  # after the others; none for flying [0, 0]
+            rng("distractors.flying"), config.distractors, config.materials, config.photos,
+            params["camera"], room, ws, config.render.width / config.render.height,
+        )  # fmt: skip
     if config.render.views > 1:  # absent for one view: a one-view sample stays as it was
         names = [extra_view_name(k) for k in range(1, config.render.views)]
         params["extra_views"] = {

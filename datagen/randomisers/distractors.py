@@ -11,6 +11,12 @@ Three placements (``distractors`` config section), each a count range:
   any), where the workspace camera sees its top over the table, larger (``background_size``).
   A view that sees no such spot gets none.
 
+Flying distractors (``flying``, stream ``distractors.flying``: :func:`sample_flying`) come
+after those: anywhere in the view, at a depth of ``flying_depth`` times the camera-to-target
+distance (in front of, at and beyond the tray; never in the table, the tray's space or beyond
+the room's walls), randomly oriented, any shape family or a thin card. A card shows a
+photograph with ``photos.distractor_probability`` (the whole picture, once, on each face).
+
 Distractors are static and visual only: they never fall, never push a target, never block the
 robot, so the targets' physics is the same with or without them. Their materials are drawn like
 the objects' (colour, then a texture with ``materials.texture_probability``). Every value is
@@ -23,14 +29,16 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
+from transforms3d.quaternions import quat2mat
 
 from datagen.assets.shapes import build_geometry
 from datagen.assets.tabletop_layout import DEFAULT_WORKSPACE, Workspace
-from datagen.config.appearance import DistractorsConfig
+from datagen.config.appearance import DistractorsConfig, PhotosConfig
 from datagen.config.sections import SHAPE_FAMILIES, MaterialsConfig
 from datagen.geometry import random_quaternion
 from datagen.randomisers.materials import random_material
 from datagen.randomisers.objects import sample_shape
+from datagen.randomisers.photos import sample_photo
 from datagen.randomisers.textures import maybe_texture
 
 PLACEMENTS = ("table", "air", "background")
@@ -41,6 +49,12 @@ AIR_OFF_CENTRE = (0.4, 0.85)  # of the half field of view
 BACKGROUND_REACH = 4.0  # metres from the table's centre, per axis, where there is no room
 BACKGROUND_TRIES = 60  # random floor spots tried per background distractor
 _TRIES = 40  # rejection sampling of a free spot; a distractor with none is left out
+FLYING = "flying"  # the placement of :func:`sample_flying`'s distractors
+CARD = "card"  # a thin flat box, the flying distractors' extra shape family
+CARD_THICKNESS = (0.001, 0.005)  # metres
+CARD_ASPECT = (0.5, 1.0)  # short side / long side of a card without a photograph
+FLYING_VIEW_SHARE = 0.5  # a flying distractor spans at most this share of the view's height
+TRAY_HEADROOM = 0.15  # metres above the tray's floor kept free of flying distractors
 
 
 @dataclass(frozen=True)
@@ -54,22 +68,26 @@ class _View:
     tan_half: float  # tangent of half the vertical field of view
     distance: float  # eye to target, metres
     ws: Workspace  # the table, tray and robot base it looks at
+    aspect: float = 1.0  # width / height of the view's part used (1: a square about its centre)
 
     @classmethod
-    def of(cls, camera: dict[str, Any], ws: Workspace = DEFAULT_WORKSPACE) -> _View:
+    def of(
+        cls, camera: dict[str, Any], ws: Workspace = DEFAULT_WORKSPACE, aspect: float = 1.0
+    ) -> _View:
         eye, target = np.asarray(camera["eye"], float), np.asarray(camera["target"], float)
         distance = float(np.linalg.norm(target - eye))
         forward = (target - eye) / distance
         right = np.cross(forward, [0.0, 0.0, 1.0])
         right /= np.linalg.norm(right)
         tan_half = float(np.tan(np.deg2rad(camera["fovy_deg"]) / 2))
-        return cls(eye, forward, right, np.cross(right, forward), tan_half, distance, ws)
+        up = np.cross(right, forward)
+        return cls(eye, forward, right, up, tan_half, distance, ws, aspect)
 
     def random_ray(self, rng: np.random.Generator) -> np.ndarray:
-        """Direction through a random image point (within the half height across, whatever
-        the aspect)."""
+        """Direction through a random image point (within ``aspect`` times the half height
+        across); its component along ``forward`` is 1."""
         across, above = rng.uniform(-1.0, 1.0, 2)
-        return self.forward + self.tan_half * (across * self.right + above * self.up)
+        return self.forward + self.tan_half * (across * self.aspect * self.right + above * self.up)
 
     def meets(self, ray: np.ndarray, z: float) -> np.ndarray:
         """(x, y) where the ray from the eye crosses the plane at height ``z``."""
@@ -79,7 +97,7 @@ class _View:
         """Whether ``point`` is in the view and not behind the table top."""
         ray = point - self.eye
         depth, limit = float(ray @ self.forward), self.tan_half * float(ray @ self.forward)
-        if depth <= 0 or abs(ray @ self.right) > limit or abs(ray @ self.up) > limit:
+        if depth <= 0 or abs(ray @ self.right) > self.aspect * limit or abs(ray @ self.up) > limit:
             return False
         top = self.ws.table_top
         if point[2] >= top or self.eye[2] <= top:
@@ -198,3 +216,96 @@ def sample_distractors(
                 }
             )
     return distractors
+
+
+def _clear_in_air(point: np.ndarray, radius: float, view: _View, room) -> bool:
+    """Whether a flying distractor of ``radius`` about ``point`` is seen (not behind the table
+    top), above the floor, inside the room (else within BACKGROUND_REACH of the table's centre)
+    and clear of the table and of the space above the tray where the targets lie."""
+    ws, (x, y, z) = view.ws, point
+    if room is not None:
+        lo = np.array([room["x"][0], room["y"][0], 0.0]) + radius
+        hi = np.array([room["x"][1], room["y"][1], room["height"]]) - radius
+    else:
+        lo = np.array([-BACKGROUND_REACH, -BACKGROUND_REACH, radius])
+        hi = np.array([BACKGROUND_REACH, BACKGROUND_REACH, np.inf])
+    if not ((point >= lo).all() and (point <= hi).all() and view.sees(point)):
+        return False
+    (hx, hy), (cx, cy, cz) = ws.table_half, ws.tray_centre
+    in_table = abs(x) < hx + radius and abs(y) < hy + radius and z < ws.table_top + radius
+    (ix, iy), wall = ws.tray_inner_half, ws.tray_wall[0] + radius
+    over_tray = abs(x - cx) < ix + wall and abs(y - cy) < iy + wall
+    return not in_table and not (over_tray and z < cz + TRAY_HEADROOM * ws.scale + radius)
+
+
+def _flying_spot(rng, view: _View, cfg: DistractorsConfig, size: float, room):
+    """(centre, largest extent) of a flying distractor: a random image point at a random depth
+    (``flying_depth`` times the camera-to-target distance, along the view's axis), the extent
+    capped so that it spans at most FLYING_VIEW_SHARE of the view's height there; None when no
+    try is clear."""
+    for _ in range(_TRIES):
+        depth = rng.uniform(*cfg.flying_depth) * view.distance
+        point = view.eye + depth * view.random_ray(rng)
+        extent = min(size, FLYING_VIEW_SHARE * 2 * depth * min(view.tan_half, 1.0))
+        if _clear_in_air(point, extent / 2, view, room):
+            return point, extent
+    return None
+
+
+def card_shape(rng: np.random.Generator, size: float, aspect: float) -> dict[str, Any]:
+    """A thin card of largest side ``size`` (metres), ``aspect`` its height / width, with a
+    corner at its origin: a picture ``scale_m`` = its width (and ``aspect``) covers a face once."""
+    width, height = (size, size * aspect) if aspect <= 1 else (size / aspect, size)
+    extents = np.round([width, height, rng.uniform(*CARD_THICKNESS)], 6).tolist()
+    corner = {"offset": [extents[0] / 2, extents[1] / 2, 0.0], "quat_wxyz": [1.0, 0.0, 0.0, 0.0]}
+    return {"family": CARD, "parts": [{"kind": "box", "extents": extents, **corner}]}
+
+
+def _photo_card(rng, photos: PhotosConfig, materials: MaterialsConfig, size: float):
+    """(shape, material) of a card showing a whole photograph (``sample_photo``'s values, its
+    scale set to the card's width, unrotated)."""
+    photo = sample_photo(rng, photos, (size, size), rotate=False)
+    shape = card_shape(rng, size, float(photo.get("aspect", 1.0)))
+    photo["scale_m"] = shape["parts"][0]["extents"][0]
+    material = random_material(rng, materials, materials.saturation, materials.value)
+    return shape, {**material, "texture": photo}
+
+
+def sample_flying(
+    rng: np.random.Generator,
+    cfg: DistractorsConfig,
+    materials: MaterialsConfig,
+    photos: PhotosConfig | None,
+    camera: dict[str, Any],
+    room: dict[str, Any] | None = None,
+    ws: Workspace = DEFAULT_WORKSPACE,
+    aspect: float = 1.0,
+) -> list[dict[str, Any]]:
+    """Flying distractors of one scene (placement ``flying``), from their own stream; none for
+    ``flying`` [0, 0]. ``photos`` is the ``photos`` config section (None: no photographs),
+    ``aspect`` the workspace view's width / height; the rest as in :func:`sample_distractors`."""
+    view = _View.of(camera, ws, aspect)
+    photo_share = photos.distractor_probability if photos is not None and photos.enabled else 0.0
+    flying = []
+    for _ in range(int(rng.integers(cfg.flying[0], cfg.flying[1] + 1))):
+        with_photo = rng.random() < photo_share  # always drawn: photos on or off
+        spot = _flying_spot(rng, view, cfg, float(rng.uniform(*cfg.flying_size)), room)
+        if spot is None:
+            continue
+        centre, size = spot
+        if with_photo:
+            shape, material = _photo_card(rng, photos, materials, size)
+        else:
+            family = str(rng.choice([*SHAPE_FAMILIES, CARD]))
+            if family == CARD:
+                shape = card_shape(rng, size, float(rng.uniform(*CARD_ASPECT)))
+            else:
+                shape = sample_shape(rng, family, size)
+            material = _material(rng, materials)
+        quat = random_quaternion(rng)
+        bounds = build_geometry(shape).visual.bounds
+        # the shape's bounding-box centre at the spot: its origin may be a corner or its base
+        offset = quat2mat(quat) @ ((bounds[0] + bounds[1]) / 2)
+        pose = {"position": np.round(centre - offset, 6).tolist(), "quat_wxyz": quat}
+        flying.append({"placement": FLYING, "shape": shape, "pose": pose, "material": material})
+    return flying

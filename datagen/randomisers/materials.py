@@ -1,5 +1,6 @@
 """Material randomiser: base colour, roughness and metallic of objects, table, tray and floor
-(their textures: :mod:`datagen.randomisers.textures`, a stream of their own)."""
+(their textures: :mod:`datagen.randomisers.textures`, a stream of their own), and the
+class-free colours of a scene (stream ``colours``): :func:`class_free_colours`."""
 
 from __future__ import annotations
 
@@ -8,10 +9,14 @@ from typing import Any
 
 import numpy as np
 
+from datagen.assets.texture_tiles import sample_palette
 from datagen.config.sections import MaterialsConfig
 
 # Surfaces of the room keep plausible colour ranges (HSV value), objects span the config's.
 _SURFACE_VALUE = {"table": (0.35, 0.85), "tray": (0.2, 0.9), "floor": (0.25, 0.75)}
+# HSV of the class-free colours: any hue, the same for surfaces and objects (issue 26)
+CLASS_FREE_SATURATION = (0.0, 1.0)
+CLASS_FREE_VALUE = (0.1, 1.0)
 
 
 def random_colour(
@@ -39,3 +44,37 @@ def sample_materials(
     }
     objects = [random_material(rng, cfg, cfg.saturation, cfg.value) for _ in range(num_objects)]
     return {"objects": objects, **surfaces}
+
+
+def _recoloured(rng: np.random.Generator, material: dict[str, Any]) -> dict[str, Any]:
+    """``material`` with a class-free base colour; a procedural texture's palette is drawn
+    again around it (the tile's pattern stays), a picture is left as it is."""
+    colour = random_colour(rng, CLASS_FREE_SATURATION, CLASS_FREE_VALUE)
+    recoloured = {**material, "base_color": colour}
+    texture = material.get("texture")
+    if texture is not None and "palette" in texture:
+        recoloured["texture"] = {**texture, "palette": sample_palette(rng, colour)}
+    return recoloured
+
+
+def class_free_colours(
+    rng: np.random.Generator, cfg: MaterialsConfig, params: dict[str, Any]
+) -> dict[str, Any]:
+    """A scene's values (``sample_scene``'s, materials and any background drawn) with, with
+    ``cfg.class_independent_probability`` (one draw), every object's, the table's, tray's,
+    floor's and the room's walls' base colour drawn from one class-free distribution, so
+    colour statistics tell no class from another; else ``params`` itself, unchanged."""
+    if not rng.random() < cfg.class_independent_probability:
+        return params
+    materials = params["materials"]
+    recoloured = {
+        **materials,
+        "objects": [_recoloured(rng, m) for m in materials["objects"]],
+        **{surface: _recoloured(rng, materials[surface]) for surface in _SURFACE_VALUE},
+    }
+    scene = {**params, "materials": recoloured}
+    if "background" in params:
+        walls = params["background"]["walls"]
+        walls = {name: _recoloured(rng, material) for name, material in walls.items()}
+        scene["background"] = {**params["background"], "walls": walls}
+    return scene

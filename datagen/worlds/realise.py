@@ -21,6 +21,11 @@ SHADOW_CENTRE = [0, 0, 1]  # metres: the key light's shadow volume centre, unles
 SHADOW_HALF_EXTENT = 1.5  # metres: it covers the table, the tray and the robot
 CEILING_SHADOW_GAP = 0.05  # metres below a room's ceiling where the key light's shadows begin
 POINT_LIGHT_REFERENCE_SQ = 4.0  # squared metres: a point light's intensity means the same at 2 m
+SOFT_LIGHT_SPOTS = 3  # shadowed spot lights on a disc standing in for a soft key light
+SOFT_SHADOW_MAP_SCALE = 2  # their shadow maps are this much smaller: a penumbra needs no detail
+SOFT_LIGHT_DISTANCE = 1.0  # metres from the target: inside the smallest room (1.5 m half size)
+SOFT_LIGHT_FOV_DEG = 140.0  # the spots' outer cone, covering the table and the tray
+MAX_SPOT_SHADOWS = 10  # SAPIEN's default shader: shadowed spot lights it reads
 
 
 def _radiance_at(light: dict[str, Any], target) -> list[float]:
@@ -117,12 +122,60 @@ def lit_by_room(lighting: dict[str, Any], room: dict[str, Any] | None) -> dict[s
     return {**lighting, "shadow_near": near}
 
 
+def soft_key_spots(light: dict[str, Any], target) -> list[dict[str, Any]]:
+    """A soft key light as ``SOFT_LIGHT_SPOTS`` spot lights on a disc of radius
+    ``light["area_radius_m"]`` facing the target from ``SOFT_LIGHT_DISTANCE`` back along the
+    light's direction (a sunflower pattern), sharing its radiance at the target: their shadows
+    overlap into a penumbra that widens with the occluder's height, as under an area light."""
+    direction = np.asarray(light["direction"], float)
+    side = np.cross(direction, [0.0, 0.0, 1.0])
+    side = side / np.linalg.norm(side) if np.linalg.norm(side) > 1e-6 else np.array([1.0, 0, 0])
+    up = np.cross(direction, side)
+    centre = np.asarray(target, float) - direction * SOFT_LIGHT_DISTANCE
+    spots = []
+    for i in range(SOFT_LIGHT_SPOTS):
+        radius = light["area_radius_m"] * np.sqrt((i + 0.5) / SOFT_LIGHT_SPOTS)
+        angle = i * np.pi * (3 - np.sqrt(5))  # radians: the golden angle
+        position = centre + radius * (np.cos(angle) * side + np.sin(angle) * up)
+        spots.append(
+            {
+                "position": position.tolist(),
+                "direction": (np.asarray(target) - position).tolist(),
+                "colour": light["colour"],
+                "intensity": light["intensity"] / SOFT_LIGHT_SPOTS,
+                "outer_fov_deg": SOFT_LIGHT_FOV_DEG,
+                "shadow": True,
+                "soft": True,
+            }
+        )
+    return spots
+
+
+def _add_spot(scene: sapien.Scene, light: dict[str, Any], target, shadow_map_size: int) -> None:
+    outer = np.deg2rad(light["outer_fov_deg"])
+    scene.add_spot_light(
+        light["position"],
+        light["direction"],
+        inner_fov=outer * 0.6,
+        outer_fov=outer,
+        color=_radiance_at(light, target),
+        shadow=light["shadow"],
+        shadow_near=0.1,
+        shadow_far=5.0,
+        shadow_map_size=shadow_map_size,
+    )
+
+
 def apply_lighting(scene: sapien.Scene, values: dict[str, Any], shadow_map_size: int) -> None:
-    """The ambient level, the directional key light and the spot (or point) lights."""
+    """The ambient level, the directional key light (or the spots of a soft one) and the spot
+    (or point) lights; spots past ``MAX_SPOT_SHADOWS`` shadowed ones lose their shadow."""
     scene.set_ambient_light([values["ambient"]] * 3)
+    spots = []
     for light in values["lights"]:
         colour = np.asarray(light["colour"]) * light["intensity"]
-        if light["type"] == "directional":
+        if light["type"] == "directional" and light.get("shadow_edge") == "soft":
+            spots = soft_key_spots(light, values["target"]) + spots
+        elif light["type"] == "directional":
             # the shadow volume (metres around its centre) must cover what the cameras see
             scale = values.get("shadow_half_extent", SHADOW_HALF_EXTENT)
             scene.add_directional_light(
@@ -139,18 +192,13 @@ def apply_lighting(scene: sapien.Scene, values: dict[str, Any], shadow_map_size:
             colour = colour * POINT_LIGHT_REFERENCE_SQ
             scene.add_point_light(light["position"], colour.tolist(), shadow=False)
         else:
-            outer = np.deg2rad(light["outer_fov_deg"])
-            scene.add_spot_light(
-                light["position"],
-                light["direction"],
-                inner_fov=outer * 0.6,
-                outer_fov=outer,
-                color=_radiance_at(light, values["target"]),
-                shadow=light["shadow"],
-                shadow_near=0.1,
-                shadow_far=5.0,
-                shadow_map_size=shadow_map_size,
-            )
+            spots.append(light)
+    shadowed = 0
+    for light in spots:
+        shadow = light["shadow"] and shadowed < MAX_SPOT_SHADOWS
+        shadowed += shadow
+        size = shadow_map_size // SOFT_SHADOW_MAP_SCALE if light.get("soft") else shadow_map_size
+        _add_spot(scene, {**light, "shadow": shadow}, values["target"], size)
 
 
 def apply_camera(camera: sapien.render.RenderCameraComponent, values: dict[str, Any]) -> None:

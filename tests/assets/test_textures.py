@@ -176,8 +176,17 @@ def test_texture_config_keys_are_checked_by_name(tmp_path):
         config_from_dict({"background": {"images_dir": str(tmp_path / "empty")}})
 
 
+# the procedural textures alone: no photographs over them, no class-free recolouring
+PROCEDURAL_ONLY = {
+    "photos": {"enabled": False},
+    "materials": {"class_independent_probability": 0.0},
+}
+
+
 def _scene(overrides, seed=5, index=2):
-    config = config_from_dict(overrides)
+    merged = {**PROCEDURAL_ONLY, **overrides}
+    merged["materials"] = {**PROCEDURAL_ONLY["materials"], **overrides.get("materials", {})}
+    config = config_from_dict(merged)
     return sample_scene(config, seed, index, TRAY_CENTRE, TRAY_INNER_HALF)
 
 
