@@ -169,8 +169,16 @@ def _install_source(name: str, source: Source, root: Path) -> list[dict]:
     return entries
 
 
+def _record(source: Source) -> dict:
+    """What the manifest says of an installed source (besides its file count)."""
+    return {"package": source.package, "registry": source.registry, "kind": source.kind,
+            "url": source.url}  # fmt: skip
+
+
 def _intact(manifest: dict, name: str, source: Source, root: Path) -> bool:
-    if manifest.get("sources", {}).get(name, {}).get("package") != source.package:
+    installed = dict(manifest.get("sources", {}).get(name, {}))
+    installed.pop("files", None)
+    if installed != _record(source):
         return False
     files = [e for e in manifest.get("files", []) if e["source"] == name]
     return bool(files) and all(
@@ -202,8 +210,7 @@ def install(
         entries = _install_source(name, source, root)
         manifest["files"] = [e for e in manifest["files"] if e["source"] != name] + entries
         manifest["files"].sort(key=lambda e: e["path"])
-        manifest["sources"][name] = {"package": source.package, "registry": source.registry,
-                                     "kind": source.kind, "url": source.url, "files": len(entries)}  # fmt: skip
+        manifest["sources"][name] = _record(source) | {"files": len(entries)}
         temporary = path.with_suffix(".json.tmp")
         temporary.write_text(json.dumps(manifest, indent=1, ensure_ascii=False) + "\n")
         os.replace(temporary, path)

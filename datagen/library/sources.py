@@ -21,14 +21,13 @@ DEBIAN_LICENCES = {"GPL-2+": "GPL-2.0-or-later", "CC-BY-SA-3.0": "CC-BY-SA-3.0"}
 class Source:
     registry: Literal["apt", "pip"]
     package: str  # pinned: "name=version" (apt) or "name==version" (pip)
-    kind: Literal["photo", "material", "mesh"]
+    kind: Literal["photo", "artwork", "material", "mesh"]
     members: tuple[str, ...]  # fnmatch patterns of the files taken, inside the package
     url: str  # where the pictures come from upstream
     licence: str = ""  # SPDX id of every file; "" = per file from the package's debian/copyright
     copyright: str = ""  # the copyright line of every file, when licence is set
-    per_file: dict[str, tuple[str, str]] = field(
-        default_factory=dict
-    )  # member -> (licence, credit)
+    # member -> (licence, credit), where the files' licences differ
+    per_file: dict[str, tuple[str, str]] = field(default_factory=dict)
 
 
 MATE_BACKGROUNDS = Source(
@@ -42,32 +41,28 @@ MATE_BACKGROUNDS = Source(
 UKUI_WALLPAPERS = Source(
     registry="apt",
     package="ukui-wallpapers=20.04.3-1.1",
-    kind="photo",
+    kind="artwork",
     members=("usr/share/backgrounds/*.jpg", "usr/share/backgrounds/*.png"),
     url="https://github.com/ukui/ukui-wallpapers",
 )
 
+_ROBOSUITE = {  # one wheel, one licence, for its textures and its object meshes
+    "registry": "pip",
+    "package": "robosuite==1.5.1",
+    "url": "https://github.com/ARISE-Initiative/robosuite",
+    "licence": "MIT",
+    "copyright": "2022 Stanford Vision and Learning Lab and UT Robot Perception and Learning Lab",
+}
 ROBOSUITE_TEXTURES = Source(
-    registry="pip",
-    package="robosuite==1.5.1",
-    kind="material",
-    members=("robosuite/models/assets/textures/*.png",),
-    url="https://github.com/ARISE-Initiative/robosuite",
-    licence="MIT",
-    copyright="2022 Stanford Vision and Learning Lab and UT Robot Perception and Learning Lab",
+    kind="material", members=("robosuite/models/assets/textures/*.png",), **_ROBOSUITE
 )
-
 ROBOSUITE_OBJECTS = Source(
-    registry="pip",
-    package="robosuite==1.5.1",
     kind="mesh",
     members=tuple(
         f"robosuite/models/assets/objects/meshes/{name}.stl"
         for name in ("bottle", "bread", "can", "cereal", "lemon", "milk")
     ),
-    url="https://github.com/ARISE-Initiative/robosuite",
-    licence="MIT",
-    copyright="2022 Stanford Vision and Learning Lab and UT Robot Perception and Learning Lab",
+    **_ROBOSUITE,
 )
 
 _SKIMAGE = "skimage/data/"

@@ -196,9 +196,11 @@ def test_replay_from_the_usd_matches_the_stored_images(built, tmp_path):
         assert list(differences) == ["workspace", "view1", "wrist"]  # every camera
         for name, (_, _, diff) in differences.items():
             # stored poses and joints are rounded (7 and 6 decimals): now and then an edge
-            # crosses a pixel centre, so a pixel or two of an image may differ by more than 2
-            assert (diff == 0).mean() > 0.999, (dataset.keys[i], name)
-            assert (diff > 2).mean() <= 5e-4, (dataset.keys[i], name)
+            # crosses a pixel centre, or a shadow-map test flips at a grazing shadow edge (the
+            # soft key light's three spot lights have coarse maps), so up to about 1 % of an
+            # image's pixels may differ, a few of them by more than 2
+            assert (diff == 0).mean() > 0.985, (dataset.keys[i], name)
+            assert (diff > 2).mean() <= 3e-3, (dataset.keys[i], name)
     lines, picture = comparison_report(dataset.keys[i], differences)
     assert len(lines) == 3 and lines[1].startswith(f"replayed {dataset.keys[i]} view1: ")
     assert picture.shape == (3 * 120, 3 * 160, 3)  # a row per camera
