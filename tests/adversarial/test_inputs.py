@@ -75,6 +75,13 @@ def _paths(tree: dict, prefix: tuple = ()) -> list[tuple]:
     return found
 
 
+def _nasty(data: st.DataObject) -> Any:
+    """A nasty value, copied: the lists and mappings of NASTY_VALUES are shared objects, and a
+    later mutation of this config must not change them for the next example (hypothesis then
+    sees other data for the same choices and reports the test as flaky)."""
+    return copy.deepcopy(data.draw(NASTY_VALUES, "value"))
+
+
 def mutated_config(data: st.DataObject) -> dict[str, Any]:
     """A config from ``BASES`` with 1-4 mutations: a key deleted, renamed or added, a value
     replaced by a nasty one, wrapped in a list or a mapping, or scaled out of range."""
@@ -82,7 +89,7 @@ def mutated_config(data: st.DataObject) -> dict[str, Any]:
     for _ in range(data.draw(st.integers(1, 4), "mutations")):
         paths = _paths(config)
         if not paths:
-            config[data.draw(KEY_NAMES)] = data.draw(NASTY_VALUES)
+            config[data.draw(KEY_NAMES)] = _nasty(data)
             continue
         path = data.draw(st.sampled_from(paths), "path")
         parent = config
@@ -93,11 +100,11 @@ def mutated_config(data: st.DataObject) -> dict[str, Any]:
         if op == "delete":
             del parent[key]
         elif op == "replace":
-            parent[key] = data.draw(NASTY_VALUES, "value")
+            parent[key] = _nasty(data)
         elif op == "rename":
             parent[data.draw(KEY_NAMES, "new name")] = parent.pop(key)
         elif op == "add":
-            parent[data.draw(KEY_NAMES, "key")] = data.draw(NASTY_VALUES, "value")
+            parent[data.draw(KEY_NAMES, "key")] = _nasty(data)
         elif op == "wrap":
             parent[key] = data.draw(st.sampled_from([[parent[key]], {"value": parent[key]}]))
         elif isinstance(parent[key], int | float) and not isinstance(parent[key], bool):
