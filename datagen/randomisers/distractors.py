@@ -15,7 +15,7 @@ Flying distractors (``flying``, stream ``distractors.flying``: :func:`sample_fly
 after those: anywhere in the view, at a depth of ``flying_depth`` times the camera-to-target
 distance (in front of, at and beyond the tray; never in the table, the tray's space or beyond
 the room's walls), randomly oriented, any shape family or a thin card. A card shows a
-photograph with ``photos.distractor_probability`` (the whole picture, once, on each face).
+photograph with ``photos.distractor_probability`` (its random crop, once, on each face).
 
 Distractors are static and visual only: they never fall, never push a target, never block the
 robot, so the targets' physics is the same with or without them. Their materials are drawn like
@@ -262,7 +262,7 @@ def card_shape(rng: np.random.Generator, size: float, aspect: float) -> dict[str
 
 
 def _photo_card(rng, photos: PhotosConfig, materials: MaterialsConfig, size: float):
-    """(shape, material) of a card showing a whole photograph (``sample_photo``'s values, its
+    """(shape, material) of a card showing a photograph (``sample_photo``'s values, its
     scale set to the card's width, unrotated)."""
     photo = sample_photo(rng, photos, (size, size), rotate=False)
     shape = card_shape(rng, size, float(photo.get("aspect", 1.0)))
