@@ -173,14 +173,38 @@ def segmentation_net(channels: int = 32):
     )  # fmt: skip
 
 
-def train(x, y, epochs: int, seed: int, channels: int = 32):
+def augmented(x, y, generator):
+    """Each image mirrored left-right with probability 0.5, its contrast scaled by 0.8-1.2
+    about its mean and its brightness moved by -0.1..0.1 (images in 0..1): the usual
+    photometric and geometric augmentation, applied alike to every training set."""
+    import torch
+
+    n = len(x)
+    flip = (torch.rand(n, generator=generator) < 0.5).to(x.device)
+    x = torch.where(flip[:, None, None, None], x.flip(-1), x)
+    y = torch.where(flip[:, None, None], y.flip(-1), y)
+    contrast = (0.8 + 0.4 * torch.rand(n, 1, 1, 1, generator=generator)).to(x.device)
+    brightness = (0.2 * torch.rand(n, 1, 1, 1, generator=generator) - 0.1).to(x.device)
+    mean = x.mean(dim=(1, 2, 3), keepdim=True)
+    return ((x - mean) * contrast + mean + brightness).clamp(0, 1), y
+
+
+def _autocast(device, precision: str):
+    import torch
+
+    return torch.autocast(device.type, dtype=torch.bfloat16, enabled=precision == "bf16")
+
+
+def train(x, y, epochs: int, seed: int, channels: int = 32, augment: bool = True,
+          precision: str = "fp32"):  # fmt: skip
     """AdamW with a cosine learning-rate schedule to zero: the last epochs settle the weights,
-    so the score depends less on where the seed left them."""
+    so the score depends less on where the seed left them. ``precision="bf16"`` runs the
+    convolutions in bfloat16 (weights stay float32): 4x faster on a CPU with AVX-512 BF16."""
     import torch
     from torch import nn
 
     torch.manual_seed(seed)
-    net = segmentation_net(channels).to(x.device)
+    net = segmentation_net(channels).to(x.device, memory_format=torch.channels_last)
     optimiser = torch.optim.AdamW(net.parameters(), lr=3e-3, weight_decay=1e-4)
     steps = epochs * ((len(x) + 31) // 32)
     schedule = torch.optim.lr_scheduler.CosineAnnealingLR(optimiser, steps)
@@ -190,7 +214,10 @@ def train(x, y, epochs: int, seed: int, channels: int = 32):
         order = torch.randperm(len(x), generator=generator).to(x.device)
         total = 0.0
         for batch in order.split(32):
-            loss = nn.functional.cross_entropy(net(x[batch]), y[batch])
+            xb, yb = augmented(x[batch], y[batch], generator) if augment else (x[batch], y[batch])
+            with _autocast(x.device, precision):
+                logits = net(xb.contiguous(memory_format=torch.channels_last))
+            loss = nn.functional.cross_entropy(logits.float(), yb)
             optimiser.zero_grad()
             loss.backward()
             optimiser.step()
@@ -209,11 +236,11 @@ def iou(predicted, y) -> dict[str, float]:
     return scores
 
 
-def predict(net, x):
+def predict(net, x, precision: str = "fp32"):
     import torch
 
-    with torch.no_grad():
-        return torch.cat([net(b).argmax(1) for b in x.split(64)])
+    with torch.no_grad(), _autocast(x.device, precision):
+        return torch.cat([net(b.contiguous(memory_format=torch.channels_last)).argmax(1) for b in x.split(64)])  # fmt: skip
 
 
 def blind_prediction(y_train, count: int):
@@ -275,6 +302,8 @@ def main() -> int:
     parser.add_argument("--frames-dir", help="keep each set's frames here (npz), and read them back instead of building again")  # fmt: skip
     parser.add_argument("--build-only", action="store_true", help="build and save the frames (--frames-dir), train nothing")  # fmt: skip
     parser.add_argument("--device", default="cpu", help="torch device that trains (cpu, cuda)")
+    parser.add_argument("--precision", choices=("fp32", "bf16"), default="fp32", help="bf16: autocast the convolutions (4x faster on an AVX-512 BF16 CPU)")  # fmt: skip
+    parser.add_argument("--no-augment", dest="augment", action="store_false", help="train without mirroring and brightness/contrast jitter")  # fmt: skip
     parser.add_argument("--out", default=str(REPO / "benchmarks/results/dr_ablation.json"))
     args = parser.parse_args()
 
@@ -284,7 +313,8 @@ def main() -> int:
     device = torch.device(args.device)
     names = [n for n in SETS if not args.only or n in args.only]
     result: dict = {"command": " ".join(sys.argv), "cores": os.cpu_count(), "seeds": args.seeds,
-                    "device": str(device), "models": {}, "tests": {}}  # fmt: skip
+                    "device": str(device), "precision": args.precision, "augment": args.augment,
+                    "models": {}, "tests": {}}  # fmt: skip
     configs = None
     with tempfile.TemporaryDirectory(prefix="dr-ablation-") as tmp:
         test_data = {}
@@ -307,10 +337,10 @@ def main() -> int:
             train_s = []
             for seed in args.seeds:
                 start = time.perf_counter()
-                net, _ = train(x, y, args.epochs, seed, args.channels)
+                net, _ = train(x, y, args.epochs, seed, args.channels, args.augment, args.precision)
                 train_s.append(time.perf_counter() - start)
                 for t, (tx, ty) in test_data.items():
-                    runs[t].append(iou(predict(net, tx), ty))
+                    runs[t].append(iou(predict(net, tx, args.precision), ty))
             result["models"][name] = {"frames": len(x), "build_s": build_s,
                                       "train_s": round(statistics.fmean(train_s), 1), "scores": runs}  # fmt: skip
             shown = "  ".join(f"{t} {_shown([r['mIoU'] for r in runs[t]])}" for t in runs)
