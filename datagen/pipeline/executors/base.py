@@ -20,6 +20,11 @@ from datagen.engines.transfer.run_binding import RunBinding
 from datagen.pipeline.production import Task
 from datagen.records import WorkerEvent
 
+# The coordinator stops its workers gracefully only once the dataset is finalized: every sample
+# is durable then, and a worker still publishing holds a duplicate of a re-issued sample that it
+# retries while no writer listens any more (until its publish timeout). Not worth waiting for.
+STOP_GRACE_S = 5.0
+
 Event = WorkerEvent  # (worker id, kind, payload); kinds: see datagen/pipeline/worker.py
 # One worker per core: OpenMP/BLAS thread pools in each worker would oversubscribe the cores
 # (measured: +12-20 % frames/s for a local worker with 1 thread). Ray sets the same itself.
@@ -68,7 +73,9 @@ class Executor(Protocol):
         """Ends a worker that stopped answering (stopped, deadlocked, stuck in one sample) at
         once; poll reports nothing more from it."""
 
-    def stop(self, graceful: bool) -> None: ...
+    def stop(self, graceful: bool) -> None:
+        """Ends every worker; ``graceful``: each finishes its sample first, for at most
+        ``STOP_GRACE_S``."""
 
 
 def worker_env() -> dict[str, str]:

@@ -8,7 +8,13 @@ import time
 from multiprocessing.connection import wait as wait_connections
 from typing import Any
 
-from datagen.pipeline.executors.base import WORKER_ENV_DEFAULTS, Event, WorkerSpec, default_env
+from datagen.pipeline.executors.base import (
+    STOP_GRACE_S,
+    WORKER_ENV_DEFAULTS,
+    Event,
+    WorkerSpec,
+    default_env,
+)
 from datagen.pipeline.production import Task
 from datagen.pipeline.worker import worker_main
 from datagen.records import WorkerMessage
@@ -85,7 +91,7 @@ class LocalExecutor:
         if graceful:
             for worker_id in self.workers:
                 self.send(worker_id, None)
-        deadline = time.monotonic() + (30 if graceful else 0)
+        deadline = time.monotonic() + (STOP_GRACE_S if graceful else 0)
         for process, conn in self.workers.values():
             process.join(timeout=max(0.0, deadline - time.monotonic()))
             if process.is_alive():

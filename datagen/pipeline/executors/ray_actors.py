@@ -19,14 +19,13 @@ from typing import Any
 import ray
 from ray.exceptions import GetTimeoutError, RayActorError, RayTaskError
 
-from datagen.pipeline.executors.base import Event, WorkerSpec, worker_env
+from datagen.pipeline.executors.base import STOP_GRACE_S, Event, WorkerSpec, worker_env
 from datagen.pipeline.live_preview import PreviewFeed, sample_outcome
 from datagen.pipeline.production import Task
 from datagen.pipeline.worker import HEARTBEAT_S
 from datagen.records import AttemptRecord, ProducedRecord, WorkerMessage
 
 log = logging.getLogger(__name__)
-CLOSE_TIMEOUT_S = 30.0
 
 
 class SceneWorker:
@@ -209,7 +208,7 @@ class RayExecutor:
         if graceful:
             closes = [a.close.remote() for a in self.actors.values()]
             try:
-                ray.get(closes, timeout=CLOSE_TIMEOUT_S)
+                ray.get(closes, timeout=STOP_GRACE_S)
             except (GetTimeoutError, RayActorError, RayTaskError) as exc:
                 log.warning("Ray workers did not close cleanly: %s", exc)
         for actor in self.actors.values():
