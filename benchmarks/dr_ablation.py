@@ -4,11 +4,14 @@ training seed, and score each on test domains built from sources no training set
     .venv/bin/python benchmarks/dr_ablation.py               # 8 sets x 480 frames, 6 seeds
     .venv/bin/python benchmarks/dr_ablation.py --scenes 30 --test-scenes 15 --epochs 4 --seeds 0 1
 
-On the 2-core machine the builds take about 8 minutes and the 48 trainings about 3 hours; the
-frames can be built here and the nets trained on a GPU (only torch and numpy needed there):
+On the 2-core machine the builds take about 8 minutes; a training takes about 4 minutes there
+with ``--precision bf16`` (bfloat16 convolutions, for CPUs with AVX-512 BF16; 16 minutes in
+float32) and a few seconds on a GPU. The frames can be built here and the nets trained elsewhere
+(only torch and numpy needed there):
 
     .venv/bin/python benchmarks/dr_ablation.py --frames-dir benchmarks/results/dr_frames --build-only
     python3 benchmarks/dr_ablation.py --frames-dir benchmarks/results/dr_frames --device cuda
+    .venv/bin/python benchmarks/dr_ablation.py --frames-dir benchmarks/results/dr_frames --precision bf16 --only a_flat b_textures_room c_default
 
 Training sets, equal sizes, the same seed and sample indices, built by the real pipeline
 (``run_build``: workers, MQTT, writer, shards) at 160x120 with ``render.views`` views per scene,
@@ -35,10 +38,11 @@ Test domains (their own seeds), each from sources never used in training:
 
 The net (a dilated FCN) sees 80x60 colour images and predicts ``other`` (floor, walls, robot,
 gripper, background, distractors), ``table``, ``tray``, ``object``. It trains with AdamW and a
-cosine schedule; one model per (training set, seed). Printed per test domain: mean IoU over
-the seeds ± its standard error, and an image-blind baseline (each pixel's most common class
-over the training set (c): what a net that ignores the image scores). Results go to
-``benchmarks/results/dr_ablation.json``.
+cosine schedule, each batch mirrored and jittered in brightness and contrast (the same for every
+set; ``--no-augment`` turns it off); one model per (training set, seed). Printed per test
+domain: mean IoU over the seeds ± its standard error, and an image-blind baseline (each pixel's
+most common class over the training set (c): what a net that ignores the image scores). Results
+go to ``benchmarks/results/dr_ablation.json``.
 """
 
 from __future__ import annotations
