@@ -8,7 +8,6 @@ import json
 import os
 import re
 import shlex
-import signal
 import subprocess
 import sys
 import time
@@ -135,47 +134,6 @@ def test_the_resume_command_repeats_every_option_given_and_hides_the_password(tm
     args = parser().parse_args(["build", "c.yaml", "--out", "o"])  # defaults are not repeated...
     cores = os.cpu_count() or 1  # ...but for the workers, whose default is the number of cores
     assert resume_command(args) == f"datagen build c.yaml --out o --workers {cores} --resume"
-
-
-@pytest.mark.sim
-@pytest.mark.mqtt
-@pytest.mark.slow
-def test_ctrl_c_prints_a_command_that_finishes_the_build(tmp_path):
-    config, out = small_config(tmp_path), tmp_path / "out"
-    options = ["--out", str(out), "--num-samples", "16", "--workers", "2", "--seed", "5",
-               "--build-id", "resume-hint-test", "--no-preview"]  # fmt: skip
-    process = subprocess.Popen(
-        [sys.executable, "-m", "datagen.cli", "build", str(config), *options],
-        cwd=REPO,
-        stdout=subprocess.PIPE,
-        stderr=subprocess.PIPE,
-        text=True,
-        start_new_session=True,
-    )
-    deadline = time.monotonic() + 120
-    while time.monotonic() < deadline and not list(out.glob("*.tar")):
-        time.sleep(0.2)
-    os.killpg(process.pid, signal.SIGINT)  # as a terminal's Ctrl-C: the whole process group
-    _, stderr = process.communicate(timeout=60)
-    assert process.returncode == 130, stderr
-    found = re.search(r"Finish it with: (.+)$", stderr, re.M)
-    assert found, stderr
-    command = found[1]
-    assert command == f"datagen build {config} {' '.join(options)} --resume"
-    assert not (out / "manifest.json").exists()
-
-    result = subprocess.run(
-        ["bash", "-c", command],  # exactly as printed
-        cwd=REPO,
-        env=os.environ | {"PATH": f"{VENV_BIN}{os.pathsep}{os.environ['PATH']}"},
-        capture_output=True,
-        text=True,
-        timeout=300,
-    )
-    assert result.returncode == 0, result.stderr
-    manifest = json.loads((out / "manifest.json").read_text())
-    assert manifest["samples"] == 16 and manifest["build_id"] == "resume-hint-test"
-    assert manifest["seed"] == 5
 
 
 # --- replay is for grasp scenes ----------------------------------------------------------------

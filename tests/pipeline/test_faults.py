@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import json
 import os
+import re
 import signal
 import subprocess
 import sys
@@ -245,9 +246,9 @@ def _config_file(tmp_path: Path) -> Path:
     return path
 
 
-def _start_cli_build(tmp_path: Path, out: Path) -> subprocess.Popen:
+def _start_cli_build(tmp_path: Path, out: Path, *options: str) -> subprocess.Popen:
     return subprocess.Popen(
-        [sys.executable, "-m", "datagen.cli", "build", str(_config_file(tmp_path)), "--out", str(out), "--workers", "2", "--no-preview"],
+        [sys.executable, "-m", "datagen.cli", "build", str(_config_file(tmp_path)), "--out", str(out), "--workers", "2", *options, "--no-preview"],
         cwd=REPO, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, start_new_session=True,
     )  # fmt: skip
 
@@ -269,10 +270,13 @@ def _processes_using(out: Path) -> list[psutil.Process]:
     return found
 
 
-def _resume_and_compare(tmp_path: Path, out: Path, reference: Path) -> None:
+def _resume_and_compare(tmp_path: Path, out: Path, reference: Path, printed: str = "") -> None:
+    """Resumes the build (with the command it ``printed``, run exactly as printed, if given),
+    then compares every sample with the uninterrupted build's."""
+    command = ["bash", "-c", printed] if printed else [sys.executable, "-m", "datagen.cli", "build", str(_config_file(tmp_path)), "--out", str(out), "--workers", "2", "--no-preview", "--resume"]  # fmt: skip
     resumed = subprocess.run(
-        [sys.executable, "-m", "datagen.cli", "build", str(_config_file(tmp_path)), "--out", str(out), "--workers", "2", "--no-preview", "--resume"],
-        cwd=REPO, capture_output=True, text=True, timeout=300,
+        command, cwd=REPO, capture_output=True, text=True, timeout=300,
+        env=os.environ | {"PATH": f"{Path(sys.executable).parent}{os.pathsep}{os.environ['PATH']}"},
     )  # fmt: skip
     assert resumed.returncode == 0, resumed.stderr
     assert "were already durable" in resumed.stdout
@@ -300,10 +304,17 @@ def test_resume_after_the_coordinator_is_killed(tmp_path, reference):
 
 
 def test_resume_after_ctrl_c(tmp_path, reference):
+    """Ctrl-C prints the command that finishes the build (every option given, then ``--resume``);
+    run exactly as printed, it makes the uninterrupted build's dataset."""
     out = tmp_path / "out"
-    process = _start_cli_build(tmp_path, out)
+    process = _start_cli_build(tmp_path, out, "--seed", str(CONFIG.seed))
     _wait_for_samples_on_disk(out)
-    os.killpg(process.pid, signal.SIGINT)
+    os.killpg(process.pid, signal.SIGINT)  # as a terminal's Ctrl-C: the whole process group
     _, stderr = process.communicate(timeout=60)
-    assert process.returncode == 130 and "--resume" in stderr
-    _resume_and_compare(tmp_path, out, reference)
+    assert process.returncode == 130, stderr
+    assert not (out / "manifest.json").exists()
+    printed = re.search(r"Finish it with: (.+)$", stderr, re.M)
+    assert printed, stderr
+    options = f"--out {out} --workers 2 --seed {CONFIG.seed} --no-preview --resume"
+    assert printed[1] == f"datagen build {_config_file(tmp_path)} {options}"
+    _resume_and_compare(tmp_path, out, reference, printed[1])
