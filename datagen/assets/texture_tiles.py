@@ -26,7 +26,8 @@ from typing import Any
 import cv2
 import numpy as np
 
-TEXTURE_FAMILIES = ("noise", "stripes", "checker", "marble", "grain", "speckle")
+from datagen.assets.family_names import TEXTURE_FAMILIES
+
 PHOTO_FAMILY = "photo"  # a picture of the installed library (datagen.randomisers.photos)
 IMAGE_FAMILY = "image"  # a picture from materials.textures_dir / background.images_dir
 TILE_SIZE = 128  # pixels per side of a procedural tile

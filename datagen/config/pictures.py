@@ -9,8 +9,8 @@ import dataclasses
 from pathlib import Path
 from typing import Any
 
+from datagen.assets.family_names import TEXTURE_FAMILIES
 from datagen.assets.image_library import ImageFolderError, load_library
-from datagen.assets.texture_tiles import TEXTURE_FAMILIES
 from datagen.errors import ConfigError
 from datagen.library.catalogue import LibraryMissing, pictures
 from datagen.registries import FAMILIES, LIBRARY_SOURCES

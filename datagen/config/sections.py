@@ -6,8 +6,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from typing import Any
 
-from datagen.assets.family_names import HOUSEHOLD_FAMILIES
-from datagen.assets.texture_tiles import TEXTURE_FAMILIES
+from datagen.assets.family_names import HOUSEHOLD_FAMILIES, TEXTURE_FAMILIES
 
 PRIMITIVE_FAMILIES = ("box", "cylinder", "sphere", "capsule", "convex", "compound")
 SHAPE_FAMILIES = (*PRIMITIVE_FAMILIES, *HOUSEHOLD_FAMILIES)

@@ -90,6 +90,7 @@ class Coordinator:
         self.executor = None  # made in run(), once the broker URL is known
         self.workers: dict[int, int] = {}  # live worker id -> samples it has published
         self.retiring: set[int] = set()
+        self.dismissed: set[int] = set()
         self.next_worker_id = 0
         self.writer = (
             LocalWriter(config, out_dir, self.build_id, self.secret) if writers is None else None
@@ -136,6 +137,8 @@ class Coordinator:
             try:
                 if self.writer is not None:
                     self.supervisor.start_writer()
+                # workers start up (imports, renderer) while the writers get ready
+                starting = [self._spawn_worker() for _ in range(min(self.num_workers, total))]
                 self._wait_writers_ready()
                 if self.external_writers is not None:
                     # writers started earlier re-announce what is durable; ours did before "ready"
@@ -150,9 +153,13 @@ class Coordinator:
                 )
                 self.acks.clear()
                 self._report(total - len(self.schedule.remaining))
-                # no idle workers: at most one per sample still to make
-                for _ in range(min(self.num_workers, len(self.schedule.remaining))):
-                    self._start_worker()
+                # no idle workers: at most one per sample still to make (a resume may need fewer)
+                needed = len(self.schedule.remaining)
+                for worker_id in starting[needed:]:
+                    self._dismiss(worker_id)
+                for worker_id in starting[:needed]:
+                    self.schedule.add_worker(worker_id)
+                    self._feed(worker_id)
                 self._drive()
                 if self.failed:
                     raise BuildError(self._failed_report())
@@ -213,14 +220,27 @@ class Coordinator:
 
     # --- workers ---------------------------------------------------------------------------------
     def _start_worker(self) -> None:
+        worker_id = self._spawn_worker()
+        self.schedule.add_worker(worker_id)
+        self._feed(worker_id)
+
+    def _spawn_worker(self) -> int:
+        """Starts a worker process (or actor); the schedule gives it samples once it is added."""
         worker_id = self.next_worker_id
         self.next_worker_id += 1
         details = self.executor.start(worker_id)
         self.watch.add(worker_id, time.monotonic())
         self.workers[worker_id] = 0
-        self.schedule.add_worker(worker_id)
         self.observer("worker", {"id": worker_id, **details})
-        self._feed(worker_id)
+        return worker_id
+
+    def _dismiss(self, worker_id: int) -> None:
+        """A worker started before the writers said how much is left, and not needed: it stops
+        without samples, and what it still sends is ignored."""
+        self.dismissed.add(worker_id)
+        self.executor.retire(worker_id)
+        self.watch.forget(worker_id)
+        self.workers.pop(worker_id, None)
 
     def _feed(self, worker_id: int) -> None:
         if worker_id in self.retiring:
@@ -232,6 +252,8 @@ class Coordinator:
     def _handle_worker_messages(self) -> None:
         recycle_after = self.config.executor.recycle_after
         for worker_id, kind, payload in self.executor.poll(POLL_S):
+            if worker_id in self.dismissed:
+                continue  # started early and not needed (_dismiss)
             now = time.monotonic()
             self.live.on_event(worker_id, kind, payload)
             self.watch.heard_from(worker_id, now)

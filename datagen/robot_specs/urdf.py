@@ -15,7 +15,6 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
-from scipy.spatial.transform import Rotation
 
 from datagen.errors import ConfigError
 
@@ -79,6 +78,8 @@ class Joint:
         """(4, 4) the joint's motion at ``value`` (radians or metres)."""
         out = np.eye(4)
         if self.kind in ("revolute", "continuous"):
+            from scipy.spatial.transform import Rotation  # 0.25 s: only when a joint moves
+
             out[:3, :3] = Rotation.from_rotvec(self.axis * value).as_matrix()
         elif self.kind == "prismatic":
             out[:3, 3] = self.axis * value
@@ -131,6 +132,8 @@ def _origin(element: ET.Element | None) -> np.ndarray:
     out = np.eye(4)
     if element is None:
         return out
+    from scipy.spatial.transform import Rotation
+
     out[:3, :3] = Rotation.from_euler("xyz", _floats(element.get("rpy"), (0, 0, 0))).as_matrix()
     out[:3, 3] = _floats(element.get("xyz"), (0, 0, 0))
     return out

@@ -16,6 +16,7 @@ import numpy as np
 import sapien
 
 from datagen.config import BuildConfig
+from datagen.engines.sim.brdf_lut import attach_brdf_lut
 from datagen.navigation.episode import Episode
 from datagen.robot_specs import maniskill_asset
 from datagen.worlds.realise import apply_lighting
@@ -202,4 +203,5 @@ def build_nav_scene(config: BuildConfig, episode: Episode, values: dict[str, Any
     camera = scene.add_mounted_camera(
         "head", head.entity, sapien.Pose(), r.width, r.height, math.radians(cam["fovy_deg"]), r.near, r.far
     )  # fmt: skip
+    attach_brdf_lut(camera)
     return NavScene(scene, camera, robot, things, instance_lut, class_lut)

@@ -19,6 +19,7 @@ from datagen.assets.tabletop_layout import StaticPart, Workspace, static_parts
 from datagen.config import BuildConfig
 from datagen.config.robot import robot_spec, robot_workspace
 from datagen.config.sections import SHAPE_FAMILIES
+from datagen.engines.sim.brdf_lut import attach_brdf_lut
 from datagen.randomisers import redrawn_drop_poses, sample_scene
 from datagen.robot_specs import RobotSpec
 from datagen.worlds.realise import (
@@ -203,4 +204,6 @@ def construct_scene(config: BuildConfig, params: dict[str, Any]) -> GraspScene:
         cameras["wrist"] = scene.add_mounted_camera(
             "wrist", link.entity, pose, r.width, r.height, fovy, mount.near, r.far
         )
+    for camera in cameras.values():
+        attach_brdf_lut(camera)
     return GraspScene(scene, cameras, objects, robot, params, spec, ws, stuff, distractors)

@@ -6,8 +6,11 @@ import sys
 def main() -> int:
     import sapien
 
+    from datagen.engines.sim.brdf_lut import attach_brdf_lut
+
     scene = sapien.Scene()
     camera = scene.add_camera("probe", 8, 8, 1.0, 0.01, 10.0)
+    attach_brdf_lut(camera)  # the first run on a machine reads SAPIEN's table back and caches it
     scene.update_render()
     camera.take_picture()
     camera.get_picture("Color")
