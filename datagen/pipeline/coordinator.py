@@ -38,12 +38,13 @@ from datagen.pipeline.local_writer import LOCAL_WRITER_ID, LocalWriter
 from datagen.pipeline.manifest import build_manifest
 from datagen.pipeline.out_dir import BuildIdentity
 from datagen.pipeline.production import Task
-from datagen.pipeline.result import BuildResult, Observer, ProgressCallback
+from datagen.pipeline.result import BuildResult, Observer, ProgressCallback, failed_report
 from datagen.pipeline.schedule import Schedule
 from datagen.pipeline.supervise import (
     MAX_RESTARTS,
     WRITER_READY_TIMEOUT_S,
     Supervisor,
+    unsigned_hint,
     writer_ended,
 )
 from datagen.registries import EXECUTORS
@@ -162,7 +163,7 @@ class Coordinator:
                     self._feed(worker_id)
                 self._drive()
                 if self.failed:
-                    raise BuildError(self._failed_report())
+                    raise BuildError(failed_report(self.failed, total, self.config.build.retries))
                 manifest = build_manifest(self.config, self.build_id, self.num_workers)
                 self.result.rejected = collector.rejected
                 manifest["rejected_control_messages_coordinator"] = self.result.rejected
@@ -360,7 +361,7 @@ class Coordinator:
                         f"{WRITER_READY_TIMEOUT_S:.0f} s; start it with: datagen writer "
                         f"--build-id {self.build_id} --writer-id {writer_id} --out DIR, with "
                         f"$DATAGEN_BROKER_URL set to the broker's URL and $DATAGEN_BUILD_SECRET "
-                        f"to the secret in DIR/build.json" + _unsigned_hint(self.collector.rejected)
+                        f"to the secret in DIR/build.json" + unsigned_hint(self.collector.rejected)
                     )
 
     def _stop_writer(self) -> None:
@@ -391,27 +392,3 @@ class Coordinator:
                 f"the writers finished the dataset, but its manifest is of run "
                 f"{manifest.get('run')!r}, not of this run {self.run_binding.run!r}"
             )
-
-    def _failed_report(self) -> str:
-        lines = [
-            f"{len(self.failed)} of {self.config.num_samples} samples failed on every attempt "
-            f"(build.on_sample_error: retry, build.retries: {self.config.build.retries}); the "
-            f"other samples are durable, and --resume retries these: {sorted(self.failed)}"
-        ]
-        for index, failures in sorted(self.failed.items())[:20]:
-            lines += [f"  sample {index}:", *(f"    {f}" for f in failures)]
-        return "\n".join(lines)
-
-
-def _unsigned_hint(rejected: dict[str, int]) -> str:
-    if not rejected:
-        return ""
-    if rejected.get("wrong_version"):
-        return (
-            f" (the coordinator dropped control-plane messages of another envelope version: "
-            f"{rejected}; the writers and the build must run the same datagen)"
-        )
-    return (
-        f" (the coordinator dropped control-plane messages it could not authenticate: "
-        f"{rejected}; a writer without the build secret sends unsigned ones)"
-    )

@@ -38,3 +38,15 @@ ProgressCallback = Callable[[int, int], None]  # (samples durable, samples reque
 # {what, why, ...} (a process restarted), "stall" {problem, wait_s} (an external writer or broker
 # is silent: the build waits wait_s more, then stops), "recycle" {id, samples}
 Observer = Callable[[str, dict[str, Any]], None]
+
+
+def failed_report(failed: dict[int, list[str]], total: int, retries: int) -> str:
+    """The error of a build whose samples ``failed`` (index -> failures) on every attempt."""
+    lines = [
+        f"{len(failed)} of {total} samples failed on every attempt "
+        f"(build.on_sample_error: retry, build.retries: {retries}); the "
+        f"other samples are durable, and --resume retries these: {sorted(failed)}"
+    ]
+    for index, failures in sorted(failed.items())[:20]:
+        lines += [f"  sample {index}:", *(f"    {f}" for f in failures)]
+    return "\n".join(lines)

@@ -251,3 +251,18 @@ def writer_ended(writer: LocalWriter) -> str:
     if writer.exit_code == EXIT_DISK_FULL:
         return f"stopped: disk full in {writer.out_dir}; what is durable stays"
     return f"exited with code {writer.exit_code}"
+
+
+def unsigned_hint(rejected: dict[str, int]) -> str:
+    """Why a writer may not have been heard: what the coordinator dropped, if anything."""
+    if not rejected:
+        return ""
+    if rejected.get("wrong_version"):
+        return (
+            f" (the coordinator dropped control-plane messages of another envelope version: "
+            f"{rejected}; the writers and the build must run the same datagen)"
+        )
+    return (
+        f" (the coordinator dropped control-plane messages it could not authenticate: "
+        f"{rejected}; a writer without the build secret sends unsigned ones)"
+    )
