@@ -19,6 +19,7 @@ from pathlib import Path
 import numpy as np
 
 from datagen.robot_specs import Vector3, locate
+from datagen.user_cache import user_cache
 
 HAND_SOURCE = "mani_skill:robots/panda/panda_v2.urdf"
 HAND_LINKS = (
@@ -44,8 +45,7 @@ class Composition:
 
 
 def cache_dir() -> Path:
-    root = os.environ.get("XDG_CACHE_HOME") or str(Path.home() / ".cache")
-    return Path(root) / "datagen" / "robots"
+    return user_cache("robots")
 
 
 def _parse(path: Path) -> ET.Element:

@@ -6,7 +6,7 @@ SAPIEN's default shader reads a 512x512 ``rg16f`` table of the split-sum specula
 and 7 CPU-s on lavapipe, the largest part of a worker's start-up (docs/performance.md,
 "Start-up"). The table depends only on SAPIEN and the Vulkan device, so it is read back once
 with a probe shader that copies it texel by texel into a float32 picture, stored in the cache
-(``$XDG_CACHE_HOME/datagen/render/``, else ``~/.cache/...``) under the SAPIEN version and the
+(``datagen.user_cache``: ``~/.cache/datagen/render/``) under the SAPIEN version and the
 device, and handed to every camera with ``set_texture("BRDFLUT", ...)``: the same half floats,
 so every rendered byte is the one SAPIEN's own table gives (``tests/engines/test_brdf_lut.py``
 checks it under an environment map, the only light the table weighs; datagen's scenes have
@@ -15,15 +15,18 @@ none, so there it changes no pixel, and ``tests/test_golden.py`` keeps its bytes
 
 from __future__ import annotations
 
+import functools
 import hashlib
 import logging
-import os
 import shutil
 import tempfile
 from pathlib import Path
 
 import numpy as np
 import sapien
+
+from datagen.exports.files import replace_file
+from datagen.user_cache import user_cache
 
 LUT_SIZE = 512  # texels a side, as svulkan2's SVResourceManager::getDefaultBRDFLUT makes it
 # copies the table into the colour target: pixel (row y, column x) = texel (x, y)
@@ -76,29 +79,29 @@ void main() {
 }
 """
 log = logging.getLogger(__name__)
-_held: list[sapien.render.RenderTexture | None] = []  # one per process, alive as its cameras
 
 
 def cache_file() -> Path:
-    root = os.environ.get("XDG_CACHE_HOME") or str(Path.home() / ".cache")
     device = sapien.render.get_device_summary().strip()
     key = hashlib.sha256(f"{sapien.__version__}\n{device}".encode()).hexdigest()[:16]
-    return Path(root) / "datagen" / "render" / f"brdf_lut-{key}.npy"
+    return user_cache("render") / f"brdf_lut-{key}.npy"
 
 
 def attach_brdf_lut(camera: sapien.render.RenderCameraComponent) -> None:
     """Gives ``camera`` the machine's cached table (read back first if there is none yet).
     Where the probe fails (a device whose shaders differ), SAPIEN computes its own as before."""
-    if not _held:
-        try:
-            table = _load_or_read_back()
-            texture = sapien.render.RenderTexture(table, 2, "R16G16Sfloat", address_mode="edge")
-        except RuntimeError as exc:
-            log.warning("BRDF table not cached (%s): SAPIEN computes it in each process", exc)
-            texture = None
-        _held.append(texture)
-    if _held[0] is not None:
-        camera.set_texture("BRDFLUT", _held[0])
+    if (texture := _texture()) is not None:
+        camera.set_texture("BRDFLUT", texture)
+
+
+@functools.cache  # one texture per process, alive as long as its cameras
+def _texture() -> sapien.render.RenderTexture | None:
+    try:
+        table = _load_or_read_back()
+    except RuntimeError as exc:
+        log.warning("BRDF table not cached (%s): SAPIEN computes it in each process", exc)
+        return None
+    return sapien.render.RenderTexture(table, 2, "R16G16Sfloat", address_mode="edge")
 
 
 def _load_or_read_back() -> np.ndarray:
@@ -111,9 +114,8 @@ def _load_or_read_back() -> np.ndarray:
         pass  # absent or torn: read it back again
     table = read_back_default_lut()
     path.parent.mkdir(parents=True, exist_ok=True)
-    with tempfile.NamedTemporaryFile(dir=path.parent, suffix=".npy", delete=False) as f:
-        np.save(f, table, allow_pickle=False)
-    os.replace(f.name, path)  # atomic: two workers reading it back at once both write whole files
+    # atomic: two workers reading it back at once both write whole files
+    replace_file(path, lambda tmp: np.save(tmp, table, allow_pickle=False))
     return table
 
 
