@@ -21,7 +21,12 @@ wider lighting to the defaults (every part of the default grasp and campaign sam
 campaign's trajectory re-recorded; ``grasp_flat`` turns them off, so only its JSON changed: the
 lights' ``temperature_k`` and ``shadow_edge``), and turned texture coordinates so that a picture
 is never drawn mirrored or upside down, which changes the textured walls of the navigation
-frames (their ``rgb.png`` only). The
+frames (their ``rgb.png`` only). Issue 27 draws the robot with at most ``render.robot_triangles``
+(20,000) triangles and filters shadows with 9 taps instead of 25, and counts the robot's and a
+mesh's silhouette from the triangles the renderer draws (front faces): every image part of the
+default grasp and campaign samples, their JSON and the campaign's trajectory (its frames) were
+re-recorded; ``grasp_flat`` (the robot out of view) its ``rgb.png`` and sample 0's JSON (robot
+fractions); navigation its ``rgb.png`` frames (shadow edges). The
 digests were recorded with Mesa's lavapipe (llvmpipe) on x86-64, as on CI; another renderer draws
 other pixels, so the test runs only there.
 

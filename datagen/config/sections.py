@@ -28,6 +28,10 @@ class RenderConfig:
     near: float = field(default=0.05, metadata=_range(0.001, 10.0, "near clip plane, metres"))
     far: float = field(default=5.0, metadata=_range(0.1, 100.0, "far clip plane, metres"))
     shadow_map_size: int = field(default=1024, metadata=_range(128, 8192, "pixels"))
+    robot_triangles: int = field(
+        default=20000,
+        metadata=_range(0, 10**7, "most triangles the robot is drawn with; 0 = its own meshes"),
+    )
 
 
 @dataclass(frozen=True)

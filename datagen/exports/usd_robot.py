@@ -30,6 +30,7 @@ import trimesh
 from pxr import Gf, Tf, UsdGeom, UsdPhysics, Vt
 from scipy.spatial.transform import Rotation
 
+from datagen.assets.mesh_simplify import decimated, face_budgets
 from datagen.exports.usd_robot_physics import (
     define_drive,
     define_mass,
@@ -67,20 +68,6 @@ def _colour(mesh: trimesh.Trimesh) -> tuple[float, float, float]:
     return (r, g, b)
 
 
-def _decimated(mesh: trimesh.Trimesh, faces: int) -> tuple[np.ndarray, np.ndarray]:
-    import open3d as o3d
-
-    merged = trimesh.Trimesh(mesh.vertices, mesh.faces, process=True)  # split UV/normal seams
-    if len(merged.faces) <= faces:
-        return np.asarray(merged.vertices), np.asarray(merged.faces)
-    o3d_mesh = o3d.geometry.TriangleMesh(
-        o3d.utility.Vector3dVector(merged.vertices), o3d.utility.Vector3iVector(merged.faces)
-    )
-    out = o3d_mesh.simplify_quadric_decimation(target_number_of_triangles=faces)
-    out.remove_unreferenced_vertices()
-    return np.asarray(out.vertices), np.asarray(out.triangles)
-
-
 @functools.lru_cache(maxsize=64)
 def mesh_file_parts(path: Path, max_faces: int = MAX_FACES_PER_LINK) -> tuple[Part, ...]:
     """The visual mesh file at ``path`` (its own frame, unscaled), one Part per material,
@@ -91,13 +78,11 @@ def mesh_file_parts(path: Path, max_faces: int = MAX_FACES_PER_LINK) -> tuple[Pa
         raise ValueError(f"{path}: cannot read this robot mesh ({exc})") from None
     meshes = loaded.dump() if isinstance(loaded, trimesh.Scene) else [loaded]
     meshes = [m for m in meshes if isinstance(m, trimesh.Trimesh) and len(m.faces)]
-    total = sum(len(m.faces) for m in meshes)
-    parts = []
-    for mesh in meshes:
-        budget = max(max_faces * len(mesh.faces) // total, min(len(mesh.faces), 32))
-        vertices, faces = _decimated(mesh, budget)
-        parts.append(Part(vertices, faces, _colour(mesh)))
-    return tuple(parts)
+    budgets = face_budgets([len(m.faces) for m in meshes], max_faces)
+    return tuple(
+        Part(*decimated(mesh.vertices, mesh.faces, budget), _colour(mesh))
+        for mesh, budget in zip(meshes, budgets, strict=True)
+    )
 
 
 def _primitive(geometry: Geometry) -> trimesh.Trimesh:

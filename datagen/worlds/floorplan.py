@@ -16,10 +16,10 @@ import numpy as np
 import sapien
 
 from datagen.config import BuildConfig
-from datagen.engines.sim.brdf_lut import attach_brdf_lut
+from datagen.engines.sim.cameras import add_camera
 from datagen.navigation.episode import Episode
 from datagen.robot_specs import maniskill_asset
-from datagen.worlds.realise import apply_lighting
+from datagen.worlds.realise import apply_lighting, light_slots, pad_lights
 from datagen.worlds.robots import FETCH, load_robot
 from datagen.worlds.surfaces import box_entity, render_material
 
@@ -148,8 +148,11 @@ def _goal_marker(scene, episode: Episode, values) -> Thing:
     return Thing(0, "goal_marker", "goal_marker", [entity])
 
 
-def _fetch(scene: sapien.Scene, camera_values: dict[str, Any]) -> sapien.physx.PhysxArticulation:
-    robot = load_robot(scene, maniskill_asset(FETCH), fix_root_link=True)  # parsed once per process
+def _fetch(
+    scene: sapien.Scene, camera_values: dict[str, Any], max_triangles: int
+) -> sapien.physx.PhysxArticulation:
+    # parsed once per process
+    robot = load_robot(scene, maniskill_asset(FETCH), True, max_triangles)
     targets = TUCKED_ARM | {
         "torso_lift_joint": camera_values["torso_lift"],
         "head_tilt_joint": math.radians(camera_values["pitch_deg"]),  # positive tilts down
@@ -180,7 +183,7 @@ def build_nav_scene(config: BuildConfig, episode: Episode, values: dict[str, Any
     )
     walls, doors = _walls_and_doors(scene, episode, values)
     things = [*_obstacles(scene, episode, values), *doors, _goal_marker(scene, episode, values)]
-    robot = _fetch(scene, values["camera"])
+    robot = _fetch(scene, values["camera"], config.render.robot_triangles)
     things.append(Thing(0, "robot", "fetch", [link.entity for link in robot.get_links()]))
     for i, thing in enumerate(things):
         thing.instance_id = i + 1
@@ -198,10 +201,10 @@ def build_nav_scene(config: BuildConfig, episode: Episode, values: dict[str, Any
             class_lut[entity.per_scene_id] = NAV_CLASS_ID[thing.class_name]
 
     apply_lighting(scene, values["lighting"], config.render.shadow_map_size)
+    # a key light and ceiling point lights (randomisers/floorplan_scene.py)
+    pad_lights(scene, light_slots(0, max(config.lighting.lights[1], 1) - 1))
     r, cam = config.render, values["camera"]
     head = next(link for link in robot.get_links() if link.name == CAMERA_LINK)
-    camera = scene.add_mounted_camera(
-        "head", head.entity, sapien.Pose(), r.width, r.height, math.radians(cam["fovy_deg"]), r.near, r.far
-    )  # fmt: skip
-    attach_brdf_lut(camera)
+    fovy = math.radians(cam["fovy_deg"])
+    camera = add_camera(scene, "head", r.width, r.height, fovy, r.near, r.far, head.entity)
     return NavScene(scene, camera, robot, things, instance_lut, class_lut)

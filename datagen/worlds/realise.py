@@ -26,6 +26,14 @@ SOFT_SHADOW_MAP_SCALE = 2  # their shadow maps are this much smaller: a penumbra
 SOFT_LIGHT_DISTANCE = 1.0  # metres from the target: inside the smallest room (1.5 m half size)
 SOFT_LIGHT_FOV_DEG = 140.0  # the spots' outer cone, covering the table and the tray
 MAX_SPOT_SHADOWS = 10  # SAPIEN's default shader: shadowed spot lights it reads
+# SAPIEN's default shader: the lights of each kind it reads
+MAX_LIGHTS = {"directional": 3, "point": 10, "spot": 10}
+UNLIT_PLACE = [0.0, 0.0, 100.0]  # metres: where a padding light stands, far from any surface
+_LIGHT_KIND = {
+    sapien.render.RenderDirectionalLightComponent: "directional",
+    sapien.render.RenderPointLightComponent: "point",
+    sapien.render.RenderSpotLightComponent: "spot",
+}
 
 
 def _radiance_at(light: dict[str, Any], target) -> list[float]:
@@ -199,6 +207,32 @@ def apply_lighting(scene: sapien.Scene, values: dict[str, Any], shadow_map_size:
         shadowed += shadow
         size = shadow_map_size // SOFT_SHADOW_MAP_SCALE if light.get("soft") else shadow_map_size
         _add_spot(scene, {**light, "shadow": shadow}, values["target"], size)
+
+
+def light_slots(spots: int, points: int) -> dict[str, int]:
+    """The light counts every scene of a config is padded to (:func:`pad_lights`): one
+    directional key, the most spot and point lights its scenes can have."""
+    slots = {"directional": 1, "point": points, "spot": spots}
+    return {kind: min(n, MAX_LIGHTS[kind]) for kind, n in slots.items()}
+
+
+def pad_lights(scene: sapien.Scene, slots: dict[str, int]) -> None:
+    """Adds unlit lights (zero emission, no shadow) until ``scene`` has ``slots[kind]`` lights of
+    each kind. SAPIEN compiles its lighting shader for each combination of light counts it meets
+    (about 50 ms of CPU per combination on lavapipe, so nearly every default scene paid it);
+    padded, a config's scenes differ only in how many lights cast shadows. A light of zero
+    emission adds exactly 0 to every pixel: the pictures keep their bytes
+    (tests/worlds/test_lights.py)."""
+    have = {kind: 0 for kind in MAX_LIGHTS}
+    for light in scene.render_system.lights:
+        have[_LIGHT_KIND[type(light)]] += 1
+    black = [0.0, 0.0, 0.0]
+    for _ in range(slots["directional"] - have["directional"]):
+        scene.add_directional_light([0.0, 0.0, -1.0], black, shadow=False)
+    for _ in range(slots["point"] - have["point"]):
+        scene.add_point_light(UNLIT_PLACE, black, shadow=False)
+    for _ in range(slots["spot"] - have["spot"]):
+        scene.add_spot_light(UNLIT_PLACE, [0.0, 0.0, -1.0], 0.5, 1.0, black, shadow=False)
 
 
 def apply_camera(camera: sapien.render.RenderCameraComponent, values: dict[str, Any]) -> None:

@@ -16,24 +16,30 @@ from pathlib import Path
 import sapien
 from sapien.wrapper.articulation_builder import ArticulationBuilder
 
+from datagen.worlds.robot_visuals import simplify_visuals
+
 FETCH = "robots/fetch/fetch.urdf"  # under mani_skill/assets/
 
 
 @functools.lru_cache(maxsize=4)
-def _articulation_builder(urdf: Path, fix_root_link: bool) -> ArticulationBuilder:
+def _articulation_builder(
+    urdf: Path, fix_root_link: bool, max_triangles: int
+) -> ArticulationBuilder:
     loader = sapien.Scene().create_urdf_loader()  # the parser wants a scene; builds set their own
     loader.fix_root_link = fix_root_link
     builder = loader.load_file_as_articulation_builder(str(urdf))
     builder.set_scene(None)  # holds no scene between builds
+    simplify_visuals(builder, max_triangles)
     return builder
 
 
 def load_robot(
-    scene: sapien.Scene, urdf: Path, fix_root_link: bool = True
+    scene: sapien.Scene, urdf: Path, fix_root_link: bool = True, max_triangles: int = 0
 ) -> sapien.physx.PhysxArticulation:
     """The robot described by ``urdf`` added to ``scene``: what
-    ``scene.create_urdf_loader().load(...)`` gives, from the process's parsed builder."""
-    builder = _articulation_builder(Path(urdf), fix_root_link)
+    ``scene.create_urdf_loader().load(...)`` gives, from the process's parsed builder, drawn
+    with at most ``max_triangles`` triangles (``render.robot_triangles``; 0: its own meshes)."""
+    builder = _articulation_builder(Path(urdf), fix_root_link, max_triangles)
     builder.set_scene(scene)
     try:
         return builder.build()

@@ -19,17 +19,20 @@ from datagen.assets.tabletop_layout import StaticPart, Workspace, static_parts
 from datagen.config import BuildConfig
 from datagen.config.robot import robot_spec, robot_workspace
 from datagen.config.sections import SHAPE_FAMILIES
-from datagen.engines.sim.brdf_lut import attach_brdf_lut
+from datagen.engines.sim.cameras import add_camera
 from datagen.randomisers import redrawn_drop_poses, sample_scene
 from datagen.robot_specs import RobotSpec
 from datagen.worlds.realise import (
+    SOFT_LIGHT_SPOTS,
     add_background,
     add_distractors,
     add_objects,
     apply_camera,
     apply_lighting,
     apply_robot,
+    light_slots,
     lit_by_room,
+    pad_lights,
 )
 from datagen.worlds.robots import load_robot
 from datagen.worlds.settle import settle
@@ -62,9 +65,12 @@ def grasp_classes(config: BuildConfig) -> tuple[str, ...]:
     return CLASSES
 
 
-def load_arm(scene: sapien.Scene, spec: RobotSpec) -> sapien.physx.PhysxArticulation:
-    """The arm of ``spec``, fixed base, from the process's parsed URDF (datagen.worlds.robots)."""
-    return load_robot(scene, spec.urdf_path(), fix_root_link=True)
+def load_arm(
+    scene: sapien.Scene, spec: RobotSpec, max_triangles: int = 0
+) -> sapien.physx.PhysxArticulation:
+    """The arm of ``spec``, fixed base, from the process's parsed URDF (datagen.worlds.robots),
+    drawn with at most ``max_triangles`` triangles (0: its own meshes)."""
+    return load_robot(scene, spec.urdf_path(), fix_root_link=True, max_triangles=max_triangles)
 
 
 @dataclass
@@ -104,6 +110,13 @@ def _add_part(
         return [scene.add_ground(0.0, render_material=drawn, render_half_size=part.boxes[0][0][:2])]
     ground = scene.add_ground(0.0, render=False)
     return [ground, box_entity(scene, name, part.boxes, material, part.position, collide=False)]
+
+
+def _light_slots(config: BuildConfig) -> dict[str, int]:
+    lighting, room = config.lighting, config.background
+    soft_key = lighting.shadows and lighting.soft_shadow_probability > 0
+    spots = max(lighting.lights[1] - 1, 0) + (SOFT_LIGHT_SPOTS if soft_key else 0)
+    return light_slots(spots, room.room_lights[1] if room.enabled else 0)
 
 
 def build_scene(config: BuildConfig, seed: int, index: int, attempt: int = 0) -> GraspScene:
@@ -164,7 +177,7 @@ def construct_scene(config: BuildConfig, params: dict[str, Any]) -> GraspScene:
     for entity in add_background(scene, params.get("background")):  # none when it is off
         stuff[entity.per_scene_id] = WALL_CLASS
 
-    robot = load_arm(scene, spec)
+    robot = load_arm(scene, spec, config.render.robot_triangles)
     robot.set_root_pose(sapien.Pose(list(np.add(ws.robot_base, spec.mount))))
     apply_robot(robot, params["robot"], spec.joint_names)
     for link in robot.get_links():
@@ -187,12 +200,13 @@ def construct_scene(config: BuildConfig, params: dict[str, Any]) -> GraspScene:
     apply_lighting(
         scene, lit_by_room(params["lighting"], params.get("background")), r.shadow_map_size
     )
+    pad_lights(scene, _light_slots(config))
 
-    workspace = scene.add_camera("workspace", r.width, r.height, 1.0, r.near, r.far)
+    workspace = add_camera(scene, "workspace", r.width, r.height, 1.0, r.near, r.far)
     apply_camera(workspace, params["camera"])
     cameras = {"workspace": workspace}
     for name, values in params.get("extra_views", {}).items():  # render.views > 1
-        cameras[name] = scene.add_camera(name, r.width, r.height, 1.0, r.near, r.far)
+        cameras[name] = add_camera(scene, name, r.width, r.height, 1.0, r.near, r.far)
         apply_camera(cameras[name], values)
     if r.wrist_camera:
         mount = spec.wrist_camera
@@ -201,9 +215,7 @@ def construct_scene(config: BuildConfig, params: dict[str, Any]) -> GraspScene:
         link = next(link for link in robot.get_links() if link.name == mount.link)
         pose = sapien.Pose(list(mount.position), list(mount.quat_wxyz))
         fovy = np.deg2rad(mount.fovy_deg)
-        cameras["wrist"] = scene.add_mounted_camera(
-            "wrist", link.entity, pose, r.width, r.height, fovy, mount.near, r.far
+        cameras["wrist"] = add_camera(
+            scene, "wrist", r.width, r.height, fovy, mount.near, r.far, link.entity, pose
         )
-    for camera in cameras.values():
-        attach_brdf_lut(camera)
     return GraspScene(scene, cameras, objects, robot, params, spec, ws, stuff, distractors)

@@ -2,6 +2,7 @@
 the snapping margin, the counting window and the work budget."""
 
 import numpy as np
+import pytest
 
 from datagen.engines.sim import silhouette
 from datagen.engines.sim.silhouette import (
@@ -82,3 +83,40 @@ def test_chunks_change_nothing(monkeypatch):
     monkeypatch.setattr(silhouette, "CHUNK", 7)
     assert silhouette_pixels(triangles, 64, 48, margin=0.0) == whole
     assert 0 < whole[1] < whole[0]
+
+
+@pytest.mark.sim
+def test_the_renderer_draws_the_triangles_front_facing_names():
+    """One triangle each way round, side by side before a camera: SAPIEN culls back faces, so
+    only the one ``front_facing`` keeps is in the picture."""
+    import sapien
+
+    from datagen.engines.sim.cameras import add_camera
+    from datagen.engines.sim.render import capture
+    from datagen.geometry import image_points
+
+    scene = sapien.Scene()
+    corners = np.array([[0, -0.1, -0.1], [0, 0.1, -0.1], [0, 0, 0.1]], np.float32)
+    triangles = []
+    for order, side in (([0, 1, 2], 0.15), ([0, 2, 1], -0.15)):
+        shape = sapien.render.RenderShapeTriangleMesh(
+            corners, np.array([order], np.uint32), np.tile([1.0, 0, 0], (3, 1)).astype(np.float32),
+            np.zeros((3, 2), np.float32), sapien.render.RenderMaterial(base_color=[1, 0, 0, 1]),
+        )  # fmt: skip
+        body = sapien.render.RenderBodyComponent()
+        body.attach(shape)
+        entity = sapien.Entity()
+        entity.add_component(body)
+        scene.add_entity(entity)
+        entity.set_pose(sapien.Pose([0, side, 0]))
+        triangles.append((entity.per_scene_id, corners[order] + [0, side, 0]))
+    camera = add_camera(scene, "c", 64, 64, 1.0, 0.01, 10.0)
+    camera.entity.set_pose(sapien.Pose([-1, 0, 0]))  # looking along +x at both
+    scene.update_render()
+    frame = capture(camera)
+    drawn = []
+    for entity_id, world in triangles:
+        uv, _ = image_points(world.astype(float), frame.intrinsics, frame.extrinsics)
+        pixels = int((frame.entity_ids == entity_id).sum())
+        drawn.append((bool(silhouette.front_facing(uv.reshape(1, 3, 2))[0]), pixels > 0))
+    assert drawn == [(False, False), (True, True)]

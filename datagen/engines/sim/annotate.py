@@ -17,7 +17,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 from scipy import ndimage
 
-from datagen.engines.sim.silhouette import convex_outlines, silhouette_pixels
+from datagen.engines.sim.silhouette import convex_outlines, front_facing, silhouette_pixels
 from datagen.geometry import image_points, pose_record
 from datagen.records import ObjectViewRecord, ObjectWorldRecord
 
@@ -75,9 +75,10 @@ def _amodal_pixels(obj: LabelledObject, frame: Frame, near: float) -> tuple[int,
         uv, z = _image_points(obj, obj.visual_triangles.reshape(-1, 3), frame)
         if (z <= near).any():
             return 0, 0  # crosses the camera plane: no meaningful silhouette
+        triangles = uv.reshape(-1, 3, 2)
         # no margin: neighbouring triangles share edges, which must not lose their pixels
         counts = silhouette_pixels(
-            uv.reshape(-1, 3, 2), width, height, margin=0.0, max_spans=MAX_TRIANGLE_SPANS
+            triangles[front_facing(triangles)], width, height, 0.0, MAX_TRIANGLE_SPANS
         )
         if counts is not None:
             return counts

@@ -18,7 +18,7 @@ import numpy as np
 import sapien
 
 from datagen.engines.sim import picture_conversion as conversion
-from datagen.engines.sim.brdf_lut import attach_brdf_lut
+from datagen.engines.sim.cameras import add_camera
 from datagen.engines.sim.picture_conversion import DEPTH_MAX_UNITS, DEPTH_SCALE
 from datagen.engines.sim.stage_clock import timed
 from datagen.geometry import world_to_cv_camera
@@ -37,8 +37,7 @@ def keep_renderer_alive() -> None:
     """
     if not _keepalive:
         scene = sapien.Scene()
-        camera = scene.add_camera("keepalive", 8, 8, 1.0, 0.01, 1.0)
-        attach_brdf_lut(camera)
+        camera = add_camera(scene, "keepalive", 8, 8, 1.0, 0.01, 1.0)
         scene.update_render()
         camera.take_picture()
         camera.get_picture("Color")  # waits for the frame: an exit while it renders crashes

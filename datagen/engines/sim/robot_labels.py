@@ -15,7 +15,7 @@ import numpy as np
 import sapien
 
 from datagen.engines.sim.annotate import visible_pixels_and_boxes
-from datagen.engines.sim.silhouette import silhouette_pixels
+from datagen.engines.sim.silhouette import front_facing, silhouette_pixels
 from datagen.geometry import image_points
 
 if TYPE_CHECKING:
@@ -45,7 +45,9 @@ def _link_triangles(entity: sapien.Entity) -> list[np.ndarray]:
         scale = np.asarray(getattr(shape, "scale", (1.0, 1.0, 1.0)), float)
         for part in shape.parts:
             vertices = np.asarray(part.vertices, float) * scale @ pose[:3, :3].T + pose[:3, 3]
-            out.append(vertices[np.asarray(part.triangles, np.int64)])
+            triangles = np.asarray(part.triangles, np.int64)
+            # a mirroring scale turns every triangle round; SAPIEN then draws the other side
+            out.append(vertices[triangles if np.prod(scale) > 0 else triangles[:, ::-1]])
     return out
 
 
@@ -86,8 +88,9 @@ def _amodal_pixels(part: LabelledPart, frame: Frame, near: float) -> tuple[int, 
     uv, z = image_points(part.triangles.reshape(-1, 3), frame.intrinsics, frame.extrinsics)
     if len(z) == 0 or (z <= near).any():
         return 0, 0
+    triangles = uv.reshape(-1, 3, 2)
     # no margin: neighbouring triangles share edges, which must not lose their pixels
-    counts = silhouette_pixels(uv.reshape(-1, 3, 2), width, height, margin=0.0)
+    counts = silhouette_pixels(triangles[front_facing(triangles)], width, height, margin=0.0)
     assert counts is not None  # no span limit: always counted
     return counts
 

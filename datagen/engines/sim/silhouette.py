@@ -35,6 +35,19 @@ def convex_outlines(points: list[np.ndarray]) -> np.ndarray:
     return np.stack([np.vstack([h, np.repeat(h[-1:], n - len(h), axis=0)]) for h in hulls])
 
 
+def front_facing(triangles: np.ndarray) -> np.ndarray:
+    """(M,) bool: which projected triangles (M, 3, 2) the renderer draws. SAPIEN culls back
+    faces: a triangle is drawn when its vertices, in their stored order, run counter-clockwise
+    as the image is looked at (pixel coordinates x right, y down: a negative signed area;
+    tests/engines/test_silhouette.py renders one of each). A closed mesh's silhouette is the
+    union of its front faces alone, so its back faces need no counting."""
+    a, b, c = triangles[:, 0], triangles[:, 1], triangles[:, 2]
+    twice_area = (b[:, 0] - a[:, 0]) * (c[:, 1] - a[:, 1]) - (c[:, 0] - a[:, 0]) * (
+        b[:, 1] - a[:, 1]
+    )
+    return twice_area < 0
+
+
 def _fold(op, x: np.ndarray) -> np.ndarray:
     """``op`` folded over axis 1 one column at a time: the same values as ``x.max(axis=1)``
     (or min, all), several times faster for the few columns of an outline."""

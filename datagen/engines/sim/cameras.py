@@ -1,0 +1,40 @@
+"""Every camera datagen renders with, made in one place: datagen's shader pack
+(:mod:`datagen.engines.sim.shader_pack`) and the machine's BRDF table
+(:mod:`datagen.engines.sim.brdf_lut`). What ``scene.add_camera`` and
+``scene.add_mounted_camera`` make otherwise."""
+
+from __future__ import annotations
+
+import sapien
+
+from datagen.engines.sim.brdf_lut import attach_brdf_lut
+from datagen.engines.sim.shader_pack import shader_dir
+
+
+def add_camera(
+    scene: sapien.Scene,
+    name: str,
+    width: int,
+    height: int,
+    fovy: float,
+    near: float,
+    far: float,
+    mount: sapien.Entity | None = None,
+    pose: sapien.Pose | None = None,
+) -> sapien.render.RenderCameraComponent:
+    """A ``width`` x ``height`` camera (``fovy`` radians; ``near``, ``far`` metres) on an entity
+    of its own named ``name``, or on ``mount`` at ``pose`` in its frame."""
+    camera = sapien.render.RenderCameraComponent(width, height, shader_dir())
+    camera.set_fovy(fovy, compute_x=True)
+    camera.near, camera.far = near, far
+    camera.name = name
+    if mount is None:
+        mount = sapien.Entity()
+        mount.name = name
+        mount.add_component(camera)
+        scene.add_entity(mount)
+    else:
+        mount.add_component(camera)
+        camera.local_pose = pose if pose is not None else sapien.Pose()
+    attach_brdf_lut(camera)
+    return camera
