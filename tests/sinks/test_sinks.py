@@ -197,9 +197,10 @@ def test_replay_from_the_usd_matches_the_stored_images(built, tmp_path):
         for name, (_, _, diff) in differences.items():
             # stored poses and joints are rounded (7 and 6 decimals): now and then an edge
             # crosses a pixel centre, or a shadow-map test flips at a grazing shadow edge (the
-            # soft key light's three spot lights have coarse maps), so up to about 1 % of an
-            # image's pixels may differ, a few of them by more than 2
-            assert (diff == 0).mean() > 0.985, (dataset.keys[i], name)
+            # soft key light's three spot lights have coarse maps; since issue 27 a flipped
+            # texel weighs 1/9 of a pixel's shadow filter, not 1/25), so up to about 2 % of an
+            # image's pixels may differ (by at most 5 levels, measured), a few by more than 2
+            assert (diff == 0).mean() > 0.975, (dataset.keys[i], name)
             assert (diff > 2).mean() <= 3e-3, (dataset.keys[i], name)
     lines, picture = comparison_report(dataset.keys[i], differences)
     assert len(lines) == 3 and lines[1].startswith(f"replayed {dataset.keys[i]} view1: ")
