@@ -139,8 +139,17 @@ LabelledInstance = TypedDict(
 """A labelled instance a view sees (``datagen.dataset.views``): what every family's views share."""
 
 
+class CameraFrameRecord(TypedDict):
+    """What one camera of a ``datagen.aerial_episode/1`` frame saw."""
+
+    extrinsics_world_to_camera: Matrix
+    things: list[LabelledInstance]  # those it sees, with their boxes
+
+
 class FrameRecord(TypedDict, total=False):
-    """One frame of a ``datagen.nav_episode/1`` sequence."""
+    """One frame of a sequence: ``datagen.nav_episode/1`` (its one camera's ``extrinsics`` and
+    ``things``, the robot's pose and command) or ``datagen.aerial_episode/1`` (``agents``: each
+    drone's state; ``cameras``: what each camera saw)."""
 
     frame: Required[int]
     step: int
@@ -150,8 +159,10 @@ class FrameRecord(TypedDict, total=False):
     goal_in_robot: Vector
     distance_to_goal: float
     collision: bool
-    extrinsics_world_to_camera: Required[Matrix]
-    things: Required[list[LabelledInstance]]  # those the frame sees, with their boxes
+    extrinsics_world_to_camera: Matrix  # navigation
+    things: list[LabelledInstance]  # navigation: those the frame sees, with their boxes
+    agents: list[dict[str, Any]]  # aerial: per drone, its state (docs/aerial.md)
+    cameras: dict[str, CameraFrameRecord]  # aerial: per camera
 
 
 class ProductionRecord(TypedDict):
@@ -164,7 +175,8 @@ class ProductionRecord(TypedDict):
 class SampleMetadata(TypedDict, total=False):
     """A sample's ``json`` part. ``format`` says which of the family-specific keys it has:
     ``datagen.sample/1`` (``objects``, ``views``, and ``attempt`` for a grasp attempt) or
-    ``datagen.nav_episode/1`` (``family``, ``things``, ``episode``, ``camera``, ``frames``)."""
+    ``datagen.nav_episode/1`` (``family``, ``things``, ``episode``, ``camera``, ``frames``) or
+    ``datagen.aerial_episode/1`` (the same, with ``cameras`` for ``camera``)."""
 
     format: Required[str]
     key: Required[str]
@@ -181,6 +193,7 @@ class SampleMetadata(TypedDict, total=False):
     things: list[SequenceThing]
     episode: dict[str, Any]  # a navigation episode: success, spl, paths, layout
     camera: CameraRecord
+    cameras: dict[str, CameraRecord]  # an aerial episode's cameras (d0, d0_down, ...)
     frames: list[FrameRecord]
     production: ProductionRecord  # only in a sample that needed retries
 
@@ -208,7 +221,7 @@ class GivenUpRecord(TypedDict):
 class Outcome(TypedDict, total=False):
     """A sample's outcome (``datagen.outcomes``): a grasp attempt's or a navigation episode's."""
 
-    kind: Required[Literal["grasp", "navigation"]]
+    kind: Required[Literal["grasp", "navigation"]]  # navigation: any episode, ground or air
     success: Required[bool]
     sampler: str  # grasp
     family: str  # grasp: the target's class

@@ -296,6 +296,11 @@ FAMILIES: Registry[SceneFamily] = Registry("scene family", "datagen.families", [
         section="navigation", metadata_format="datagen.nav_episode/1", world="floorplan",
         episodes=True,
     ),
+    SceneFamily(
+        "aerial", "quadrotors flying minimum-snap expert trajectories through 3-D corridors, mazes and rooms",
+        produce="datagen.scenes.aerial_episodes:produce", classes="datagen.worlds.volume:aerial_classes",
+        section="aerial", metadata_format="datagen.aerial_episode/1", world="volume", episodes=True,
+    ),
 ])  # fmt: skip
 
 SAMPLERS: Registry[Plugin] = Registry("grasp sampler", "datagen.samplers", [

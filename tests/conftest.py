@@ -229,6 +229,11 @@ NAVIGATION = {
     "render": {"width": 96, "height": 72, "far": 20.0},
     "navigation": {"family": "corridor", "frame_rate_hz": 2},
 }  # fmt: skip
+AERIAL = {  # two drones in a corridor, a downward camera each
+    "version": 1, "scene": "aerial", "num_samples": 2, "seed": 4,
+    "render": {"width": 96, "height": 72, "far": 20.0},
+    "aerial": {"family": "corridor", "drones": 2, "frame_rate_hz": 2, "down_camera": True},
+}  # fmt: skip
 FRAMES = {  # grasp frames from two cameras
     "version": 1, "scene": "grasp_tabletop", "num_samples": 4, "seed": 2,
     "render": {"width": 160, "height": 120, "views": 2},
@@ -256,6 +261,12 @@ def campaign_dataset(tmp_path_factory) -> Path:
 def navigation_dataset(tmp_path_factory) -> Path:
     tmp = tmp_path_factory.mktemp("navigation")
     return _build_dataset(tmp, "navigation", NAVIGATION, ["build"])
+
+
+@pytest.fixture(scope="session")
+def aerial_dataset(tmp_path_factory) -> Path:
+    tmp = tmp_path_factory.mktemp("aerial")
+    return _build_dataset(tmp, "aerial", AERIAL, ["build"])
 
 
 @pytest.fixture(scope="session")

@@ -26,7 +26,9 @@ frames (their ``rgb.png`` only). Issue 27 draws the robot with at most ``render.
 mesh's silhouette from the triangles the renderer draws (front faces): every image part of the
 default grasp and campaign samples, their JSON and the campaign's trajectory (its frames) were
 re-recorded; ``grasp_flat`` (the robot out of view) its ``rgb.png`` and sample 0's JSON (robot
-fractions); navigation its ``rgb.png`` frames (shadow edges). The
+fractions); navigation its ``rgb.png`` frames (shadow edges). Issue 28 made a navigation episode's
+``shortest_path_m`` a true lower bound (its JSON re-recorded) and added an aerial episode
+(``configs/aerial_corridor.yaml``, two drones). The
 digests were recorded with Mesa's lavapipe (llvmpipe) on x86-64, as on CI; another renderer draws
 other pixels, so the test runs only there.
 

@@ -17,6 +17,7 @@ from typing import Any
 
 import dacite
 
+from datagen.config.aerial import MAX_CAMERA_TOP_DEG, AerialConfig
 from datagen.config.appearance import (
     BackgroundConfig,
     CameraEffectsConfig,
@@ -74,6 +75,7 @@ class BuildConfig:
     executor: ExecutorConfig = field(default_factory=ExecutorConfig)
     campaign: CampaignConfig = field(default_factory=CampaignConfig)
     navigation: NavigationConfig = field(default_factory=NavigationConfig)
+    aerial: AerialConfig = field(default_factory=AerialConfig)
     build: BuildPolicyConfig = field(default_factory=BuildPolicyConfig)
 
     def to_dict(self) -> dict[str, Any]:
@@ -201,6 +203,17 @@ def _check_ranges(obj: Any, source: str, prefix: str) -> None:
             )
 
 
+def _check_aerial_camera(config: BuildConfig, source: str) -> None:
+    top = config.aerial.camera_pitch_deg[1] + config.aerial.camera_fovy_deg[1] / 2
+    if top > MAX_CAMERA_TOP_DEG:
+        raise ConfigError(
+            f"{source}: aerial.camera_pitch_deg: the forward camera's view would reach {top:g} "
+            f"degrees above the horizon (pitch {config.aerial.camera_pitch_deg[1]:g} + half of "
+            f"aerial.camera_fovy_deg {config.aerial.camera_fovy_deg[1]:g}), where it sees its own "
+            f"rotors; expected at most {MAX_CAMERA_TOP_DEG:g}"
+        )
+
+
 def _check_semantics(config: BuildConfig, source: str) -> None:
     family = FAMILIES.check(config.scene, f"{source}: scene")
     objects = config.objects
@@ -225,6 +238,8 @@ def _check_semantics(config: BuildConfig, source: str) -> None:
     if family.world == "tabletop":
         robot_spec(config.robot, source)
     LAYOUTS.check(config.navigation.family, f"{source}: navigation.family")
+    LAYOUTS.check(config.aerial.family, f"{source}: aerial.family")
+    _check_aerial_camera(config, source)
     _check_sinks(list(config.output.sinks), family, source)
     if config.build.on_sample_error not in SAMPLE_ERROR_POLICIES:
         raise ConfigError(

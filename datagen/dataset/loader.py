@@ -22,6 +22,8 @@ from typing import Any, cast
 import cv2
 import numpy as np
 
+from datagen.dataset.episode_parts import pose_lines, voxel_grid
+from datagen.dataset.flow_png import decode_flow_image
 from datagen.dataset.integrity import verify_dataset
 from datagen.dataset.manifest import DatasetError, read_manifest
 from datagen.dataset.trajectory import decode_trajectory
@@ -43,6 +45,9 @@ _COLOUR_PARTS = ("rgb.png", "rgb_clean.png")  # stored BGR by OpenCV, returned R
 _KINDS = "rgb|rgb_clean|depth|depth_sensor|seg|semantic"
 
 _FRAME_PART = re.compile(rf"^f(\d{{4}})\.({_KINDS})\.png$")
+# a frame of one of several cameras (aerial episodes): f0003.d0.rgb.png, f0003.d1_down.flow.png
+_CAMERA_FRAME_PART = re.compile(rf"^f(\d{{4}})\.([A-Za-z][\w-]*)\.({_KINDS}|flow)\.png$")
+_POSES_PART = re.compile(r"^poses\.([A-Za-z][\w-]*)\.txt$")
 # another camera of a sample: wrist.rgb.png, view1.depth.png, post.seg.png, ...
 _CAMERA_PART = re.compile(rf"^([A-Za-z][\w-]*)\.({_KINDS})\.png$")
 # a grasp attempt's film: frame3.rgb.png (workspace camera), frame3.wrist.rgb.png
@@ -59,7 +64,11 @@ def decode_parts(parts: dict[str, bytes]) -> dict[str, Any]:
     (``item["views"]["view1"]["rgb"]``, ``["wrist"]``, ...; the main camera's stay at the top).
     Navigation episodes also get ``frames`` (a list in time order of dicts with rgb, depth, seg,
     semantic and ``meta``, the frame's record), ``map`` (RGB picture) and ``occupancy`` (bool
-    grid, True = occupied). A recorded grasp attempt gets ``trajectory``: the arrays of its
+    grid, True = occupied). Aerial episodes get ``frames`` whose dicts hold ``cameras`` (camera
+    name -> rgb, depth, seg, semantic and, but for the last frame, ``flow`` (H, W, 2) float32
+    pixels with ``flow_valid``) and ``meta``; ``map`` and ``side`` (RGB pictures),
+    ``occupancy`` (bool voxels (nz, ny, nx), True = occupied) with ``occupancy_resolution``
+    (metres), and ``poses`` (camera name -> (T, 7) tx ty tz qx qy qz qw). A recorded grasp attempt gets ``trajectory``: the arrays of its
     ``trajectory.npz`` and its ``names`` (``datagen.dataset.trajectory``), with ``frames`` (a list
     in time order of dicts with ``time``, ``rgb`` and, if filmed, ``wrist_rgb``) when it was
     filmed. The PNGs of one call are decoded on a small thread pool (OpenCV releases the GIL)."""
@@ -81,11 +90,23 @@ def decode_parts(parts: dict[str, bytes]) -> dict[str, Any]:
         elif match := _FRAME_PART.match(name):
             kind = f"{match[2]}.png"
             jobs.append((frames.setdefault(int(match[1]), {}), _IMAGES[kind], kind, data))
+        elif match := _CAMERA_FRAME_PART.match(name):
+            kind = f"{match[3]}.png"
+            into = (
+                frames.setdefault(int(match[1]), {})
+                .setdefault("cameras", {})
+                .setdefault(match[2], {})
+            )
+            jobs.append((into, _IMAGES.get(kind, "flow"), kind, data))
+        elif match := _POSES_PART.match(name):
+            item.setdefault("poses", {})[match[1]] = pose_lines(data, name)
+        elif name == "occupancy.npz":
+            item["occupancy"], item["occupancy_resolution"] = voxel_grid(data)
         elif match := _CAMERA_PART.match(name):
             kind = f"{match[2]}.png"
             jobs.append((cameras.setdefault(match[1], {}), _IMAGES[kind], kind, data))
-        elif name == "map.png":
-            jobs.append((item, "map", "rgb.png", data))
+        elif name in ("map.png", "side.png"):
+            jobs.append((item, name[:-4], "rgb.png", data))
         elif name == "occupancy.png":
             jobs.append((item, "occupancy", name, data))
         else:
@@ -97,7 +118,10 @@ def decode_parts(parts: dict[str, bytes]) -> dict[str, Any]:
         else [_decode_png(job[2], job[3]) for job in jobs]
     )
     for (into, field, _, _), image in zip(jobs, images, strict=True):
-        into[field] = image > 0 if field == "occupancy" else image
+        if field == "flow":
+            into["flow"], into["flow_valid"] = decode_flow_image(image)
+        else:
+            into[field] = image > 0 if field == "occupancy" else image
     if cameras:
         item["views"] = cameras
     if film:
@@ -283,23 +307,30 @@ class ShardDataset:
 
 
 class FrameDataset:
-    """Map-style dataset of the single frames of navigation episodes, in (episode, frame) order.
+    """Map-style dataset of the single frames of episodes, in (episode, camera, frame) order: a
+    navigation episode's one camera, an aerial episode's every camera (``d0``, ``d0_down``, ...).
 
-    Item: rgb, depth, seg, semantic, ``meta`` (the frame's record: pose, command, goal, ...),
-    ``camera`` (the episode's camera record), ``episode`` (its key), ``frame`` (its number) and
-    ``key`` (``<episode>/f<frame>``). Only the frame's own images are read and decoded."""
+    Item: rgb, depth, seg, semantic (aerial: ``flow`` and ``flow_valid`` but on the last frame),
+    ``meta`` (the frame's record: poses, commands or agent states, goal, ...), ``camera`` (the
+    camera's record, its extrinsics at this frame), ``episode`` (its key), ``frame`` (its
+    number), ``view`` (the camera's name; "" for navigation) and ``key``
+    (``<episode>/f<frame>`` or ``<episode>/f<frame>.<camera>``). Only the frame's own images are
+    read and decoded."""
 
     def __init__(self, root: str | Path, verify: bool = False):
         self.episodes = ShardDataset(root, verify)
-        self.index: list[tuple[int, int]] = []
+        self.index: list[tuple[int, int, str]] = []
         for i in range(len(self.episodes)):
-            frames = sorted(
-                int(m[1]) for p in self.episodes.part_names(i) if (m := _FRAME_PART.match(p))
-            )
-            self.index.extend((i, k) for k in dict.fromkeys(frames))
+            frames = set()
+            for part in self.episodes.part_names(i):
+                if m := _FRAME_PART.match(part):
+                    frames.add(("", int(m[1])))
+                elif m := _CAMERA_FRAME_PART.match(part):
+                    frames.add((m[2], int(m[1])))
+            self.index.extend((i, k, camera) for camera, k in sorted(frames))
         if len(self.episodes) and not self.index:
             raise DatasetError(
-                f"{root}: no episode frames (fNNNN.*.png parts); not navigation data"
+                f"{root}: no episode frames (fNNNN.*.png parts); not navigation or aerial data"
             )
 
     def __len__(self) -> int:
@@ -310,17 +341,25 @@ class FrameDataset:
         return self.episodes.metadata(i)
 
     def __getitem__(self, j: int) -> dict[str, Any]:
-        i, k = self.index[j]
-        prefix = f"f{k:04d}."
-        raw = self.episodes.raw(i, {prefix + name for name in _IMAGES})
-        item = decode_parts({name[len(prefix) :]: data for name, data in raw.items()})
+        i, k, view = self.index[j]
+        prefix = f"f{k:04d}." + (f"{view}." if view else "")
+        names = {prefix + name for name in [*_IMAGES, "flow.png"]}
+        raw = self.episodes.raw(i, names & set(self.episodes.part_names(i)))
+        item = decode_parts(
+            {name[len(prefix) :]: data for name, data in raw.items() if name != prefix + "flow.png"}
+        )
         meta = self._episode_meta(i)
+        record = meta["frames"][k]
+        if view:
+            if prefix + "flow.png" in raw:
+                flow = decode_parts({f"f0000.{view}.flow.png": raw[prefix + "flow.png"]})
+                item |= {n: flow["frames"][0]["cameras"][view][n] for n in ("flow", "flow_valid")}
+            camera = meta["cameras"][view] | record["cameras"][view]
+        else:
+            camera = meta["camera"]
+        key = f"{self.episodes.keys[i]}/f{k:04d}" + (f".{view}" if view else "")
         item.update(
-            meta=meta["frames"][k],
-            camera=meta["camera"],
-            episode=self.episodes.keys[i],
-            frame=k,
-            key=f"{self.episodes.keys[i]}/f{k:04d}",
+            meta=record, camera=camera, episode=self.episodes.keys[i], frame=k, view=view, key=key
         )
         return item
 
@@ -337,8 +376,8 @@ def load(root: str | Path, verify: bool = False) -> ShardDataset:
 
 
 def load_frames(root: str | Path, verify: bool = False) -> FrameDataset:
-    """The frames of a navigation dataset as one flat map-style dataset (``verify``: as in
-    ``load``)."""
+    """The frames of a navigation or aerial dataset as one flat map-style dataset
+    (``verify``: as in ``load``)."""
     return FrameDataset(root, verify)
 
 

@@ -8,6 +8,8 @@ unprefixed parts, another camera's are prefixed by its name: ``view1.rgb.png``, 
 then any other camera by name.
 ``datagen.nav_episode/1``: a time sequence, one view per record in ``frames`` (parts
 ``f0003.rgb.png``, ...), all seen by the one camera in ``camera``.
+``datagen.aerial_episode/1``: a time sequence per camera (``cameras``: ``d0``, ``d0_down``,
+``d1``, ...), one view per frame and camera (parts ``f0003.d0.rgb.png``, ...), camera by camera.
 """
 
 from __future__ import annotations
@@ -31,6 +33,7 @@ class LabelledView:
     camera: CameraRecord  # with this view's extrinsics_world_to_camera
     record: ViewRecord | FrameRecord  # its own metadata record (a frame's)
     time_index: int | None = None  # a sequence's frame number; None for a camera of a sample
+    sequence: str = ""  # the camera of a sequence with several ("d0", "d1_down"); "" with one
 
 
 def camera_views(meta: SampleMetadata) -> Iterator[LabelledView]:
@@ -74,10 +77,25 @@ def sequence_views(meta: SampleMetadata) -> Iterator[LabelledView]:
         )
 
 
+def camera_sequence_views(meta: SampleMetadata) -> Iterator[LabelledView]:
+    """``datagen.aerial_episode/1``: each camera's frames in time order, camera after camera."""
+    for camera in sorted(meta["cameras"]):
+        for record in meta["frames"]:
+            name = f"f{record['frame']:04d}.{camera}"
+            seen = record["cameras"][camera]
+            calibration = meta["cameras"][camera] | {
+                "extrinsics_world_to_camera": seen["extrinsics_world_to_camera"]
+            }
+            yield LabelledView(
+                name, f"{name}.", list(seen["things"]), calibration, record, record["frame"], camera
+            )
+
+
 # metadata format -> its views; a new format is one reader here
 VIEW_READERS: dict[str, Callable[[SampleMetadata], Iterator[LabelledView]]] = {
     "datagen.sample/1": camera_views,
     "datagen.nav_episode/1": sequence_views,
+    "datagen.aerial_episode/1": camera_sequence_views,
 }
 
 
@@ -90,6 +108,14 @@ def labelled_views(meta: SampleMetadata) -> list[LabelledView]:
             f"expected one of {list(VIEW_READERS)}"
         )
     return list(reader(meta))
+
+
+def sequences(views: list[LabelledView]) -> dict[str, list[LabelledView]]:
+    """A sequence's views by camera (one entry, ``""``, for a sequence with one camera)."""
+    out: dict[str, list[LabelledView]] = {}
+    for view in views:
+        out.setdefault(view.sequence, []).append(view)
+    return out
 
 
 def is_sequence(views: list[LabelledView]) -> bool:

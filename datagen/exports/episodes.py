@@ -16,6 +16,11 @@ it, per camera. Which samples hold one, and how they map:
   camera ``head`` with depth; state: x, y (m), yaw (rad); action: the commanded linear (m/s) and
   angular (rad/s) velocity. The final frame, rendered at the goal off the rate's grid, is left
   out when it is off the grid.
+- an aerial episode (scene ``aerial``): one episode per drone (key ``<sample>.d<k>``), its frames
+  at ``aerial.frame_rate_hz`` from its cameras, named by role (``forward``: part ``d<k>``;
+  ``down``: ``d<k>_down``, if built) with depth; state: position (m), attitude quaternion x, y, z, w and velocity (m/s) in the world;
+  action: the collective thrust (m/s², mass-normalised) and body rates (rad/s) the expert flies
+  with; the final frame off the rate's grid is left out.
 
 Anything else (frames-only scenes) holds none: :func:`require_episodes` says so in one line.
 """
@@ -40,7 +45,7 @@ GRID_TOLERANCE_S = 1e-6  # a frame's time within this of t / fps is on the rate'
 @dataclass
 class Episode:
     key: str  # the sample's key
-    kind: str  # "grasp" or "navigation"
+    kind: str  # "grasp", "navigation" or "aerial"
     task: str  # in words: "pick up the mug", "drive to the goal through the corridor"
     fps: float  # Hz
     state: np.ndarray  # (T, S) float32
@@ -95,25 +100,28 @@ def require_episodes(manifest: Manifest, root: object, format_name: str) -> None
 
 
 def episodes(dataset: ExportedDataset, manifest: Manifest) -> Iterator[tuple[int, Episode]]:
-    """(sample position, episode) for each sample that holds one, in the dataset's order; one
+    """(sample position, episode) for each episode a sample holds, in the dataset's order; one
     sample's metadata and trajectory in memory at a time (images are read by the caller)."""
     for i in range(len(dataset)):
-        episode = episode_of(dataset, manifest, i)
-        if episode is not None:
+        for episode in episodes_of(dataset, manifest, i):
             yield i, episode
 
 
-def episode_of(dataset: ExportedDataset, manifest: Manifest, i: int) -> Episode | None:
+def episodes_of(dataset: ExportedDataset, manifest: Manifest, i: int) -> list[Episode]:
+    """The episodes sample ``i`` holds: none, one, or one per drone of an aerial episode."""
     meta = dataset.metadata(i)
     if meta.get("format") == "datagen.nav_episode/1":
-        return _navigation(meta, float(manifest["config"]["navigation"]["frame_rate_hz"]))
+        return [_navigation(meta, float(manifest["config"]["navigation"]["frame_rate_hz"]))]
+    if meta.get("format") == "datagen.aerial_episode/1":
+        fps = float(manifest["config"]["aerial"]["frame_rate_hz"])
+        return [_aerial(meta, fps, k) for k in range(len(meta["episode"]["agents"]))]
     if isinstance(meta.get("attempt"), dict):
         names = set(dataset.part_names(i))
         if "trajectory.npz" not in names:
-            return None
+            return []
         raw = dataset.raw(i, {"trajectory.npz"})
-        return _grasp(meta, decode_trajectory(raw["trajectory.npz"]), names)
-    return None
+        return [_grasp(meta, decode_trajectory(raw["trajectory.npz"]), names)]
+    return []
 
 
 def frames_of(raw: dict[str, bytes], parts: list[str]) -> np.ndarray:
@@ -209,6 +217,51 @@ def _navigation(meta: dict[str, Any], fps: float) -> Episode:
         extra_names={
             "goal_in_robot": ["x_m", "y_m"],
             "distance_to_goal": ["metres"],
+            "collision": ["collision"],
+        },
+    )
+
+
+def _aerial(meta: dict[str, Any], fps: float, k: int) -> Episode:
+    records = [
+        r
+        for n, r in enumerate(meta["frames"])
+        if abs(float(r["time_s"]) - n / fps) <= GRID_TOLERANCE_S
+    ]
+    states = [r["agents"][k] for r in records]
+    # by role, not by drone: every drone's episode has the same features
+    roles = {c.removeprefix(f"d{k}").lstrip("_") or "forward": c
+             for c, record in meta["cameras"].items() if record["drone"] == k}  # fmt: skip
+    frames = [f"f{r['frame']:04d}" for r in records]
+    agent = meta["episode"]["agents"][k]
+    return Episode(
+        key=f"{meta['key']}.d{k}",
+        kind="aerial",
+        task=f"fly to the goal through the {_words(meta['family'])}",
+        fps=fps,
+        state=np.array(
+            [[*s["position"], *s["quaternion_xyzw"], *s["velocity"]] for s in states], np.float32
+        ),
+        state_names=["x", "y", "z", "qx", "qy", "qz", "qw", "vx", "vy", "vz"],
+        action=np.array([[s["thrust"], *s["body_rates"]] for s in states], np.float32),
+        action_names=["thrust_m_s2", "roll_rate_rad_s", "pitch_rate_rad_s", "yaw_rate_rad_s"],
+        success=bool(agent["success"]),
+        cameras={role: [f"{f}.{c}.rgb.png" for f in frames] for role, c in sorted(roles.items())},
+        depth={role: [f"{f}.{c}.depth.png" for f in frames] for role, c in sorted(roles.items())},
+        extras={
+            "goal_in_body": np.array([s["goal_in_body"] for s in states], np.float32),
+            "distance_to_goal": np.array([[s["distance_to_goal"]] for s in states], np.float32),
+            "imu": np.array(
+                [[*s["imu"]["accelerometer"], *s["imu"]["gyroscope"]] for s in states], np.float32
+            ),
+            "obstacle_gap": np.array([[s["obstacle_gap"]] for s in states], np.float32),
+            "collision": np.array([[s["collision"]] for s in states], np.bool_),
+        },
+        extra_names={
+            "goal_in_body": ["x_m", "y_m", "z_m"],
+            "distance_to_goal": ["metres"],
+            "imu": ["ax_m_s2", "ay_m_s2", "az_m_s2", "wx_rad_s", "wy_rad_s", "wz_rad_s"],
+            "obstacle_gap": ["metres"],
             "collision": ["collision"],
         },
     )

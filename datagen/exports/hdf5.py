@@ -28,7 +28,7 @@ import numpy as np
 
 from datagen.dataset.loader import decode_parts
 from datagen.dataset.trajectory import decode_trajectory
-from datagen.dataset.views import LabelledView, is_sequence, labelled_views
+from datagen.dataset.views import LabelledView, is_sequence, labelled_views, sequences
 from datagen.exports.files import FailureRecordingFile
 from datagen.outcomes import grasp_outcome, sample_outcome
 from datagen.records import ExportedDataset, Manifest, SampleProgress
@@ -48,7 +48,10 @@ _FRAME_FIELDS = {  # per-frame record field -> dtype, stacked when every frame h
     "distance_to_goal": np.float64, "collision": np.bool_, "time_s": np.float64,
     "step": np.int64, "extrinsics_world_to_camera": np.float64,
 }  # fmt: skip
-_EPISODE_PICTURES = ("map.png", "occupancy.png")  # whole-episode pictures beside its frames
+# whole-episode parts beside its frames
+_EPISODE_PICTURES = ("map.png", "side.png", "occupancy.png", "occupancy.npz")
+_AGENT_FIELDS = ("position", "quaternion_xyzw", "velocity", "acceleration", "body_rates", "thrust",
+                 "distance_to_goal", "goal_in_body", "obstacle_gap", "collision", "arrived")  # fmt: skip
 _FILM = re.compile(
     r"^frame\d+$"
 )  # a recorded attempt's frames: frame3.rgb.png, frame3.wrist.rgb.png
@@ -77,6 +80,18 @@ def _sequence(group: h5py.Group, raw: dict[str, bytes], views: list[LabelledView
             group.create_dataset(name, data=np.array([r[name] for r in records], dtype=dtype))
 
 
+def _agents(group: h5py.Group, records: list[Mapping[str, Any]]) -> None:
+    """An aerial episode's per-frame agent states, stacked per drone: ``agents/<k>/<field>``."""
+    for k in range(len(records[0]["agents"])):
+        states = [r["agents"][k] for r in records]
+        for name in _AGENT_FIELDS:
+            group.create_dataset(f"agents/{k}/{name}", data=np.array([s[name] for s in states]))
+        for name in ("accelerometer", "gyroscope"):
+            group.create_dataset(
+                f"agents/{k}/imu_{name}", data=np.array([s["imu"][name] for s in states])
+            )
+
+
 def _cameras(group: h5py.Group, raw: dict[str, bytes]) -> None:
     """One image set per camera: the unprefixed parts at the top, ``wrist.rgb.png`` -> wrist/rgb."""
     _images(group, _view_images(raw, ""), stacked=False)
@@ -87,17 +102,26 @@ def _cameras(group: h5py.Group, raw: dict[str, bytes]) -> None:
 
 
 def _episode(group: h5py.Group, episode: dict[str, Any], raw: dict[str, bytes]) -> None:
-    traj = group.create_group("trajectory")
-    for name, values in episode["trajectory"].items():
-        if isinstance(values, list):
-            traj.create_dataset(name, data=np.asarray(values))
-        else:
-            traj.attrs[name] = values
-    pictures = decode_parts({p: raw[p] for p in _EPISODE_PICTURES if p in raw})
-    if "map" in pictures:
-        group.create_dataset("map", data=pictures["map"], compression="gzip", compression_opts=1)
-    if "occupancy" in pictures:
-        group.create_dataset("occupancy", data=pictures["occupancy"], compression="gzip")
+    if "trajectory" in episode:  # a ground episode's control-rate trajectory
+        traj = group.create_group("trajectory")
+        for name, values in episode["trajectory"].items():
+            if isinstance(values, list):
+                traj.create_dataset(name, data=np.asarray(values))
+            else:
+                traj.attrs[name] = values
+    wanted = [
+        p for p in raw if p in _EPISODE_PICTURES or (p.startswith("poses.") and p.endswith(".txt"))
+    ]
+    pictures = decode_parts({p: raw[p] for p in wanted})
+    for name in ("map", "side"):
+        if name in pictures:
+            group.create_dataset(name, data=pictures[name], compression="gzip", compression_opts=1)
+    if "occupancy" in pictures:  # a 2-D grid, or an aerial episode's voxels (nz, ny, nx)
+        data = group.create_dataset("occupancy", data=pictures["occupancy"], compression="gzip")
+        if "occupancy_resolution" in pictures:
+            data.attrs["resolution_m"] = pictures["occupancy_resolution"]
+    for camera, poses in pictures.get("poses", {}).items():
+        group.create_dataset(f"poses/{camera}", data=poses)  # tx ty tz qx qy qz qw
     for name in ("path_length_m", "shortest_path_m", "spl"):
         group.attrs[name] = episode[name]
 
@@ -156,8 +180,12 @@ def _write(target, dataset: ExportedDataset, manifest: Manifest, on_progress) ->
             group.attrs["meta"] = json.dumps(meta, separators=(",", ":"))
             views = labelled_views(meta)
             if is_sequence(views):
-                _sequence(group, raw, views)
-                frames.append(len(views))
+                by_camera = sequences(views)
+                for camera, sequence in by_camera.items():
+                    _sequence(group.require_group(camera) if camera else group, raw, sequence)
+                frames.append(len(next(iter(by_camera.values()))))
+                if any(isinstance(v.record.get("agents"), list) for v in views):
+                    _agents(group, [v.record for v in next(iter(by_camera.values()))])
             else:
                 _cameras(group, raw)
             if meta.get("episode"):

@@ -21,14 +21,15 @@ import pyarrow as pa
 from datagen.dataset.loader import decode_parts
 from datagen.dataset.manifest import DatasetError
 from datagen.exports import lerobot_meta as meta
-from datagen.exports.episodes import Episode, episode_of, frames_of
+from datagen.exports.episodes import Episode, episodes_of, frames_of
 from datagen.exports.files import inside
 from datagen.exports.lerobot_video import VideoFiles, video_info
 from datagen.records import ExportedDataset, Manifest, SampleProgress
 
 MB = 1024**2
 EPISODE_ROWS_PER_GROUP = 100  # meta/episodes rows buffered before a row group is written
-NAVIGATION_ROBOT = "fetch"  # the navigation scenes' robot
+# the robot of each kind of episode but grasps (whose arm is the config's)
+ROBOT_OF_KIND = {"navigation": "fetch", "aerial": "quadrotor"}
 
 
 def export(
@@ -41,8 +42,7 @@ def export(
     writer: _Writer | None = None
     total = len(dataset)
     for i in range(total):
-        episode = episode_of(dataset, manifest, i)
-        if episode is not None:
+        for episode in episodes_of(dataset, manifest, i):
             raw = dataset.raw(i, episode.parts())
             writer = writer or _Writer(out, manifest, episode, raw)
             writer.add(episode, raw)
@@ -110,7 +110,7 @@ class _Writer:
         self.out, self.fps = out, _fps(first)
         self.features = _features(first, raw, self.fps)
         robot = manifest.get("config", {}).get("robot", {}).get("name")
-        self.robot_type = robot if first.kind == "grasp" else NAVIGATION_ROBOT
+        self.robot_type = robot if first.kind == "grasp" else ROBOT_OF_KIND[first.kind]
         self.first = first
         self.data = meta.ParquetFiles(
             out, "data", meta.data_schema(self.features), meta.DATA_FILE_MB * MB

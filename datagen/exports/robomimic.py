@@ -21,7 +21,7 @@ import numpy as np
 
 from datagen.dataset.loader import decode_parts
 from datagen.dataset.views import labelled_views
-from datagen.exports.episodes import Episode, episode_of, episodes, frames_of
+from datagen.exports.episodes import Episode, episodes, episodes_of, frames_of
 from datagen.exports.files import FailureRecordingFile
 from datagen.exports.splits import is_valid
 from datagen.records import ExportedDataset, Manifest, SampleProgress
@@ -97,8 +97,7 @@ def _write(f: h5py.File, dataset, manifest, scale, first, on_progress) -> None:
     names = {"train": [], "valid": []}
     total = 0
     for i in range(len(dataset)):
-        episode = episode_of(dataset, manifest, i)
-        if episode is not None:
+        for episode in episodes_of(dataset, manifest, i):
             name = f"demo_{len(names['train']) + len(names['valid'])}"
             _demo(data.create_group(name), dataset, i, episode, scale)
             names["valid" if is_valid(episode.key) else "train"].append(name)
@@ -126,6 +125,13 @@ def _low_dim(episode: Episode) -> tuple[dict[str, np.ndarray], np.ndarray, list[
         pose = episode.state
         obs = {"pose": pose, "goal_in_robot": episode.extras["goal_in_robot"]}
         return obs, pose.astype(np.float64), list(episode.state_names)
+    if episode.kind == "aerial":
+        state = episode.state  # position, quaternion x y z w, velocity
+        obs = {
+            "position": state[:, :3], "quaternion_xyzw": state[:, 3:7], "velocity": state[:, 7:],
+            "goal_in_body": episode.extras["goal_in_body"], "imu": episode.extras["imu"],
+        }  # fmt: skip
+        return obs, state.astype(np.float64), list(episode.state_names)
     state, qvel = episode.state, episode.extras["qvel"]
     arm = [k for k, n in enumerate(episode.state_names) if n in episode.action_names]
     fingers = [k for k in range(state.shape[1]) if k not in arm]
@@ -194,7 +200,7 @@ def _demo(group: h5py.Group, dataset, i: int, episode: Episode, scale) -> None:
 def _perception(group: h5py.Group, episode: Episode, views, raw: dict[str, bytes]) -> None:
     """Grasp attempts: each labelled camera view of the sample (before the grasp) under its
     camera's name; navigation: the frames' seg and semantic stacked like the episode's frames."""
-    if episode.kind == "navigation":
+    if episode.kind in ("navigation", "aerial"):  # a sequence: its first camera's frames
         by_prefix = {v.prefix: v for v in views}
         frames = next(iter(episode.cameras.values()))  # the one camera's PNG part per frame
         kept = [by_prefix[p.removesuffix("rgb.png")] for p in frames]

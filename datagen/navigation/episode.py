@@ -14,6 +14,7 @@ import numpy as np
 
 from datagen.config.sections import NavigationConfig
 from datagen.navigation.follow import FollowParams, Trajectory, follow
+from datagen.navigation.geodesic import lower_bound_grid, shortest_length
 from datagen.navigation.grid import ClutterParams, Layout, inflate
 from datagen.navigation.layouts import make_layout
 from datagen.navigation.planning import (
@@ -39,14 +40,15 @@ class Episode:
     grid_path: list[tuple[int, int]]  # 8-connected A* cells on the inflated grid
     path: np.ndarray  # (K, 2) world waypoints after line-of-sight smoothing
     trajectory: Trajectory
+    shortest_path_m: float  # no collision-free drive to the goal is shorter (geodesic.py)
 
     @property
     def astar_length_m(self) -> float:
         return shortest_path_length_m(self.grid_path, self.layout.resolution)
 
     @property
-    def shortest_path_m(self) -> float:
-        """Length of the smoothed (any-angle) path: the shortest collision-free distance known."""
+    def planned_path_m(self) -> float:
+        """Length of the smoothed (any-angle) path the expert follows."""
         return float(np.hypot(*np.diff(self.path, axis=0).T).sum()) if len(self.path) > 1 else 0.0
 
     @property
@@ -112,8 +114,12 @@ def _plan_task(cfg: NavigationConfig, layout: Layout, rng: np.random.Generator) 
         raise PlanningError(f"A* found no path from {start} to {goal} in a connected component")
     path = path_to_world(smooth_path(occupied, cells), layout.resolution)
     yaw = float(rng.uniform(-math.pi, math.pi))
-    trajectory = follow(path, yaw, follow_params(cfg), layout)
+    params = follow_params(cfg)
+    trajectory = follow(path, yaw, params, layout)
     start_xy, goal_xy = path[0], path[-1]
+    step = params.max_linear / params.rate_hz  # metres: the longest move between two poses
+    lower = lower_bound_grid(layout.grid, layout.resolution, cfg.robot_radius, step)
+    geodesic = shortest_length(lower, layout.resolution, tuple(start_xy), tuple(goal_xy))
     return Episode(
         layout=layout,
         start=(float(start_xy[0]), float(start_xy[1]), yaw),
@@ -124,6 +130,7 @@ def _plan_task(cfg: NavigationConfig, layout: Layout, rng: np.random.Generator) 
         grid_path=cells,
         path=path,
         trajectory=trajectory,
+        shortest_path_m=max(geodesic - params.goal_tolerance, 0.0),
     )
 
 

@@ -120,6 +120,7 @@ def episode_record(config: BuildConfig, episode: Episode, steps: list[int]) -> d
         "success": bool(traj.success),
         "path_length_m": round(travelled, 6),
         "shortest_path_m": round(shortest, 6),
+        "planned_path_m": round(episode.planned_path_m, 6),
         "astar_path_m": round(episode.astar_length_m, 6),
         "spl": round(float(traj.success) * shortest / max(travelled, shortest, 1e-9), 6),
         "steps": len(traj.commands),

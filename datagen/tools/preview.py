@@ -18,6 +18,8 @@ from datagen.exports.files import inside, replace_file, written
 from datagen.geometry import project
 from datagen.outcomes import grasp_outcome, navigation_outcome
 from datagen.records import CameraRecord, ViewRecord
+from datagen.tools.aerial_preview import aerial_tile
+from datagen.tools.drawing import depth_colour, fit, instance_colour, put_label
 from datagen.tools.sample_checks import (
     OnSkip,
     Skipped,
@@ -49,21 +51,6 @@ _BOX_EDGES = [
 
 
 SUCCESS_BGR, FAILURE_BGR = (60, 200, 60), (50, 50, 230)
-
-
-def instance_colour(instance_id: int) -> tuple[int, int, int]:
-    """A stable, distinct BGR colour per instance id (golden-ratio hue steps)."""
-    hue = int((instance_id * 0.618033988749895 % 1.0) * 179)
-    hsv = np.uint8([[[hue, 200, 255]]])
-    return tuple(int(c) for c in cv2.cvtColor(hsv, cv2.COLOR_HSV2BGR)[0, 0])
-
-
-def put_label(image: np.ndarray, text: str, origin: tuple[int, int], scale: float) -> None:
-    """White text with a dark outline, readable on any background."""
-    for colour, thickness in (((0, 0, 0), 3), ((255, 255, 255), 1)):
-        cv2.putText(
-            image, text, origin, cv2.FONT_HERSHEY_SIMPLEX, scale, colour, thickness, cv2.LINE_AA
-        )
 
 
 def draw_annotations(
@@ -114,17 +101,6 @@ def draw_axes(image: np.ndarray, pose_camera: np.ndarray, intrinsics: np.ndarray
         cv2.line(image, tuple(uv[0]), tuple(uv[axis + 1]), _AXIS_BGR[axis], 2, cv2.LINE_AA)
 
 
-def depth_colour(depth_mm: np.ndarray) -> np.ndarray:
-    valid = depth_mm > 0
-    if not valid.any():
-        return np.zeros((*depth_mm.shape, 3), np.uint8)
-    lo, hi = np.percentile(depth_mm[valid], [1, 99])
-    scaled = np.clip((depth_mm.astype(float) - lo) / max(hi - lo, 1.0), 0, 1)
-    image = cv2.applyColorMap((255 * (1 - scaled)).astype(np.uint8), cv2.COLORMAP_TURBO)
-    image[~valid] = 0
-    return image
-
-
 def draw_grasp(image: np.ndarray, attempt: dict[str, Any], camera: CameraRecord) -> None:
     """The gripper as two fingers and the approach, projected into the (BGR) image, green for a
     successful attempt, red for a failed one."""
@@ -163,16 +139,6 @@ _NAV_COLOURS = {
     "goal_marker": (240, 60, 240),
     "robot": (160, 160, 160),
 }
-
-
-def _fit(image: np.ndarray, height: int, width: int) -> np.ndarray:
-    """``image`` scaled to fit (height, width), centred on black."""
-    scale = min(height / image.shape[0], width / image.shape[1])
-    resized = cv2.resize(image, None, fx=scale, fy=scale, interpolation=cv2.INTER_AREA)
-    out = np.zeros((height, width, 3), np.uint8)
-    y, x = (height - resized.shape[0]) // 2, (width - resized.shape[1]) // 2
-    out[y : y + resized.shape[0], x : x + resized.shape[1]] = resized
-    return out
 
 
 def draw_navigation_frame(
@@ -223,7 +189,7 @@ def sequence_tile(item: dict[str, Any]) -> np.ndarray:
         frames[k], meta["classes"], meta["camera"], np.asarray(episode["planned_path"])
     )
     put_label(image, f"{item['key']} f{k}/{len(frames)} {meta['family']}", (6, 18), 0.5)
-    overview = _fit(cv2.cvtColor(item["map"], cv2.COLOR_RGB2BGR), *image.shape[:2])
+    overview = fit(cv2.cvtColor(item["map"], cv2.COLOR_RGB2BGR), *image.shape[:2])
     outcome = "success" if navigation_outcome(episode)["success"] else "failure"
     summary = (
         f"{outcome} {episode['path_length_m']:.1f} m (shortest {episode['shortest_path_m']:.1f} m)"
@@ -269,7 +235,7 @@ def film_strip(trajectory: dict[str, Any], width: int) -> np.ndarray:
         row = max(0, int(np.searchsorted(rows, trajectory["frame_step"][k], side="right")) - 1)
         y, x = (j // FILM_COLUMNS) * block, (j % FILM_COLUMNS) * cell_w
         for r, kind in enumerate(kinds):
-            cell = _fit(cv2.cvtColor(frames[k][kind], cv2.COLOR_RGB2BGR), cell_h, cell_w)
+            cell = fit(cv2.cvtColor(frames[k][kind], cv2.COLOR_RGB2BGR), cell_h, cell_w)
             if r == 0:
                 label = f"{frames[k]['time']:.2f}s {phases[int(trajectory['phase'][row])]}"
                 put_label(cell, label, (4, 14), 0.4)
@@ -286,13 +252,15 @@ def other_views_strip(item: dict[str, Any], views: list, width: int) -> np.ndarr
         images = item["views"][view.name]
         drawn = draw_annotations(images["rgb"], images["seg"], view.record, f"views.{view.name}")
         put_label(drawn, view.name, (6, 18), 0.55)
-        strip[:, k * cell_w : (k + 1) * cell_w] = _fit(drawn, cell_h, cell_w)
+        strip[:, k * cell_w : (k + 1) * cell_w] = fit(drawn, cell_h, cell_w)
     return strip
 
 
 def sample_tile(item: dict[str, Any]) -> np.ndarray:
-    """One loaded sample, drawn by :func:`sequence_tile` when its views form a time sequence,
-    else by :func:`camera_tile`."""
+    """One loaded sample: an aerial episode by its own tile, a navigation episode (its views
+    form a time sequence) by :func:`sequence_tile`, else by :func:`camera_tile`."""
+    if item["meta"].get("format") == "datagen.aerial_episode/1":
+        return aerial_tile(item)
     if is_sequence(labelled_views(item["meta"])):
         return sequence_tile(item)
     return camera_tile(item)
@@ -300,7 +268,7 @@ def sample_tile(item: dict[str, Any]) -> np.ndarray:
 
 def tile_grid(tiles: list[np.ndarray], columns: int = 4, max_width: int = 2400) -> np.ndarray:
     """The tiles in rows of ``columns``; a tile of another size than the first is fitted to it."""
-    tiles = [t if t.shape == tiles[0].shape else _fit(t, *tiles[0].shape[:2]) for t in tiles]
+    tiles = [t if t.shape == tiles[0].shape else fit(t, *tiles[0].shape[:2]) for t in tiles]
     blank = np.zeros_like(tiles[0])
     while len(tiles) % columns and len(tiles) > columns:
         tiles.append(blank)

@@ -40,10 +40,10 @@ FENCE = re.compile(r"^(\s*)```(\w*)\s*$")
 COMMENT = re.compile(r"^\s*<!--\s*(.*?)\s*-->\s*$")
 NOT_RUN = ("tested by ", "same as ", "excerpt of ", "runs elsewhere: ", "too long: ")
 # The small real datasets a block may name, and the build that makes each.
-GRASP, CAMPAIGN, NAV = "grasp", "campaign", "nav"
+GRASP, CAMPAIGN, NAV, AERIAL = "grasp", "campaign", "nav", "aerial"
 DATASETS = {
     "datasets/grasp_tabletop": GRASP, "datasets/mine": GRASP, "datasets/grasps": CAMPAIGN,
-    "datasets/nav_rooms": NAV,
+    "datasets/nav_rooms": NAV, "datasets/aerial_corridor": AERIAL,
 }  # fmt: skip
 
 
@@ -162,13 +162,16 @@ def _build(out: Path, *command: str) -> None:
 def doc_datasets(tmp_path_factory, request):
     """The datasets blocks name, copied once per session (and only when one is needed) from the
     session's datasets (tests/conftest.py): grasp frames with every frame export made, a filmed
-    grasp campaign with the episode exports, navigation episodes with the hdf5 export."""
+    grasp campaign with the episode exports, navigation episodes with the hdf5 export, aerial
+    episodes as built."""
     root = tmp_path_factory.mktemp("doc-datasets")
-    sources = {GRASP: "frames_dataset", CAMPAIGN: "campaign_dataset", NAV: "navigation_dataset"}
+    sources = {GRASP: "frames_dataset", CAMPAIGN: "campaign_dataset", NAV: "navigation_dataset",
+               AERIAL: "aerial_dataset"}  # fmt: skip
     exports = {
         GRASP: "coco,hdf5,pointcloud,usd,yolo,bop",
         CAMPAIGN: "lerobot,robomimic",
         NAV: "hdf5",
+        AERIAL: "",
     }
     made: dict[str, Path] = {}
 

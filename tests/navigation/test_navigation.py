@@ -63,6 +63,8 @@ def test_every_episode_has_a_path_and_never_crosses_a_wall(family):
                 )
         assert not traj.collision.any()
         assert episode.shortest_path_m <= episode.astar_length_m + 1e-9
+        # SPL's shortest path is a true lower bound: no episode drives a shorter one
+        assert episode.travelled_m >= episode.shortest_path_m, (family, index)
 
 
 def _decode(data: bytes) -> np.ndarray:

@@ -234,7 +234,7 @@ def test_exports_refuse_scenes_outside_their_worlds(tmp_path):
 @pytest.mark.parametrize("name", ["lerobot", "robomimic"])
 def test_episode_formats_refuse_frames_in_one_line(tmp_path, name):
     """In the config, before a build starts, and on a finished dataset, before writing."""
-    with pytest.raises(ConfigError, match=rf"'{name}' stores episodes, and scene 'grasp_tabletop' makes single frames; episodes come from grasp_attempts or navigation$"):  # fmt: skip
+    with pytest.raises(ConfigError, match=rf"'{name}' stores episodes, and scene 'grasp_tabletop' makes single frames; episodes come from grasp_attempts or navigation or aerial$"):  # fmt: skip
         config_from_dict({"scene": "grasp_tabletop", "output": {"sinks": ["webdataset", name]}})
     config_from_dict({"scene": "navigation", "output": {"sinks": ["webdataset", name]}})
     (tmp_path / "manifest.json").write_text(json.dumps({"shards": [], "scene": "grasp_tabletop"}))

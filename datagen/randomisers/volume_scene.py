@@ -1,0 +1,81 @@
+"""Randomised appearance of an aerial episode: materials of the floor, walls, ceiling and each kind
+of obstacle, the drones' colours, the lighting over the volume, and each drone's cameras (forward
+tilt and field of view, the downward camera's field of view). The volume and the flights are drawn
+by :mod:`datagen.aerial.episode` from streams of their own.
+
+Streams: ``aerial_materials``, ``aerial_textures``, ``nav_lighting`` (as a ground episode's),
+``aerial_cameras``.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+from datagen.aerial.quadrotor import PARTS
+from datagen.config import BuildConfig
+from datagen.navigation.grid import Layout
+from datagen.randomisers.floorplan_scene import sample_nav_lighting
+from datagen.randomisers.materials import random_colour, random_material
+from datagen.randomisers.textures import texture_surfaces
+from datagen.seeding import sample_rng
+
+SURFACES = {"floor": (0.2, 0.75), "walls": (0.5, 0.95), "ceiling": (0.6, 0.95)}  # HSV value
+OBSTACLE_KINDS = ("obstacle", "pillar", "beam", "hanging", "screen")
+TEXTURED = ("floor", "walls", "ceiling", *OBSTACLE_KINDS)
+# drone parts: dark frames, light or bright bodies, grey motors, translucent-looking rotors
+_DRONE_VALUE = {"body": (0.3, 1.0), "arms": (0.05, 0.35), "motors": (0.2, 0.5),
+                "rotors": (0.1, 0.6), "legs": (0.05, 0.4), "camera": (0.0, 0.2)}  # fmt: skip
+
+
+def _u(rng: np.random.Generator, bounds: tuple[float, float]) -> float:
+    return round(float(rng.uniform(*bounds)), 6)
+
+
+def _cameras(rng: np.random.Generator, cfg) -> dict[str, Any]:
+    forward = {"fovy_deg": _u(rng, cfg.camera_fovy_deg), "pitch_deg": _u(rng, cfg.camera_pitch_deg)}
+    return {"forward": forward, "down": {"fovy_deg": _u(rng, cfg.down_fovy_deg)}}
+
+
+def _cameras(rng: np.random.Generator, cfg) -> dict[str, Any]:
+    forward = {"fovy_deg": _u(rng, cfg.camera_fovy_deg), "pitch_deg": _u(rng, cfg.camera_pitch_deg)}
+    return {"forward": forward, "down": {"fovy_deg": _u(rng, cfg.down_fovy_deg)}}
+
+
+def sample_aerial_scene(
+    config: BuildConfig, seed: int, index: int, layout: Layout, height: float, drones: int,
+    attempt: int = 0,
+) -> dict[str, Any]:  # fmt: skip
+    """Every randomised appearance value of one episode; stored in its metadata."""
+    cfg, materials_cfg = config.aerial, config.materials
+    rng = sample_rng(seed, index, "aerial_materials", attempt)
+    materials: dict[str, Any] = {
+        name: random_material(rng, materials_cfg, (0.0, 0.6), value)
+        for name, value in SURFACES.items()
+    }
+    for kind in OBSTACLE_KINDS:
+        materials[kind] = random_material(
+            rng, materials_cfg, materials_cfg.saturation, materials_cfg.value
+        )
+    materials["goal_marker"] = {"base_color": random_colour(rng, (0.8, 1.0), (0.8, 1.0)),
+                                "roughness": 0.5, "metallic": 0.0}  # fmt: skip
+    drone_materials = [
+        {
+            part: random_material(rng, materials_cfg, (0.0, 0.9), _DRONE_VALUE[part])
+            for part in PARTS
+        }
+        for _ in range(drones)
+    ]
+    cameras_rng = sample_rng(seed, index, "aerial_cameras", attempt)
+    cameras = [_cameras(cameras_rng, cfg) for _ in range(drones)]
+    return {
+        "materials": texture_surfaces(
+            sample_rng(seed, index, "aerial_textures", attempt), materials_cfg, materials, TEXTURED
+        ),
+        "drones": drone_materials,
+        "lighting": sample_nav_lighting(
+            sample_rng(seed, index, "nav_lighting", attempt), config, layout, height
+        ),
+        "cameras": cameras,
+    }

@@ -1,0 +1,224 @@
+"""Episode ``index`` of an aerial build: plan the volume and every drone's flight, build the scene,
+fly the drones along their trajectories and render each drone's cameras at the frame rate; one
+sample per episode.
+
+Parts, per frame k (``fKKKK``) and camera (``d<drone>`` forward, ``d<drone>_down`` downward):
+``fKKKK.<camera>.rgb.png depth.png seg.png semantic.png`` and, but for the last frame,
+``fKKKK.<camera>.flow.png`` (optical flow to frame k+1, KITTI 16-bit encoding); per episode
+``occupancy.npz`` (the voxel grid), ``map.png`` (top-down), ``side.png`` (side view),
+``poses.<camera>.txt`` (TartanAir-style camera poses) and ``json`` (docs/aerial.md).
+"""
+
+from __future__ import annotations
+
+import io
+import math
+from typing import Any
+
+import numpy as np
+from scipy import ndimage
+
+from datagen.aerial.episode import (
+    AerialEpisode,
+    flown_length,
+    path_lower_bound,
+    plan_aerial_episode,
+)
+from datagen.aerial.flatness import quaternion_xyzw
+from datagen.aerial.pictures import side_view, top_down
+from datagen.aerial.volumes import box_distance
+from datagen.config import BuildConfig
+from datagen.dataset.flow_png import encode_kitti
+from datagen.engines.sim.encode import View, encode_view, metadata_bytes, png_bytes
+from datagen.engines.sim.optical_flow import flow_to_next
+from datagen.engines.sim.render import DEPTH_SCALE, Frame, capture, keep_renderer_alive
+from datagen.randomisers.volume_scene import sample_aerial_scene
+from datagen.sample import Sample, sample_key
+from datagen.worlds.volume import AERIAL_CLASSES, AerialScene, build_aerial_scene
+
+AERIAL_FORMAT = "datagen.aerial_episode/1"
+POSE_CONVENTION = (
+    "camera-to-world per frame: tx ty tz qx qy qz qw; world z up (metres, the floor plan's "
+    "origin); camera axes OpenCV (x right, y down, z forward)"
+)
+
+
+def frame_times(duration: float, rate_hz: float) -> np.ndarray:
+    """Seconds of the rendered frames: every 1/rate from 0, and the episode's end."""
+    times = np.arange(0.0, duration, 1.0 / rate_hz)
+    return np.append(times, duration) if duration - times[-1] > 1e-9 else times
+
+
+def _r(a, digits: int = 6) -> list:
+    return np.round(np.asarray(a, float), digits).tolist()
+
+
+def _pose(position: np.ndarray, rotation: np.ndarray) -> np.ndarray:
+    matrix = np.eye(4)
+    matrix[:3, :3], matrix[:3, 3] = rotation, position
+    return matrix
+
+
+def _things_in_view(scene: AerialScene, instance: np.ndarray) -> list[dict[str, Any]]:
+    out = []
+    slices = ndimage.find_objects(instance)
+    for thing in scene.things:
+        box = slices[thing.instance_id - 1] if thing.instance_id <= len(slices) else None
+        if box is None:
+            continue
+        rows, cols = box
+        out.append({"instance_id": thing.instance_id, "class": thing.class_name, "name": thing.name,
+                    "bbox_xyxy": [cols.start, rows.start, cols.stop - 1, rows.stop - 1],
+                    "pixels": int((instance[box] == thing.instance_id).sum())})  # fmt: skip
+    return out
+
+
+def _agent_record(episode: AerialEpisode, k: int, states, index: int, boxes: np.ndarray, tolerance: float) -> dict[str, Any]:  # fmt: skip
+    agent, limits = episode.agents[k], episode.limits[k]
+    p, rotation = states.position[index], states.rotation[index]
+    gap = float(box_distance(p[None], boxes)[0]) - limits.radius
+    return {
+        "position": _r(p), "quaternion_xyzw": _r(quaternion_xyzw(rotation[None])[0]),
+        "velocity": _r(states.velocity[index]), "acceleration": _r(states.acceleration[index]),
+        "body_rates": _r(states.body_rates[index]), "thrust": round(float(states.thrust[index]), 6),
+        "imu": {"accelerometer": _r(states.specific_force[index]), "gyroscope": _r(states.body_rates[index])},
+        "distance_to_goal": round(float(np.linalg.norm(agent.goal - p)), 6),
+        "goal_in_body": _r(rotation.T @ (agent.goal - p)),
+        "obstacle_gap": round(gap, 6), "collision": gap < 0.0,
+        "arrived": bool(np.linalg.norm(agent.goal - p) <= tolerance),
+    }  # fmt: skip
+
+
+def render_frames(
+    config: BuildConfig, episode: AerialEpisode, scene: AerialScene, times: np.ndarray
+):
+    """Parts, per-frame records and each camera's pose lines, rendering every camera at every
+    time (flow of frame k is written once frame k+1 is rendered)."""
+    parts: dict[str, bytes] = {}
+    records, poses = [], {name: [] for name in scene.cameras}
+    boxes = episode.volume.boxes()
+    states = [agent.states(times) for agent in episode.agents]
+    instance_of = {
+        i: thing.instance_id
+        for i, thing in enumerate(t for t in scene.things if t.class_name == "drone")
+    }
+    previous: dict[str, tuple[Frame, np.ndarray]] = {}
+    level = config.output.png_level
+    for f, t in enumerate(times):
+        scene.pose_drones(
+            np.stack([s.position[f] for s in states]), np.stack([s.rotation[f] for s in states])
+        )
+        scene.scene.update_render()
+        record: dict[str, Any] = {
+            "frame": f,
+            "time_s": round(float(t), 6),
+            "agents": [],
+            "cameras": {},
+        }
+        for k in range(len(episode.agents)):
+            record["agents"].append(
+                _agent_record(episode, k, states[k], f, boxes, config.aerial.goal_tolerance)
+            )
+        for name, camera in scene.cameras.items():
+            frame = capture(camera)
+            instance, semantic = scene.label_maps(frame.entity_ids)
+            parts |= encode_view(
+                View(frame.rgb, frame.depth, instance, semantic), f"f{f:04d}.{name}.", level
+            )
+            camera_to_world = np.linalg.inv(frame.extrinsics)
+            poses[name].append(
+                " ".join(
+                    f"{v:.7f}"
+                    for v in [
+                        *camera_to_world[:3, 3],
+                        *quaternion_xyzw(camera_to_world[None, :3, :3])[0],
+                    ]
+                )
+            )
+            record["cameras"][name] = {"extrinsics_world_to_camera": _r(frame.extrinsics, 7),
+                                       "things": _things_in_view(scene, instance)}  # fmt: skip
+            if config.aerial.optical_flow and name in previous:
+                before, before_instance = previous[name]
+                motions = {
+                    instance_of[k]: _pose(s.position[f], s.rotation[f]) @ np.linalg.inv(_pose(s.position[f - 1], s.rotation[f - 1]))
+                    for k, s in enumerate(states)
+                }  # fmt: skip
+                flow, valid = flow_to_next(
+                    before.depth * DEPTH_SCALE, before.intrinsics, before.extrinsics, frame.extrinsics,
+                    frame.depth * DEPTH_SCALE, before_instance, motions,
+                )  # fmt: skip
+                parts[f"f{f - 1:04d}.{name}.flow.png"] = png_bytes(encode_kitti(flow, valid), level)
+            previous[name] = (frame, instance)
+        records.append(record)
+    return parts, records, poses, states
+
+
+def produce(config: BuildConfig, seed: int, index: int, attempt: int = 0) -> Sample:
+    keep_renderer_alive()
+    cfg = config.aerial
+    episode = plan_aerial_episode(cfg, seed, index, attempt)
+    volume = episode.volume
+    values = sample_aerial_scene(
+        config, seed, index, volume.layout, volume.height, len(episode.agents), attempt
+    )
+    scene = build_aerial_scene(config, episode, values)
+    times = frame_times(episode.duration, cfg.frame_rate_hz)
+    parts, frames, poses, states = render_frames(config, episode, scene, times)
+    level = config.output.png_level
+    parts["map.png"] = png_bytes(top_down(volume, episode.agents)[..., ::-1].copy(), level)
+    parts["side.png"] = png_bytes(side_view(volume, episode.agents)[..., ::-1].copy(), level)
+    buffer = io.BytesIO()
+    np.savez_compressed(buffer, occupancy=np.packbits(volume.occupancy, axis=None),
+                        shape=np.asarray(volume.shape), resolution=np.float64(volume.resolution))  # fmt: skip
+    parts["occupancy.npz"] = buffer.getvalue()
+    for name, lines in poses.items():
+        parts[f"poses.{name}.txt"] = ("\n".join(lines) + "\n").encode()
+    agents = []
+    for k, (agent, limits) in enumerate(zip(episode.agents, episode.limits, strict=True)):
+        flown = flown_length(agent)
+        shortest = path_lower_bound(volume, agent, limits, cfg.goal_tolerance)
+        success = bool(
+            frames[-1]["agents"][k]["arrived"]
+            and not any(r["agents"][k]["collision"] for r in frames)
+        )
+        agents.append({
+            "span_m": episode.shapes[k].span, "radius_m": round(limits.radius, 6),
+            "start": _r(agent.start), "goal": _r(agent.goal), "take_off_s": round(agent.take_off, 6),
+            "flight_s": round(agent.flight.duration, 6), "waypoints": _r(agent.flight.waypoints, 5),
+            "slow_down": round(agent.flight.slow_down, 6), "midpoints": agent.flight.splits,
+            "success": success, "path_length_m": round(flown, 6), "shortest_path_m": round(shortest, 6),
+            "spl": round(float(success) * shortest / max(flown, shortest, 1e-9), 6),
+            "max_speed": round(float(np.linalg.norm(states[k].velocity, axis=1).max()), 6),
+            "altitude_m": [round(float(states[k].position[:, 2].min()), 6), round(float(states[k].position[:, 2].max()), 6)],
+        })  # fmt: skip
+    r = config.render
+    metadata = {
+        "format": AERIAL_FORMAT, "key": sample_key(index), "index": index, "seed": seed,
+        "scene": config.scene, "family": cfg.family, "classes": list(AERIAL_CLASSES),
+        "things": [{"instance_id": t.instance_id, "class": t.class_name, "name": t.name} for t in scene.things],
+        "episode": {
+            # the episode as a whole (what inspect, the monitor and the exports read): every drone
+            # arrived without a collision; SPL and lengths averaged over the drones
+            "success": all(a["success"] for a in agents),
+            "spl": round(float(np.mean([a["spl"] for a in agents])), 6),
+            "path_length_m": round(float(np.mean([a["path_length_m"] for a in agents])), 6),
+            "shortest_path_m": round(float(np.mean([a["shortest_path_m"] for a in agents])), 6),
+            "duration_s": round(episode.duration, 6), "frames": len(times), "attempt": episode.attempt,
+            "agents": agents,
+            "volume": {"height": volume.height, "resolution": volume.resolution, "shape": list(volume.shape),
+                       "solids": [{"kind": s.kind, "box": list(s.box)} for s in volume.solids],
+                       "params": volume.params,
+                       "layout": {"family": volume.layout.family, "walls": [list(w) for w in volume.layout.walls],
+                                  "params": volume.layout.params}},
+        },
+        "cameras": {name: {"width": r.width, "height": r.height, "fovy_deg": round(math.degrees(cam.fovy), 6),
+                           "near": r.near, "far": r.far, "intrinsics": _r(cam.get_intrinsic_matrix()),
+                           "camera_in_body": _r(scene.camera_in_body[name], 7), "convention": "opencv",
+                           "depth_scale": DEPTH_SCALE, "drone": int(name[1:].split("_")[0])}
+                    for name, cam in scene.cameras.items()},
+        "poses_convention": POSE_CONVENTION,
+        "frames": frames,
+        "randomisation": values,
+    }  # fmt: skip
+    parts["json"] = metadata_bytes(metadata)
+    return Sample(index, parts)

@@ -1,0 +1,85 @@
+"""Expert flights (datagen/aerial/planning.py, fleet.py, episode.py): collision-free at their
+clearance, smooth, within the limits, never shorter than the episode's lower bound, and the
+drones of one episode never closer than two radii and a margin."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from datagen.aerial.episode import flown_length, path_lower_bound, plan_aerial_episode
+from datagen.aerial.fleet import closest_approach, separation
+from datagen.aerial.volumes import box_distance
+from datagen.config import config_from_dict
+
+DT = 0.005  # seconds: finer than the planner's own checks
+
+
+def _config(family: str, drones: int):
+    return config_from_dict(
+        {"scene": "aerial", "aerial": {"family": family, "drones": drones}}
+    ).aerial
+
+
+@pytest.fixture(scope="module", params=[("corridor", 1, 0), ("maze", 1, 1), ("rooms", 2, 2), ("corridor", 3, 3)],
+                ids=lambda p: f"{p[0]}-{p[1]}-drones-{p[2]}")  # fmt: skip
+def episode(request):
+    family, drones, index = request.param
+    cfg = _config(family, drones)
+    return cfg, plan_aerial_episode(cfg, 7, index)
+
+
+def test_every_flight_keeps_its_clearance_from_every_solid(episode):
+    _, ep = episode
+    boxes = ep.volume.boxes()
+    for agent, limits in zip(ep.agents, ep.limits, strict=True):
+        t = np.append(np.arange(0.0, agent.flight.duration, DT), agent.flight.duration)
+        gaps = box_distance(agent.flight.path.evaluate(t), boxes)
+        assert gaps.min() >= limits.trajectory_clearance - 1e-6
+        assert np.allclose(
+            agent.flight.path.evaluate([0.0, agent.flight.duration]), [agent.start, agent.goal]
+        )
+
+
+def test_flights_are_smooth_and_within_their_limits(episode):
+    cfg, ep = episode
+    for agent in ep.agents:
+        flight = agent.flight
+        t = np.append(np.arange(0.0, flight.duration, DT), flight.duration)
+        s = flight.states(t)
+        assert np.linalg.norm(s.velocity, axis=1).max() <= cfg.max_speed + 1e-6
+        assert cfg.min_thrust - 1e-6 <= s.thrust.min() and s.thrust.max() <= cfg.max_thrust + 1e-6
+        assert np.linalg.norm(s.body_rates, axis=1).max() <= cfg.max_body_rate + 1e-6
+        # continuous: no jump between samples larger than the next derivative allows
+        for value, rate in (
+            (s.position, s.velocity),
+            (s.velocity, s.acceleration),
+            (s.acceleration, s.jerk),
+        ):
+            bound = np.abs(rate).max() * DT * 1.01 + 1e-9
+            assert np.abs(np.diff(value, axis=0)).max() <= bound
+        assert np.allclose(s.velocity[[0, -1]], 0.0, atol=1e-9)
+
+
+def test_no_flight_is_shorter_than_the_lower_bound(episode):
+    cfg, ep = episode
+    for agent, limits in zip(ep.agents, ep.limits, strict=True):
+        bound = path_lower_bound(ep.volume, agent, limits, cfg.goal_tolerance)
+        straight = max(np.linalg.norm(agent.goal - agent.start) - cfg.goal_tolerance, 0.0)
+        assert straight - 1e-6 <= bound <= flown_length(agent)
+
+
+def test_drones_never_come_closer_than_two_radii_and_a_margin(episode):
+    _, ep = episode
+    for i, a in enumerate(ep.agents):
+        for j in range(i):
+            apart = separation(ep.limits[i], ep.limits[j])
+            assert closest_approach(a, ep.agents[j], ep.duration) >= apart - 1e-9
+            assert np.linalg.norm(a.goal - ep.agents[j].goal) >= apart
+
+
+def test_the_same_episode_is_drawn_from_the_same_seed_and_index():
+    cfg = _config("maze", 2)
+    a, b = plan_aerial_episode(cfg, 3, 4), plan_aerial_episode(cfg, 3, 4)
+    assert all(np.array_equal(x.flight.waypoints, y.flight.waypoints) and x.take_off == y.take_off
+               for x, y in zip(a.agents, b.agents, strict=True))  # fmt: skip
