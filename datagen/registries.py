@@ -330,6 +330,7 @@ LAYOUTS: Registry[LayoutKind] = Registry("layout family", "datagen.layouts", [
     LayoutKind("rooms", "datagen.navigation.layouts:rooms", "datagen.navigation.layouts:RoomsParams"),
     LayoutKind("corridor", "datagen.navigation.layouts:corridor", "datagen.navigation.layouts:CorridorParams"),
     LayoutKind("maze", "datagen.navigation.layouts:maze", "datagen.navigation.layouts:MazeParams"),
+    LayoutKind("plus_maze", "datagen.navigation.layouts:plus_maze", "datagen.navigation.layouts:PlusMazeParams"),
 ])  # fmt: skip
 
 ROBOTS: Registry[RobotKind] = Registry("robot", "datagen.robots", [

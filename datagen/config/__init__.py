@@ -238,6 +238,10 @@ def _check_semantics(config: BuildConfig, source: str) -> None:
     if family.world == "tabletop":
         robot_spec(config.robot, source)
     LAYOUTS.check(config.navigation.family, f"{source}: navigation.family")
+    if config.navigation.robot not in ("fetch", "car"):
+        raise ConfigError(
+            f"{source}: navigation.robot: expected 'fetch' or 'car', got {config.navigation.robot!r}"
+        )
     LAYOUTS.check(config.aerial.family, f"{source}: aerial.family")
     _check_aerial_camera(config, source)
     _check_sinks(list(config.output.sinks), family, source)

@@ -218,6 +218,10 @@ class NavigationConfig:
     """Navigation episodes (scene ``navigation``): Fetch drives from a start to a goal."""
 
     family: str = "rooms"
+    robot: str = "fetch"  # "fetch" (differential drive) or "car" (Ackermann steering)
+    max_steering_deg: float = field(
+        default=30.0, metadata=_range(5.0, 60.0, "a car's steering limit, degrees")
+    )
     clutter: tuple[int, int] | None = field(
         default=None, metadata=_range(0, 40, "obstacles placed in the layout (None: per family)")
     )

@@ -14,7 +14,7 @@ it, per camera. Which samples hold one, and how they map:
   after the hold off the rate's grid, is left out.
 - a navigation episode (scene ``navigation``): its frames at ``navigation.frame_rate_hz``,
   camera ``head`` with depth; state: x, y (m), yaw (rad); action: the commanded linear (m/s) and
-  angular (rad/s) velocity. The final frame, rendered at the goal off the rate's grid, is left
+  angular (rad/s) velocity (Fetch) or steering angle (rad, the car). The final frame, rendered at the goal off the rate's grid, is left
   out when it is off the grid.
 - an aerial episode (scene ``aerial``): one episode per drone (key ``<sample>.d<k>``), its frames
   at ``aerial.frame_rate_hz`` from its cameras, named by role (``forward``: part ``d<k>``;
@@ -57,6 +57,7 @@ class Episode:
     depth: dict[str, list[str]] = field(default_factory=dict)  # camera -> 16-bit mm PNG parts
     extras: dict[str, np.ndarray] = field(default_factory=dict)  # name -> (T, ...) per frame
     extra_names: dict[str, list[str]] = field(default_factory=dict)  # its columns, if named
+    robot: str = ""  # the robot of a navigation episode ("fetch", "car"); "" where the kind says
 
     @property
     def length(self) -> int:
@@ -201,11 +202,13 @@ def _navigation(meta: dict[str, Any], fps: float) -> Episode:
         key=meta["key"],
         kind="navigation",
         task=f"drive to the goal through the {_words(meta['family'])}",
+        robot=str(meta["robot"].get("name", "")),
         fps=fps,
         state=np.array([r["pose"] for r in records], np.float32),
         state_names=["x", "y", "yaw"],
         action=np.array([r["command"] for r in records], np.float32),
-        action_names=["linear_m_s", "angular_rad_s"],
+        # (v, w) for Fetch, (v, steering angle) for the car
+        action_names=list(meta["robot"].get("commands", ["linear_m_s", "angular_rad_s"])),
         success=bool(meta["episode"]["success"]),
         cameras={"head": [f"{v.prefix}rgb.png" for v in views]},
         depth={"head": [f"{v.prefix}depth.png" for v in views]},

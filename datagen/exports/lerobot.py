@@ -110,7 +110,9 @@ class _Writer:
         self.out, self.fps = out, _fps(first)
         self.features = _features(first, raw, self.fps)
         robot = manifest.get("config", {}).get("robot", {}).get("name")
-        self.robot_type = robot if first.kind == "grasp" else ROBOT_OF_KIND[first.kind]
+        self.robot_type = (
+            robot if first.kind == "grasp" else first.robot or ROBOT_OF_KIND[first.kind]
+        )
         self.first = first
         self.data = meta.ParquetFiles(
             out, "data", meta.data_schema(self.features), meta.DATA_FILE_MB * MB

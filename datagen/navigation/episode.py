@@ -13,6 +13,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from datagen.config.sections import NavigationConfig
+from datagen.navigation.ackermann import CarParams, follow_ackermann
 from datagen.navigation.follow import FollowParams, Trajectory, follow
 from datagen.navigation.geodesic import lower_bound_grid, shortest_length
 from datagen.navigation.grid import ClutterParams, Layout, inflate
@@ -105,17 +106,45 @@ def plan_episode(cfg: NavigationConfig, seed: int, index: int, retry: int = 0) -
     )
 
 
+ROBOTS = ("fetch", "car")
+CAR_WHEELBASE = 1.04  # a car's wheelbase, in footprint radii (its body: 1.6 x 1.0 radii)
+
+
+def car_params(cfg: NavigationConfig) -> CarParams:
+    return CarParams(
+        wheelbase=CAR_WHEELBASE * cfg.robot_radius, max_steer=math.radians(cfg.max_steering_deg),
+        lookahead=cfg.lookahead, max_linear=cfg.max_linear, rate_hz=cfg.control_rate_hz,
+        robot_radius=cfg.robot_radius,
+    )  # fmt: skip
+
+
+def _arm_ends(rng: np.random.Generator, layout: Layout) -> tuple[tuple[int, int], tuple[int, int]]:
+    """A start and a goal at the ends of two different arms of a plus maze (cells)."""
+    ends = layout.params["arm_ends"]
+    a, b = rng.choice(len(ends), size=2, replace=False)
+    cell = lambda p: (int(p[1] / layout.resolution), int(p[0] / layout.resolution))  # noqa: E731
+    return cell(ends[a]), cell(ends[b])
+
+
 def _plan_task(cfg: NavigationConfig, layout: Layout, rng: np.random.Generator) -> Episode:
     inflation = cfg.robot_radius + cfg.planning_margin
-    start, goal = sample_start_goal(rng, layout, inflation, cfg.min_goal_distance)
+    if "arm_ends" in layout.params:  # the four-arm maze: from one arm's end to another's
+        start, goal = _arm_ends(rng, layout)
+    else:
+        start, goal = sample_start_goal(rng, layout, inflation, cfg.min_goal_distance)
     occupied = inflate(layout.grid, inflation, layout.resolution)
     cells = astar(occupied, start, goal)
     if cells is None:  # sample_start_goal only returns connected pairs
         raise PlanningError(f"A* found no path from {start} to {goal} in a connected component")
     path = path_to_world(smooth_path(occupied, cells), layout.resolution)
     yaw = float(rng.uniform(-math.pi, math.pi))
-    params = follow_params(cfg)
-    trajectory = follow(path, yaw, params, layout)
+    if cfg.robot == "car":  # a car cannot turn on the spot: it starts along the path
+        params = car_params(cfg)
+        trajectory = follow_ackermann(path, params, layout)
+        yaw = float(trajectory.poses[0, 2])
+    else:
+        params = follow_params(cfg)
+        trajectory = follow(path, yaw, params, layout)
     start_xy, goal_xy = path[0], path[-1]
     step = params.max_linear / params.rate_hz  # metres: the longest move between two poses
     lower = lower_bound_grid(layout.grid, layout.resolution, cfg.robot_radius, step)

@@ -50,6 +50,17 @@ class MazeParams:
     clutter: ClutterParams = field(default_factory=lambda: ClutterParams(count=(1, 4)))
 
 
+@dataclass
+class PlusMazeParams:
+    """The four-arm maze of the Neurorobotics Platform's car experiment: four equal arms."""
+
+    resolution: float = 0.05
+    wall_thickness: float = 0.15
+    arm_length: tuple[float, float] = (3.0, 4.0)  # junction centre to an arm's end, metres
+    arm_width: tuple[float, float] = (1.4, 1.8)  # metres: wide enough for a car to turn in
+    clutter: ClutterParams = field(default_factory=lambda: ClutterParams(count=(0, 0)))
+
+
 def _r(v: float) -> float:
     return round(float(v), 4)
 
@@ -211,6 +222,25 @@ def maze(rng: np.random.Generator, params: MazeParams | None = None) -> Layout:
         arms.append({"length": _r(length), "width": _r(width), "stub": stub})
     grid, _ = _carve(free, p.resolution, p.wall_thickness)
     return _finish(rng, "maze", grid, p.resolution, [], p, {"arms": arms})
+
+
+def plus_maze(rng: np.random.Generator, params: PlusMazeParams | None = None) -> Layout:
+    """A plus-shaped four-arm maze: four arms of one length and one width from a central
+    junction, no side branches; the arms' ends are in ``params["arm_ends"]`` (x, y, metres)."""
+    p = params or PlusMazeParams()
+    length, width = _r(rng.uniform(*p.arm_length)), _r(rng.uniform(*p.arm_width))
+    directions = [np.array(d) for d in ((1.0, 0.0), (0.0, 1.0), (-1.0, 0.0), (0.0, -1.0))]
+    free = [_leg_rect(np.zeros(2), d * (length - width / 2), width / 2) for d in directions]
+    grid, shifted = _carve(free, p.resolution, p.wall_thickness)
+    centre = np.array([shifted[2][0] + length, shifted[3][1] + length])  # the junction
+    ends = [[_r(v) for v in centre + d * (length - width / 2)] for d in directions]
+    sampled = {
+        "arm_length": length,
+        "arm_width": width,
+        "junction": [_r(v) for v in centre],
+        "arm_ends": ends,
+    }
+    return _finish(rng, "plus_maze", grid, p.resolution, [], p, sampled)
 
 
 def make_layout(family: str, rng: np.random.Generator, params=None) -> Layout:

@@ -95,19 +95,26 @@ def sample_nav_scene(
         for _ in layout.obstacles
     ]
     camera_rng = sample_rng(seed, index, "nav_camera", attempt)
+    materials = texture_surfaces(
+        sample_rng(seed, index, "nav_textures", attempt),
+        config.materials,
+        sample_nav_materials(
+            sample_rng(seed, index, "nav_materials", attempt), config, len(obstacles)
+        ),
+        TEXTURED_SURFACES,
+    )
+    if nav.robot == "car":  # from a stream of its own: Fetch's episodes keep their values
+        car_rng = sample_rng(seed, index, "nav_car", attempt)
+        materials["car"] = {
+            part: random_material(car_rng, config.materials, config.materials.saturation, value)
+            for part, value in (("body", (0.4, 1.0)), ("wheels", (0.05, 0.2)), ("mast", (0.1, 0.4)))
+        }
     return {
         "wall_height": wall_height,
         "door_top": round(min(wall_height - 0.1, _u(geometry_rng, (1.95, 2.15))), 6),
         "obstacles": obstacles,
         # textures from a stream of their own: probability 0 leaves the materials as they were
-        "materials": texture_surfaces(
-            sample_rng(seed, index, "nav_textures", attempt),
-            config.materials,
-            sample_nav_materials(
-                sample_rng(seed, index, "nav_materials", attempt), config, len(obstacles)
-            ),
-            TEXTURED_SURFACES,
-        ),
+        "materials": materials,
         "lighting": sample_nav_lighting(
             sample_rng(seed, index, "nav_lighting", attempt), config, layout, wall_height
         ),

@@ -17,7 +17,7 @@ from scipy import ndimage
 from datagen.config import BuildConfig
 from datagen.engines.sim.encode import View, encode_view, metadata_bytes, png_bytes
 from datagen.engines.sim.render import DEPTH_SCALE, capture, keep_renderer_alive
-from datagen.navigation.episode import Episode, frame_steps, plan_episode
+from datagen.navigation.episode import Episode, car_params, frame_steps, plan_episode
 from datagen.navigation.grid import inflate
 from datagen.navigation.map_image import episode_map, occupancy_image
 from datagen.randomisers.floorplan_scene import sample_nav_scene
@@ -44,7 +44,7 @@ def _things_in_view(scene: NavScene, instance: np.ndarray) -> list[dict[str, Any
     slices = ndimage.find_objects(instance)
     for thing in scene.things:
         box = slices[thing.instance_id - 1] if thing.instance_id <= len(slices) else None
-        if box is None or thing.class_name == "robot":
+        if box is None or thing.class_name in ("robot", "car"):  # the robot itself
             continue
         rows, cols = box
         out.append({
@@ -71,7 +71,9 @@ def render_episode(
     camera_in_robot = None
     for k, step in enumerate(steps):
         x, y, yaw = (float(v) for v in traj.poses[step])
-        scene.set_base(x, y, yaw)
+        command = traj.commands[step] if step < len(traj.commands) else (0.0, 0.0)
+        steer = float(command[1]) if config.navigation.robot == "car" else 0.0
+        scene.set_base(x, y, yaw, steer)
         scene.scene.update_render()
         frame = capture(scene.camera)
         instance, semantic = scene.label_maps(frame.entity_ids)
@@ -82,7 +84,6 @@ def render_episode(
                 frame.extrinsics
             )
             intrinsics = frame.intrinsics
-        command = traj.commands[step] if step < len(traj.commands) else (0.0, 0.0)
         records.append({
             "frame": k,
             "step": step,
@@ -147,6 +148,26 @@ def episode_record(config: BuildConfig, episode: Episode, steps: list[int]) -> d
     }
 
 
+def _robot_record(config: BuildConfig, scene: NavScene) -> dict[str, Any]:
+    nav = config.navigation
+    if nav.robot == "car":
+        params = car_params(nav)
+        return {
+            "name": "car", "radius": nav.robot_radius, "wheelbase_m": round(params.wheelbase, 6),
+            "max_steering_deg": nav.max_steering_deg,
+            "min_turning_radius_m": round(params.min_turning_radius, 6),
+            "commands": ["linear_m_s", "steering_rad"],
+        }  # fmt: skip
+    return {
+        "name": "fetch",
+        "description": f"mani_skill/assets/{FETCH}",
+        "radius": nav.robot_radius,
+        "qpos_fixed": _round(scene.robot.get_qpos()[3:]),
+        "joints": [j.name for j in scene.robot.get_active_joints()],
+        "commands": ["linear_m_s", "angular_rad_s"],
+    }
+
+
 def produce(config: BuildConfig, seed: int, index: int, attempt: int = 0) -> Sample:
     keep_renderer_alive()
     nav = config.navigation
@@ -175,13 +196,7 @@ def produce(config: BuildConfig, seed: int, index: int, attempt: int = 0) -> Sam
         "episode": episode_record(config, episode, steps),
         "camera": camera,
         "frames": frames,
-        "robot": {
-            "name": "fetch",
-            "description": f"mani_skill/assets/{FETCH}",
-            "radius": nav.robot_radius,
-            "qpos_fixed": _round(scene.robot.get_qpos()[3:]),
-            "joints": [j.name for j in scene.robot.get_active_joints()],
-        },
+        "robot": _robot_record(config, scene),
         "randomisation": values,
     }
     parts["json"] = metadata_bytes(metadata)

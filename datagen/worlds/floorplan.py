@@ -19,12 +19,13 @@ from datagen.config import BuildConfig
 from datagen.engines.sim.cameras import add_camera
 from datagen.navigation.episode import Episode
 from datagen.robot_specs import maniskill_asset
+from datagen.worlds.car import CarBody, build_car, camera_pose
 from datagen.worlds.realise import apply_lighting, light_slots, pad_lights
 from datagen.worlds.robots import FETCH, load_robot
 from datagen.worlds.surfaces import box_entity, render_material
 
 # Semantic classes; 0 is background (nothing rendered).
-NAV_CLASSES = ("background", "floor", "wall", "door", "obstacle", "goal_marker", "robot")
+NAV_CLASSES = ("background", "floor", "wall", "door", "obstacle", "goal_marker", "robot", "car")
 NAV_CLASS_ID = {name: i for i, name in enumerate(NAV_CLASSES)}
 
 
@@ -67,12 +68,16 @@ class Thing:
 class NavScene:
     scene: sapien.Scene
     camera: sapien.render.RenderCameraComponent
-    robot: sapien.physx.PhysxArticulation
+    robot: sapien.physx.PhysxArticulation | CarBody  # Fetch, or the car
     things: list[Thing]
     instance_lut: np.ndarray  # per_scene_id -> instance id (uint16); walls and floor are 0
     class_lut: np.ndarray  # per_scene_id -> semantic class id (uint8)
 
-    def set_base(self, x: float, y: float, yaw: float) -> None:
+    def set_base(self, x: float, y: float, yaw: float, steer: float = 0.0) -> None:
+        """The robot at (x, y, yaw); a car's front wheels turned for ``steer`` (radians)."""
+        if isinstance(self.robot, CarBody):
+            self.robot.set_base(x, y, yaw, steer)
+            return
         qpos = self.robot.get_qpos()
         qpos[:3] = (x, y, yaw)
         self.robot.set_qpos(qpos)
@@ -183,8 +188,21 @@ def build_nav_scene(config: BuildConfig, episode: Episode, values: dict[str, Any
     )
     walls, doors = _walls_and_doors(scene, episode, values)
     things = [*_obstacles(scene, episode, values), *doors, _goal_marker(scene, episode, values)]
-    robot = _fetch(scene, values["camera"], config.render.robot_triangles)
-    things.append(Thing(0, "robot", "fetch", [link.entity for link in robot.get_links()]))
+    r, cam = config.render, values["camera"]
+    fovy = math.radians(cam["fovy_deg"])
+    robot: sapien.physx.PhysxArticulation | CarBody
+    if config.navigation.robot == "car":
+        robot = build_car(scene, config.navigation.robot_radius, values["materials"]["car"])
+        things.append(Thing(0, "car", "car", robot.entities))
+        pose = camera_pose(config.navigation.robot_radius, cam["pitch_deg"])
+        camera = add_camera(
+            scene, "head", r.width, r.height, fovy, r.near, r.far, robot.chassis, pose
+        )
+    else:
+        robot = _fetch(scene, values["camera"], config.render.robot_triangles)
+        things.append(Thing(0, "robot", "fetch", [link.entity for link in robot.get_links()]))
+        head = next(link for link in robot.get_links() if link.name == CAMERA_LINK)
+        camera = add_camera(scene, "head", r.width, r.height, fovy, r.near, r.far, head.entity)
     for i, thing in enumerate(things):
         thing.instance_id = i + 1
 
@@ -203,8 +221,4 @@ def build_nav_scene(config: BuildConfig, episode: Episode, values: dict[str, Any
     apply_lighting(scene, values["lighting"], config.render.shadow_map_size)
     # a key light and ceiling point lights (randomisers/floorplan_scene.py)
     pad_lights(scene, light_slots(0, max(config.lighting.lights[1], 1) - 1))
-    r, cam = config.render, values["camera"]
-    head = next(link for link in robot.get_links() if link.name == CAMERA_LINK)
-    fovy = math.radians(cam["fovy_deg"])
-    camera = add_camera(scene, "head", r.width, r.height, fovy, r.near, r.far, head.entity)
     return NavScene(scene, camera, robot, things, instance_lut, class_lut)

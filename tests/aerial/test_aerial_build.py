@@ -69,6 +69,18 @@ def test_loads_as_episodes_and_as_frames(aerial_dataset):
     assert first["view"] == "d0" and first["flow"].shape == (72, 96, 2)
 
 
+def test_the_monitors_thumbnail_is_the_episodes_map(aerial_dataset):
+    from datagen.pipeline.live_preview import sample_outcome, thumbnail
+    from datagen.sample import Sample
+
+    dataset = load(aerial_dataset)
+    sample = Sample(0, dataset.raw(0))
+    image = thumbnail(sample, width=200)
+    assert image is not None and image.shape[1] == 200
+    outcome = sample_outcome(sample)
+    assert outcome["kind"] == "navigation" and outcome["success"] and 0 < outcome["spl"] <= 1
+
+
 def test_inspect_and_preview(aerial_dataset, tmp_path):
     root = tmp_path / "copy"
     shutil.copytree(aerial_dataset, root)
@@ -83,7 +95,7 @@ def test_inspect_and_preview(aerial_dataset, tmp_path):
 def test_exports_to_hdf5_coco_and_robomimic(aerial_dataset, tmp_path):
     root = tmp_path / "copy"
     shutil.copytree(aerial_dataset, root)
-    run_exports(root, ["hdf5", "coco", "robomimic"])
+    run_exports(root, ["hdf5", "coco", "robomimic", "pointcloud"])
     episodes = load(root)
     with h5py.File(root / "episodes.h5", "r") as f:
         for i in range(len(episodes)):
@@ -99,6 +111,14 @@ def test_exports_to_hdf5_coco_and_robomimic(aerial_dataset, tmp_path):
     assert len(coco.getImgIds()) == len(frames)
     drones = [c["id"] for c in coco.dataset["categories"] if c["name"] == "drone"]
     assert drones and coco.getAnnIds(catIds=drones)  # the drones see each other
+    import open3d as o3d
+
+    for key in episodes.keys:  # every camera's frames, fused in the world: inside the volume
+        cloud = o3d.t.io.read_point_cloud(str(root / "pointclouds" / f"{key}.ply"))
+        points = cloud.point.positions.numpy()
+        shape = episodes.metadata(episodes.keys.index(key))["episode"]["volume"]["shape"]
+        assert len(points) > 0 and points[:, 2].min() > -0.01
+        assert points[:, 2].max() < shape[0] * 0.1 + 0.11  # below the ceiling slab's top
     with h5py.File(root / "robomimic" / "demo.hdf5", "r") as f:
         demos = sorted(f["data"])
         assert len(demos) == 4  # one per drone and episode

@@ -1,0 +1,106 @@
+"""Pure-pursuit path following for a car-like robot with Ackermann steering (the kinematic bicycle
+model), simulated at a fixed control rate, forward only.
+
+State (x, y, yaw) at the rear axle's centre; command (v m/s, δ rad, the steering angle of the
+virtual middle front wheel). Over one step both are constant, so the car drives an arc of
+curvature ``tan(δ) / wheelbase`` exactly (integrated in closed form): with ``|δ| <= max_steer``
+it never turns tighter than ``wheelbase / tan(max_steer)`` (``CarParams.min_turning_radius``).
+Pure pursuit picks the curvature of the arc through the look-ahead point, ``2 sin(α) / d``, and
+clamps the steering it needs. A car cannot turn on the spot: the episode starts heading along the
+path's first leg.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from datagen.navigation.follow import Trajectory, _progress, _wrap
+from datagen.navigation.grid import Layout
+from datagen.navigation.planning import footprint_collides
+
+
+@dataclass(frozen=True)
+class CarParams:
+    wheelbase: float  # metres between the axles
+    max_steer: float  # radians
+    lookahead: float = 0.6  # metres along the path ahead of the closest point
+    max_linear: float = 0.6  # m/s
+    rate_hz: float = 10.0  # control rate
+    goal_tolerance: float = 0.2  # metres
+    robot_radius: float = 0.3  # footprint disk for the collision flag, metres
+
+    @property
+    def min_turning_radius(self) -> float:
+        """Metres: the tightest arc the car drives (its rear axle's centre)."""
+        return self.wheelbase / math.tan(self.max_steer)
+
+
+def _arc(x: float, y: float, yaw: float, v: float, steer: float, wheelbase: float, dt: float):
+    """The pose after driving ``v * dt`` metres along the arc of the steering angle."""
+    curvature = math.tan(steer) / wheelbase
+    distance = v * dt
+    if abs(curvature) < 1e-9:
+        return x + distance * math.cos(yaw), y + distance * math.sin(yaw), yaw
+    turned = yaw + curvature * distance
+    return (
+        x + (math.sin(turned) - math.sin(yaw)) / curvature,
+        y - (math.cos(turned) - math.cos(yaw)) / curvature,
+        _wrap(turned),
+    )
+
+
+def follow_ackermann(path_world, params: CarParams, layout: Layout | None = None) -> Trajectory:
+    """Drive from the path's first point, heading along its first leg, to its last; commands are
+    (v, steering angle). Collisions are checked against ``layout.grid`` when a layout is given."""
+    p = params
+    path = np.asarray(path_world, dtype=float).reshape(-1, 2)
+    if len(path) == 1:
+        path = np.vstack([path, path])
+    s_cum = np.concatenate([[0.0], np.cumsum(np.hypot(*np.diff(path, axis=0).T))])
+    goal, total, dt = path[-1], s_cum[-1], 1.0 / p.rate_hz
+    max_steps = math.ceil((3 * total / p.max_linear + 20.0) / dt)
+    first = path[1] - path[0]
+    x, y, yaw = float(path[0, 0]), float(path[0, 1]), math.atan2(first[1], first[0])
+    s_prev = 0.0
+    poses, cmds, dist, rel, coll = [], [], [], [], []
+    success = False
+    while True:
+        dx, dy = goal[0] - x, goal[1] - y
+        poses.append((x, y, yaw))
+        dist.append(math.hypot(dx, dy))
+        rel.append(
+            (math.cos(yaw) * dx + math.sin(yaw) * dy, -math.sin(yaw) * dx + math.cos(yaw) * dy)
+        )
+        coll.append(
+            layout is not None
+            and footprint_collides(layout.grid, layout.resolution, x, y, p.robot_radius)
+        )
+        if dist[-1] <= p.goal_tolerance:
+            success = True
+            break
+        if len(cmds) >= max_steps:
+            break
+        s_prev = _progress(path, s_cum, np.array([x, y]), s_prev, 2 * p.lookahead + 0.5)
+        s_target = min(s_prev + p.lookahead, total)
+        target = np.array(
+            [np.interp(s_target, s_cum, path[:, 0]), np.interp(s_target, s_cum, path[:, 1])]
+        )
+        reach = max(math.hypot(target[0] - x, target[1] - y), 1e-6)
+        alpha = _wrap(math.atan2(target[1] - y, target[0] - x) - yaw)
+        steer = math.atan(p.wheelbase * 2.0 * math.sin(alpha) / reach)
+        steer = max(-p.max_steer, min(p.max_steer, steer))
+        v = min(p.max_linear, max(0.1, dist[-1]))  # slow down near the goal
+        cmds.append((v, steer))
+        x, y, yaw = _arc(x, y, yaw, v, steer, p.wheelbase, dt)
+    return Trajectory(
+        poses=np.array(poses),
+        commands=np.array(cmds).reshape(-1, 2),
+        distance_to_goal=np.array(dist),
+        goal_in_robot=np.array(rel),
+        collision=np.array(coll, dtype=bool),
+        success=success,
+        dt=dt,
+    )
