@@ -1,6 +1,6 @@
 """Episode builds: episodes/s and frames/s of the whole pipeline for each shipped episode config
-(Fetch in rooms, corridors and mazes; the car in the four-arm maze; drones in corridors, mazes and
-rooms), and the plain in-process episode loop on the same episodes for comparison.
+(Fetch in rooms, corridors and mazes; three Fetch robots at once in rooms; the car in the
+four-arm maze; drones in corridors, mazes and rooms), and the plain in-process episode loop on the same episodes for comparison.
 
     .venv/bin/python benchmarks/nav_throughput.py                  # 30 episodes per config
     .venv/bin/python benchmarks/nav_throughput.py --episodes 6     # quick
@@ -34,7 +34,7 @@ from datagen.pipeline.run import run_build
 from datagen.registries import FAMILIES
 
 REPO = Path(__file__).resolve().parents[1]
-CONFIGS = ("nav_rooms", "nav_corridor", "nav_maze", "nav_plus_maze_car",
+CONFIGS = ("nav_rooms", "nav_corridor", "nav_maze", "nav_plus_maze_car", "nav_rooms_fleet",
            "aerial_corridor", "aerial_maze", "aerial_rooms")  # fmt: skip
 
 

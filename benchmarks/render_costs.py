@@ -88,9 +88,9 @@ def robot_triangles(config, scenes: int) -> dict:
 
 def shadow_filter(config, scenes: int) -> dict:
     import numpy as np
-    import sapien
 
     from datagen.engines.sim import shader_pack
+    from datagen.engines.sim.cameras import twin_camera
     from datagen.worlds.tabletop import build_scene
 
     ms: dict[str, list[float]] = {"sapien (25 taps)": [], "datagen (9 taps)": []}
@@ -98,15 +98,7 @@ def shadow_filter(config, scenes: int) -> dict:
     for index in range(scenes):
         scene = build_scene(config, config.seed, index)
         ours = scene.cameras["workspace"]
-        theirs = sapien.render.RenderCameraComponent(
-            ours.width, ours.height, str(shader_pack.SAPIEN_SHADERS / "default")
-        )
-        theirs.set_fovy(ours.fovy, compute_x=True)
-        theirs.near, theirs.far = ours.near, ours.far
-        mount = sapien.Entity()
-        mount.add_component(theirs)
-        scene.scene.add_entity(mount)
-        mount.set_pose(ours.entity.pose)
+        theirs = twin_camera(scene.scene, ours, str(shader_pack.SAPIEN_SHADERS / "default"))
         scene.scene.update_render()
         pictures = []
         for name, camera in (("sapien (25 taps)", theirs), ("datagen (9 taps)", ours)):

@@ -161,8 +161,8 @@ class FrameRecord(TypedDict, total=False):
     collision: bool
     extrinsics_world_to_camera: Matrix  # navigation
     things: list[LabelledInstance]  # navigation: those the frame sees, with their boxes
-    agents: list[dict[str, Any]]  # aerial: per drone, its state (docs/aerial.md)
-    cameras: dict[str, CameraFrameRecord]  # aerial: per camera
+    agents: list[dict[str, Any]]  # aerial, fleets: per drone or robot, its state (docs/)
+    cameras: dict[str, CameraFrameRecord]  # aerial, fleets: per camera
 
 
 class ProductionRecord(TypedDict):
@@ -176,7 +176,8 @@ class SampleMetadata(TypedDict, total=False):
     """A sample's ``json`` part. ``format`` says which of the family-specific keys it has:
     ``datagen.sample/1`` (``objects``, ``views``, and ``attempt`` for a grasp attempt) or
     ``datagen.nav_episode/1`` (``family``, ``things``, ``episode``, ``camera``, ``frames``) or
-    ``datagen.aerial_episode/1`` (the same, with ``cameras`` for ``camera``)."""
+    ``datagen.aerial_episode/1`` and ``datagen.nav_fleet/1`` (the same, with ``cameras`` for
+    ``camera``)."""
 
     format: Required[str]
     key: Required[str]

@@ -292,7 +292,7 @@ FAMILIES: Registry[SceneFamily] = Registry("scene family", "datagen.families", [
     ),
     SceneFamily(
         "navigation", "Fetch driving expert paths through rooms, corridors and mazes",
-        produce="datagen.scenes.navigation_episodes:produce", classes="datagen.worlds.floorplan:navigation_classes",
+        produce="datagen.scenes.navigation_fleet:produce", classes="datagen.worlds.floorplan:navigation_classes",
         section="navigation", metadata_format="datagen.nav_episode/1", world="floorplan",
         episodes=True,
     ),

@@ -59,21 +59,22 @@ def _draw(
     return picture
 
 
-def top_down(volume: Volume, agents: list[Agent]) -> np.ndarray:
-    """(H, W, 3) uint8 RGB: x to the right, y up."""
-    fraction = volume.occupancy.mean(axis=0)  # (ny, nx)
+def _projected(
+    volume: Volume, agents: list[Agent], axis: int, shown: tuple[int, int]
+) -> np.ndarray:
+    fraction = volume.occupancy.mean(axis=axis)
     scale = PIXELS_PER_METRE * volume.resolution
     picture = cv2.resize(
         _canvas(fraction), None, fx=scale, fy=scale, interpolation=cv2.INTER_NEAREST
     )
-    return _draw(picture, agents, (0, 1), volume.resolution)
+    return _draw(picture, agents, shown, volume.resolution)
+
+
+def top_down(volume: Volume, agents: list[Agent]) -> np.ndarray:
+    """(H, W, 3) uint8 RGB: x to the right, y up."""
+    return _projected(volume, agents, 0, (0, 1))
 
 
 def side_view(volume: Volume, agents: list[Agent]) -> np.ndarray:
     """(H, W, 3) uint8 RGB: x to the right, z up (looking along +y)."""
-    fraction = volume.occupancy.mean(axis=1)  # (nz, nx)
-    scale = PIXELS_PER_METRE * volume.resolution
-    picture = cv2.resize(
-        _canvas(fraction), None, fx=scale, fy=scale, interpolation=cv2.INTER_NEAREST
-    )
-    return _draw(picture, agents, (0, 2), volume.resolution)
+    return _projected(volume, agents, 1, (0, 2))

@@ -219,6 +219,7 @@ class NavigationConfig:
 
     family: str = "rooms"
     robot: str = "fetch"  # "fetch" (differential drive) or "car" (Ackermann steering)
+    robots: int = field(default=1, metadata=_range(1, 8, "robots driving at once in one episode"))
     max_steering_deg: float = field(
         default=30.0, metadata=_range(5.0, 60.0, "a car's steering limit, degrees")
     )

@@ -8,8 +8,9 @@ unprefixed parts, another camera's are prefixed by its name: ``view1.rgb.png``, 
 then any other camera by name.
 ``datagen.nav_episode/1``: a time sequence, one view per record in ``frames`` (parts
 ``f0003.rgb.png``, ...), all seen by the one camera in ``camera``.
-``datagen.aerial_episode/1``: a time sequence per camera (``cameras``: ``d0``, ``d0_down``,
-``d1``, ...), one view per frame and camera (parts ``f0003.d0.rgb.png``, ...), camera by camera.
+``datagen.aerial_episode/1`` and ``datagen.nav_fleet/1``: a time sequence per camera
+(``cameras``: ``d0``, ``d0_down``, ``d1``, ... for drones, ``r0``, ``r1``, ... for ground robots),
+one view per frame and camera (parts ``f0003.d0.rgb.png``, ...), camera by camera.
 """
 
 from __future__ import annotations
@@ -96,6 +97,7 @@ VIEW_READERS: dict[str, Callable[[SampleMetadata], Iterator[LabelledView]]] = {
     "datagen.sample/1": camera_views,
     "datagen.nav_episode/1": sequence_views,
     "datagen.aerial_episode/1": camera_sequence_views,
+    "datagen.nav_fleet/1": camera_sequence_views,
 }
 
 

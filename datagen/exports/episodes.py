@@ -16,6 +16,8 @@ it, per camera. Which samples hold one, and how they map:
   camera ``head`` with depth; state: x, y (m), yaw (rad); action: the commanded linear (m/s) and
   angular (rad/s) velocity (Fetch) or steering angle (rad, the car). The final frame, rendered at the goal off the rate's grid, is left
   out when it is off the grid.
+- a navigation episode of several robots (``navigation.robots`` > 1): one episode per robot (key
+  ``<sample>.r<k>``), as a single robot's, its camera ``r<k>`` named ``head``.
 - an aerial episode (scene ``aerial``): one episode per drone (key ``<sample>.d<k>``), its frames
   at ``aerial.frame_rate_hz`` from its cameras, named by role (``forward``: part ``d<k>``;
   ``down``: ``d<k>_down``, if built) with depth; state: position (m), attitude quaternion x, y, z, w and velocity (m/s) in the world;
@@ -113,6 +115,9 @@ def episodes_of(dataset: ExportedDataset, manifest: Manifest, i: int) -> list[Ep
     meta = dataset.metadata(i)
     if meta.get("format") == "datagen.nav_episode/1":
         return [_navigation(meta, float(manifest["config"]["navigation"]["frame_rate_hz"]))]
+    if meta.get("format") == "datagen.nav_fleet/1":
+        fps = float(manifest["config"]["navigation"]["frame_rate_hz"])
+        return [_ground_agent(meta, fps, k) for k in range(len(meta["episode"]["agents"]))]
     if meta.get("format") == "datagen.aerial_episode/1":
         fps = float(manifest["config"]["aerial"]["frame_rate_hz"])
         return [_aerial(meta, fps, k) for k in range(len(meta["episode"]["agents"]))]
@@ -267,4 +272,39 @@ def _aerial(meta: dict[str, Any], fps: float, k: int) -> Episode:
             "obstacle_gap": ["metres"],
             "collision": ["collision"],
         },
+    )
+
+
+def _ground_agent(meta: dict[str, Any], fps: float, k: int) -> Episode:
+    """Robot ``k`` of a ``datagen.nav_fleet/1`` episode, as a single robot's episode."""
+    records = [
+        r
+        for n, r in enumerate(meta["frames"])
+        if abs(float(r["time_s"]) - n / fps) <= GRID_TOLERANCE_S
+    ]
+    states = [r["agents"][k] for r in records]
+    frames = [f"f{r['frame']:04d}.r{k}" for r in records]
+    return Episode(
+        key=f"{meta['key']}.r{k}",
+        kind="navigation",
+        task=f"drive to the goal through the {_words(meta['family'])}",
+        fps=fps,
+        state=np.array([s["pose"] for s in states], np.float32),
+        state_names=["x", "y", "yaw"],
+        action=np.array([s["command"] for s in states], np.float32),
+        action_names=list(meta["robot"].get("commands", ["linear_m_s", "angular_rad_s"])),
+        success=bool(meta["episode"]["agents"][k]["success"]),
+        cameras={"head": [f"{f}.rgb.png" for f in frames]},
+        depth={"head": [f"{f}.depth.png" for f in frames]},
+        extras={
+            "goal_in_robot": np.array([s["goal_in_robot"] for s in states], np.float32),
+            "distance_to_goal": np.array([[s["distance_to_goal"]] for s in states], np.float32),
+            "collision": np.array([[s["collision"]] for s in states], np.bool_),
+        },
+        extra_names={
+            "goal_in_robot": ["x_m", "y_m"],
+            "distance_to_goal": ["metres"],
+            "collision": ["collision"],
+        },
+        robot=str(meta["robot"].get("name", "")),
     )

@@ -50,8 +50,6 @@ _FRAME_FIELDS = {  # per-frame record field -> dtype, stacked when every frame h
 }  # fmt: skip
 # whole-episode parts beside its frames
 _EPISODE_PICTURES = ("map.png", "side.png", "occupancy.png", "occupancy.npz")
-_AGENT_FIELDS = ("position", "quaternion_xyzw", "velocity", "acceleration", "body_rates", "thrust",
-                 "distance_to_goal", "goal_in_body", "obstacle_gap", "collision", "arrived")  # fmt: skip
 _FILM = re.compile(
     r"^frame\d+$"
 )  # a recorded attempt's frames: frame3.rgb.png, frame3.wrist.rgb.png
@@ -81,15 +79,17 @@ def _sequence(group: h5py.Group, raw: dict[str, bytes], views: list[LabelledView
 
 
 def _agents(group: h5py.Group, records: list[Mapping[str, Any]]) -> None:
-    """An aerial episode's per-frame agent states, stacked per drone: ``agents/<k>/<field>``."""
+    """An episode's per-frame agent states (drones, or ground robots), stacked per agent:
+    ``agents/<k>/<field>``, a nested record's fields as ``<field>_<name>`` (``imu_gyroscope``)."""
     for k in range(len(records[0]["agents"])):
         states = [r["agents"][k] for r in records]
-        for name in _AGENT_FIELDS:
-            group.create_dataset(f"agents/{k}/{name}", data=np.array([s[name] for s in states]))
-        for name in ("accelerometer", "gyroscope"):
-            group.create_dataset(
-                f"agents/{k}/imu_{name}", data=np.array([s["imu"][name] for s in states])
-            )
+        for name, value in states[0].items():
+            if isinstance(value, dict):
+                for sub in value:
+                    data = np.array([s[name][sub] for s in states])
+                    group.create_dataset(f"agents/{k}/{name}_{sub}", data=data)
+            else:
+                group.create_dataset(f"agents/{k}/{name}", data=np.array([s[name] for s in states]))
 
 
 def _cameras(group: h5py.Group, raw: dict[str, bytes]) -> None:

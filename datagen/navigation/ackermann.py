@@ -17,9 +17,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from datagen.navigation.follow import Trajectory, _progress, _wrap
+from datagen.navigation.follow import Recorder, Trajectory, _progress, _wrap, lookahead_point
 from datagen.navigation.grid import Layout
-from datagen.navigation.planning import footprint_collides
 
 
 @dataclass(frozen=True)
@@ -65,42 +64,22 @@ def follow_ackermann(path_world, params: CarParams, layout: Layout | None = None
     first = path[1] - path[0]
     x, y, yaw = float(path[0, 0]), float(path[0, 1]), math.atan2(first[1], first[0])
     s_prev = 0.0
-    poses, cmds, dist, rel, coll = [], [], [], [], []
+    rec = Recorder(goal, p.robot_radius, layout)
     success = False
     while True:
-        dx, dy = goal[0] - x, goal[1] - y
-        poses.append((x, y, yaw))
-        dist.append(math.hypot(dx, dy))
-        rel.append(
-            (math.cos(yaw) * dx + math.sin(yaw) * dy, -math.sin(yaw) * dx + math.cos(yaw) * dy)
-        )
-        coll.append(
-            layout is not None
-            and footprint_collides(layout.grid, layout.resolution, x, y, p.robot_radius)
-        )
-        if dist[-1] <= p.goal_tolerance:
+        distance = rec.observe(x, y, yaw)
+        if distance <= p.goal_tolerance:
             success = True
             break
-        if len(cmds) >= max_steps:
+        if len(rec.cmds) >= max_steps:
             break
         s_prev = _progress(path, s_cum, np.array([x, y]), s_prev, 2 * p.lookahead + 0.5)
-        s_target = min(s_prev + p.lookahead, total)
-        target = np.array(
-            [np.interp(s_target, s_cum, path[:, 0]), np.interp(s_target, s_cum, path[:, 1])]
-        )
+        target = lookahead_point(path, s_cum, s_prev, p.lookahead)
         reach = max(math.hypot(target[0] - x, target[1] - y), 1e-6)
         alpha = _wrap(math.atan2(target[1] - y, target[0] - x) - yaw)
         steer = math.atan(p.wheelbase * 2.0 * math.sin(alpha) / reach)
         steer = max(-p.max_steer, min(p.max_steer, steer))
-        v = min(p.max_linear, max(0.1, dist[-1]))  # slow down near the goal
-        cmds.append((v, steer))
+        v = min(p.max_linear, max(0.1, distance))  # slow down near the goal
+        rec.cmds.append((v, steer))
         x, y, yaw = _arc(x, y, yaw, v, steer, p.wheelbase, dt)
-    return Trajectory(
-        poses=np.array(poses),
-        commands=np.array(cmds).reshape(-1, 2),
-        distance_to_goal=np.array(dist),
-        goal_in_robot=np.array(rel),
-        collision=np.array(coll, dtype=bool),
-        success=success,
-        dt=dt,
-    )
+    return rec.trajectory(success, dt)

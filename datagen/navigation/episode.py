@@ -95,7 +95,7 @@ def plan_episode(cfg: NavigationConfig, seed: int, index: int, retry: int = 0) -
         )
         layout.params["attempt"] = attempt
         try:
-            return _plan_task(cfg, layout, sample_rng(seed, index, "nav_task" + suffix, retry))
+            return plan_task(cfg, layout, sample_rng(seed, index, "nav_task" + suffix, retry))
         except PlanningError as exc:
             reasons.append(str(exc))
     raise PlanningError(
@@ -126,12 +126,20 @@ def _arm_ends(rng: np.random.Generator, layout: Layout) -> tuple[tuple[int, int]
     return cell(ends[a]), cell(ends[b])
 
 
-def _plan_task(cfg: NavigationConfig, layout: Layout, rng: np.random.Generator) -> Episode:
+def plan_task(
+    cfg: NavigationConfig, layout: Layout, rng: np.random.Generator, taken: np.ndarray | None = None
+) -> Episode:
+    """A start, a goal, the expert's path and trajectory in ``layout``; with ``taken`` (a bool
+    grid of the layout's shape), start and goal are drawn where it is False (several robots:
+    away from the others' starts and goals), the path planned in the layout itself."""
     inflation = cfg.robot_radius + cfg.planning_margin
-    if "arm_ends" in layout.params:  # the four-arm maze: from one arm's end to another's
+    if "arm_ends" in layout.params and taken is None:  # the four-arm maze: arm end to arm end
         start, goal = _arm_ends(rng, layout)
     else:
-        start, goal = sample_start_goal(rng, layout, inflation, cfg.min_goal_distance)
+        drawn_in = (
+            layout if taken is None else dataclasses.replace(layout, grid=layout.grid | taken)
+        )
+        start, goal = sample_start_goal(rng, drawn_in, inflation, cfg.min_goal_distance)
     occupied = inflate(layout.grid, inflation, layout.resolution)
     cells = astar(occupied, start, goal)
     if cells is None:  # sample_start_goal only returns connected pairs

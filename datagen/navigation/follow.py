@@ -4,7 +4,7 @@ at a fixed control rate. No dynamics, no slip: the simulator later replays or tr
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -63,6 +63,52 @@ def _progress(
     return max(s_prev, float(s[np.argmin(d)])) if np.isfinite(d).any() else s_prev
 
 
+@dataclass
+class Recorder:
+    """The per-pose rows of a trajectory being driven (the followers share it)."""
+
+    goal: np.ndarray
+    radius: float  # metres: footprint disk for the collision flag
+    layout: Layout | None
+    poses: list = field(default_factory=list)
+    dist: list = field(default_factory=list)
+    rel: list = field(default_factory=list)
+    coll: list = field(default_factory=list)
+    cmds: list = field(default_factory=list)
+
+    def observe(self, x: float, y: float, yaw: float) -> float:
+        """Records the pose and what is seen from it; returns the distance to the goal."""
+        dx, dy = self.goal[0] - x, self.goal[1] - y
+        self.poses.append((x, y, yaw))
+        self.dist.append(math.hypot(dx, dy))
+        self.rel.append(
+            (math.cos(yaw) * dx + math.sin(yaw) * dy, -math.sin(yaw) * dx + math.cos(yaw) * dy)
+        )
+        self.coll.append(self.layout is not None and footprint_collides(self.layout.grid, self.layout.resolution, x, y, self.radius))  # fmt: skip
+        return self.dist[-1]
+
+    def trajectory(self, success: bool, dt: float) -> Trajectory:
+        return Trajectory(
+            poses=np.array(self.poses),
+            commands=np.array(self.cmds).reshape(-1, 2),
+            distance_to_goal=np.array(self.dist),
+            goal_in_robot=np.array(self.rel),
+            collision=np.array(self.coll, dtype=bool),
+            success=success,
+            dt=dt,
+        )
+
+
+def lookahead_point(
+    path: np.ndarray, s_cum: np.ndarray, s_prev: float, lookahead: float
+) -> np.ndarray:
+    """The path's point ``lookahead`` metres of arc length past ``s_prev`` (its end at most)."""
+    s_target = min(s_prev + lookahead, s_cum[-1])
+    return np.array(
+        [np.interp(s_target, s_cum, path[:, 0]), np.interp(s_target, s_cum, path[:, 1])]
+    )
+
+
 def follow(
     path_world, start_yaw: float, params: FollowParams | None = None, layout: Layout | None = None
 ) -> Trajectory:
@@ -77,52 +123,32 @@ def follow(
     max_steps = p.max_steps or math.ceil((3 * total / p.max_linear + 20.0) / dt)
     x, y, yaw = float(path[0, 0]), float(path[0, 1]), float(start_yaw)
     s_prev = 0.0
-    poses, cmds, dist, rel, coll = [], [], [], [], []
+    rec = Recorder(goal, p.robot_radius, layout)
     success = False
     while True:
-        dx, dy = goal[0] - x, goal[1] - y
-        poses.append((x, y, yaw))
-        dist.append(math.hypot(dx, dy))
-        rel.append(
-            (math.cos(yaw) * dx + math.sin(yaw) * dy, -math.sin(yaw) * dx + math.cos(yaw) * dy)
-        )
-        coll.append(
-            layout is not None
-            and footprint_collides(layout.grid, layout.resolution, x, y, p.robot_radius)
-        )
-        if dist[-1] <= p.goal_tolerance:
+        distance = rec.observe(x, y, yaw)
+        if distance <= p.goal_tolerance:
             success = True
             break
-        if len(cmds) >= max_steps:
+        if len(rec.cmds) >= max_steps:
             break
         s_prev = _progress(path, s_cum, np.array([x, y]), s_prev, 2 * p.lookahead + 0.5)
-        s_target = min(s_prev + p.lookahead, total)
-        target = np.array(
-            [np.interp(s_target, s_cum, path[:, 0]), np.interp(s_target, s_cum, path[:, 1])]
-        )
+        target = lookahead_point(path, s_cum, s_prev, p.lookahead)
         tdist = max(math.hypot(target[0] - x, target[1] - y), 1e-6)
         alpha = _wrap(math.atan2(target[1] - y, target[0] - x) - yaw)
         if abs(alpha) > p.turn_in_place:
             v, w = 0.0, math.copysign(min(p.max_angular, abs(alpha) / dt), alpha)
         else:
-            v = min(p.max_linear, max(0.1, dist[-1]))  # slow down near the goal
+            v = min(p.max_linear, max(0.1, distance))  # slow down near the goal
             w = v * 2.0 * math.sin(alpha) / tdist  # pure-pursuit curvature
             if abs(w) > p.max_angular:  # keep the curvature, lower the speed
                 v *= p.max_angular / abs(w)
                 w = math.copysign(p.max_angular, w)
-        cmds.append((v, w))
+        rec.cmds.append((v, w))
         heading = yaw + 0.5 * w * dt  # midpoint integration of the unicycle
         x, y, yaw = (
             x + v * dt * math.cos(heading),
             y + v * dt * math.sin(heading),
             _wrap(yaw + w * dt),
         )
-    return Trajectory(
-        poses=np.array(poses),
-        commands=np.array(cmds).reshape(-1, 2),
-        distance_to_goal=np.array(dist),
-        goal_in_robot=np.array(rel),
-        collision=np.array(coll, dtype=bool),
-        success=success,
-        dt=dt,
-    )
+    return rec.trajectory(success, dt)

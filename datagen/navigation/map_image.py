@@ -35,12 +35,8 @@ def occupancy_image(grid: np.ndarray) -> np.ndarray:
     return np.where(grid, 255, 0).astype(np.uint8)
 
 
-def episode_map(
-    episode: Episode, inflated: np.ndarray, frame_steps: list[int], scale: int = 3
-) -> np.ndarray:
-    """BGR picture: free space, the inflated margin, walls, obstacles and doors; the planned
-    (smoothed) path, the driven trajectory with a dot per rendered frame, start and goal."""
-    layout = episode.layout
+def _plan(layout, inflated: np.ndarray, scale: int) -> np.ndarray:
+    """BGR picture of free space, the inflated margin, walls, obstacles and doors."""
     obstacles = np.zeros_like(layout.grid)
     for rect in layout.obstacles:
         fill(obstacles, rect, layout.resolution, True)
@@ -53,9 +49,29 @@ def episode_map(
     image[doors & ~layout.grid] = DOOR
     image[layout.grid] = WALL
     image[obstacles] = OBSTACLE
-    image = cv2.resize(image, None, fx=scale, fy=scale, interpolation=cv2.INTER_NEAREST)
+    return cv2.resize(image, None, fx=scale, fy=scale, interpolation=cv2.INTER_NEAREST)
 
-    px = scale / layout.resolution  # pixels per metre
+
+def episode_map(
+    episode: Episode, inflated: np.ndarray, frame_steps: list[int], scale: int = 3
+) -> np.ndarray:
+    """BGR picture: free space, the inflated margin, walls, obstacles and doors; the planned
+    (smoothed) path, the driven trajectory with a dot per rendered frame, start and goal."""
+    image = _plan(episode.layout, inflated, scale)
+    _draw_episode(image, episode, scale, frame_steps)
+    return image
+
+
+def fleet_map(layout, inflated: np.ndarray, episodes: list[Episode], scale: int = 3) -> np.ndarray:
+    """The same picture with every robot's planned path, trajectory, start and goal."""
+    image = _plan(layout, inflated, scale)
+    for episode in episodes:
+        _draw_episode(image, episode, scale, [])
+    return image
+
+
+def _draw_episode(image: np.ndarray, episode: Episode, scale: int, frame_steps: list[int]) -> None:
+    px = scale / episode.layout.resolution  # pixels per metre
 
     def to_px(points) -> np.ndarray:
         return np.rint(np.asarray(points, float).reshape(-1, 2) * px).astype(np.int32)
@@ -71,4 +87,3 @@ def episode_map(
     cv2.circle(image, tuple(start), max(3, int(0.2 * px)), START, -1, cv2.LINE_AA)
     cv2.arrowedLine(image, tuple(start), tuple(tip), START, 2, cv2.LINE_AA, tipLength=0.3)
     cv2.drawMarker(image, tuple(to_px(episode.goal)[0]), GOAL, cv2.MARKER_STAR, max(9, int(0.5 * px)), 2)  # fmt: skip
-    return image

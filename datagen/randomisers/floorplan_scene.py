@@ -109,6 +109,20 @@ def sample_nav_scene(
             part: random_material(car_rng, config.materials, config.materials.saturation, value)
             for part, value in (("body", (0.4, 1.0)), ("wheels", (0.05, 0.2)), ("mast", (0.1, 0.4)))
         }
+    camera = {
+        "torso_lift": _u(camera_rng, nav.torso_lift),
+        "pitch_deg": _u(camera_rng, nav.camera_pitch_deg),
+        "fovy_deg": _u(camera_rng, nav.camera_fovy_deg),
+    }
+    fleet = {}
+    if nav.robots > 1:  # the other robots' cameras, from a stream of their own
+        fleet_rng = sample_rng(seed, index, "nav_fleet_cameras", attempt)
+        others = [
+            {name: _u(fleet_rng, bounds) for name, bounds in
+             (("torso_lift", nav.torso_lift), ("pitch_deg", nav.camera_pitch_deg), ("fovy_deg", nav.camera_fovy_deg))}
+            for _ in range(nav.robots - 1)
+        ]  # fmt: skip
+        fleet = {"cameras": [camera, *others]}
     return {
         "wall_height": wall_height,
         "door_top": round(min(wall_height - 0.1, _u(geometry_rng, (1.95, 2.15))), 6),
@@ -118,9 +132,5 @@ def sample_nav_scene(
         "lighting": sample_nav_lighting(
             sample_rng(seed, index, "nav_lighting", attempt), config, layout, wall_height
         ),
-        "camera": {
-            "torso_lift": _u(camera_rng, nav.torso_lift),
-            "pitch_deg": _u(camera_rng, nav.camera_pitch_deg),
-            "fovy_deg": _u(camera_rng, nav.camera_fovy_deg),
-        },
-    }
+        "camera": camera,
+    } | fleet

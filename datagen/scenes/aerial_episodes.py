@@ -32,6 +32,7 @@ from datagen.dataset.flow_png import encode_kitti
 from datagen.engines.sim.encode import View, encode_view, metadata_bytes, png_bytes
 from datagen.engines.sim.optical_flow import flow_to_next
 from datagen.engines.sim.render import DEPTH_SCALE, Frame, capture, keep_renderer_alive
+from datagen.outcomes import agents_outcome
 from datagen.randomisers.volume_scene import sample_aerial_scene
 from datagen.sample import Sample, sample_key
 from datagen.worlds.volume import AERIAL_CLASSES, AerialScene, build_aerial_scene
@@ -197,12 +198,8 @@ def produce(config: BuildConfig, seed: int, index: int, attempt: int = 0) -> Sam
         "scene": config.scene, "family": cfg.family, "classes": list(AERIAL_CLASSES),
         "things": [{"instance_id": t.instance_id, "class": t.class_name, "name": t.name} for t in scene.things],
         "episode": {
-            # the episode as a whole (what inspect, the monitor and the exports read): every drone
-            # arrived without a collision; SPL and lengths averaged over the drones
-            "success": all(a["success"] for a in agents),
-            "spl": round(float(np.mean([a["spl"] for a in agents])), 6),
-            "path_length_m": round(float(np.mean([a["path_length_m"] for a in agents])), 6),
-            "shortest_path_m": round(float(np.mean([a["shortest_path_m"] for a in agents])), 6),
+            # the episode as a whole (what inspect, the monitor and the exports read)
+            **agents_outcome(agents),
             "duration_s": round(episode.duration, 6), "frames": len(times), "attempt": episode.attempt,
             "agents": agents,
             "volume": {"height": volume.height, "resolution": volume.resolution, "shape": list(volume.shape),

@@ -38,13 +38,16 @@ def planar_pose(x: float, y: float, yaw: float) -> np.ndarray:
     return np.array([[c, -s, 0, x], [s, c, 0, y], [0, 0, 1, 0], [0, 0, 0, 1]], float)
 
 
-def _things_in_view(scene: NavScene, instance: np.ndarray) -> list[dict[str, Any]]:
-    """2-D boxes of the labelled instances the camera sees (the robot itself excluded)."""
+def things_in_view(
+    scene: NavScene, instance: np.ndarray, keep_robots: bool = False
+) -> list[dict[str, Any]]:
+    """2-D boxes of the labelled instances the camera sees (the robots excluded, unless
+    ``keep_robots``: the caller leaves out the camera's own)."""
     out = []
     slices = ndimage.find_objects(instance)
     for thing in scene.things:
         box = slices[thing.instance_id - 1] if thing.instance_id <= len(slices) else None
-        if box is None or thing.class_name in ("robot", "car"):  # the robot itself
+        if box is None or (thing.class_name in ("robot", "car") and not keep_robots):
             continue
         rows, cols = box
         out.append({
@@ -57,7 +60,7 @@ def _things_in_view(scene: NavScene, instance: np.ndarray) -> list[dict[str, Any
     return out
 
 
-def _round(a, digits: int = 6) -> list:
+def rounded(a, digits: int = 6) -> list:
     return np.round(np.asarray(a, float), digits).tolist()
 
 
@@ -88,13 +91,13 @@ def render_episode(
             "frame": k,
             "step": step,
             "time_s": round(step * traj.dt, 6),
-            "pose": _round([x, y, yaw]),
-            "command": _round(command),
-            "goal_in_robot": _round(traj.goal_in_robot[step]),
+            "pose": rounded([x, y, yaw]),
+            "command": rounded(command),
+            "goal_in_robot": rounded(traj.goal_in_robot[step]),
             "distance_to_goal": round(float(traj.distance_to_goal[step]), 6),
             "collision": bool(traj.collision[step]),
-            "extrinsics_world_to_camera": _round(frame.extrinsics, 7),
-            "things": _things_in_view(scene, instance),
+            "extrinsics_world_to_camera": rounded(frame.extrinsics, 7),
+            "things": things_in_view(scene, instance),
         })  # fmt: skip
     forward = camera_in_robot[:3, 2]  # OpenCV z axis = viewing direction
     r = config.render
@@ -104,8 +107,8 @@ def render_episode(
         "fovy_deg": round(math.degrees(scene.camera.fovy), 6),
         "near": r.near,
         "far": r.far,
-        "intrinsics": _round(intrinsics),
-        "camera_in_robot": _round(camera_in_robot, 7),
+        "intrinsics": rounded(intrinsics),
+        "camera_in_robot": rounded(camera_in_robot, 7),
         "height_m": round(float(camera_in_robot[2, 3]), 6),
         "pitch_down_deg": round(math.degrees(-math.asin(float(forward[2]))), 6),
         "convention": "opencv",
@@ -128,17 +131,17 @@ def episode_record(config: BuildConfig, episode: Episode, steps: list[int]) -> d
         "duration_s": round(len(traj.commands) * traj.dt, 6),
         "frames": len(steps),
         "collision_steps": int(traj.collision.sum()),
-        "start": _round(episode.start),
-        "goal": _round(episode.goal),
+        "start": rounded(episode.start),
+        "goal": rounded(episode.goal),
         "start_cell": list(episode.start_cell),
         "goal_cell": list(episode.goal_cell),
         "inflation_m": round(episode.inflation, 6),
-        "planned_path": _round(episode.path, 5),
+        "planned_path": rounded(episode.path, 5),
         "trajectory": traj.to_dict(),
         "layout": {
             "family": layout.family,
             "resolution": layout.resolution,
-            "size_m": _round(layout.size_m),
+            "size_m": rounded(layout.size_m),
             "grid_shape": list(layout.grid.shape),
             "walls": [list(w) for w in layout.walls],
             "doors": [list(d) for d in layout.doors],
@@ -148,7 +151,7 @@ def episode_record(config: BuildConfig, episode: Episode, steps: list[int]) -> d
     }
 
 
-def _robot_record(config: BuildConfig, scene: NavScene) -> dict[str, Any]:
+def robot_record(config: BuildConfig, scene: NavScene) -> dict[str, Any]:
     nav = config.navigation
     if nav.robot == "car":
         params = car_params(nav)
@@ -162,7 +165,7 @@ def _robot_record(config: BuildConfig, scene: NavScene) -> dict[str, Any]:
         "name": "fetch",
         "description": f"mani_skill/assets/{FETCH}",
         "radius": nav.robot_radius,
-        "qpos_fixed": _round(scene.robot.get_qpos()[3:]),
+        "qpos_fixed": rounded(scene.robot.get_qpos()[3:]),
         "joints": [j.name for j in scene.robot.get_active_joints()],
         "commands": ["linear_m_s", "angular_rad_s"],
     }
@@ -196,7 +199,7 @@ def produce(config: BuildConfig, seed: int, index: int, attempt: int = 0) -> Sam
         "episode": episode_record(config, episode, steps),
         "camera": camera,
         "frames": frames,
-        "robot": _robot_record(config, scene),
+        "robot": robot_record(config, scene),
         "randomisation": values,
     }
     parts["json"] = metadata_bytes(metadata)

@@ -3,13 +3,13 @@ the altitude and speed of every drone in every frame."""
 
 from __future__ import annotations
 
-from collections import Counter
 from collections.abc import Sequence
 from typing import Any
 
 import numpy as np
 
 from datagen.records import SampleMetadata
+from datagen.tools.fleet_inspection import agents_summary
 
 
 def _agents(metas: Sequence[SampleMetadata]) -> list[dict[str, Any]]:
@@ -37,29 +37,16 @@ def aerial_distributions(metas: list[SampleMetadata]) -> dict[str, list[float]]:
 
 def aerial_summary(metas: Sequence[SampleMetadata]) -> dict[str, Any]:
     agents, states = _agents(metas), _states(metas)
-    seen = Counter(
-        t["class"]
-        for m in metas
-        for f in m["frames"]
-        for c in f["cameras"].values()
-        for t in c["things"]
-    )
     speeds = [float(np.linalg.norm(s["velocity"])) for s in states]
-    return {
-        "episodes": len(metas),
-        "drones": len(agents),
-        "frames": sum(m["episode"]["frames"] for m in metas),
-        "families": dict(Counter(m["family"] for m in metas)),
-        "success_rate": round(float(np.mean([a["success"] for a in agents])), 4),
-        "mean_path_length_m": round(float(np.mean([a["path_length_m"] for a in agents])), 3),
-        "mean_shortest_path_m": round(float(np.mean([a["shortest_path_m"] for a in agents])), 3),
-        "mean_spl": round(float(np.mean([a["spl"] for a in agents])), 4),
-        "altitude_m": [
-            round(min(s["position"][2] for s in states), 3),
-            round(max(s["position"][2] for s in states), 3),
-        ],
-        "mean_speed_m_s": round(float(np.mean(speeds)), 3),
-        "max_speed_m_s": round(float(np.max(speeds)), 3),
-        "frames_with_collision": sum(s["collision"] for s in states),
-        "things_seen_per_class": dict(sorted(seen.items())),
-    }
+    return (
+        {"drones": len(agents)}
+        | agents_summary(metas, agents)
+        | {
+            "altitude_m": [
+                round(min(s["position"][2] for s in states), 3),
+                round(max(s["position"][2] for s in states), 3),
+            ],
+            "mean_speed_m_s": round(float(np.mean(speeds)), 3),
+            "max_speed_m_s": round(float(np.max(speeds)), 3),
+        }
+    )

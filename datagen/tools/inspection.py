@@ -33,6 +33,7 @@ from datagen.grasping.stats import campaign_stats
 from datagen.outcomes import grasp_outcome, navigation_outcome
 from datagen.records import SampleMetadata
 from datagen.tools.aerial_inspection import aerial_distributions, aerial_summary
+from datagen.tools.fleet_inspection import fleet_distributions, fleet_summary
 from datagen.tools.preview import sample_tile, tile_grid
 from datagen.tools.randomisation_plots import plot_randomisation, randomisation_panels
 from datagen.tools.sample_checks import (
@@ -201,6 +202,7 @@ SUMMARIES: dict[str, Summary] = {
     "datagen.sample/1": Summary(_sample_summary, _sample_distributions, "samples"),
     "datagen.nav_episode/1": Summary(_navigation_summary, _navigation_distributions, "episodes"),
     "datagen.aerial_episode/1": Summary(aerial_summary, aerial_distributions, "episodes"),
+    "datagen.nav_fleet/1": Summary(fleet_summary, fleet_distributions, "episodes"),
 }
 
 

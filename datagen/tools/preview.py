@@ -185,9 +185,13 @@ def sequence_tile(item: dict[str, Any]) -> np.ndarray:
     meta, frames = item["meta"], item["frames"]
     k = len(frames) // 2
     episode = meta["episode"]
-    image = draw_navigation_frame(
-        frames[k], meta["classes"], meta["camera"], np.asarray(episode["planned_path"])
-    )
+    if meta.get("format") == "datagen.nav_fleet/1":  # robot 0's camera, its own path
+        record, seen = meta["frames"][k], meta["frames"][k]["cameras"]["r0"]
+        frame = frames[k]["cameras"]["r0"] | {"meta": record["agents"][0] | seen}
+        camera, path = meta["cameras"]["r0"], episode["agents"][0]["planned_path"]
+    else:
+        frame, camera, path = frames[k], meta["camera"], episode["planned_path"]
+    image = draw_navigation_frame(frame, meta["classes"], camera, np.asarray(path))
     put_label(image, f"{item['key']} f{k}/{len(frames)} {meta['family']}", (6, 18), 0.5)
     overview = fit(cv2.cvtColor(item["map"], cv2.COLOR_RGB2BGR), *image.shape[:2])
     outcome = "success" if navigation_outcome(episode)["success"] else "failure"

@@ -18,6 +18,7 @@ import sapien
 from datagen.config import BuildConfig
 from datagen.engines.sim.cameras import add_camera
 from datagen.navigation.episode import Episode
+from datagen.navigation.grid import Layout
 from datagen.robot_specs import maniskill_asset
 from datagen.worlds.car import CarBody, build_car, camera_pose
 from datagen.worlds.realise import apply_lighting, light_slots, pad_lights
@@ -64,23 +65,35 @@ class Thing:
     entities: list[sapien.Entity] = field(default_factory=list)
 
 
+Robot = sapien.physx.PhysxArticulation | CarBody  # Fetch, or the car
+
+
 @dataclass
 class NavScene:
     scene: sapien.Scene
-    camera: sapien.render.RenderCameraComponent
-    robot: sapien.physx.PhysxArticulation | CarBody  # Fetch, or the car
+    cameras: list[sapien.render.RenderCameraComponent]  # each robot's camera
+    robots: list[Robot]  # robot 0 first (the one robot of a single-robot episode)
     things: list[Thing]
     instance_lut: np.ndarray  # per_scene_id -> instance id (uint16); walls and floor are 0
     class_lut: np.ndarray  # per_scene_id -> semantic class id (uint8)
 
-    def set_base(self, x: float, y: float, yaw: float, steer: float = 0.0) -> None:
-        """The robot at (x, y, yaw); a car's front wheels turned for ``steer`` (radians)."""
-        if isinstance(self.robot, CarBody):
-            self.robot.set_base(x, y, yaw, steer)
+    @property
+    def camera(self) -> sapien.render.RenderCameraComponent:
+        return self.cameras[0]
+
+    @property
+    def robot(self) -> Robot:
+        return self.robots[0]
+
+    def set_base(self, x: float, y: float, yaw: float, steer: float = 0.0, k: int = 0) -> None:
+        """Robot ``k`` at (x, y, yaw); a car's front wheels turned for ``steer`` (radians)."""
+        robot = self.robots[k]
+        if isinstance(robot, CarBody):
+            robot.set_base(x, y, yaw, steer)
             return
-        qpos = self.robot.get_qpos()
+        qpos = robot.get_qpos()
         qpos[:3] = (x, y, yaw)
-        self.robot.set_qpos(qpos)
+        robot.set_qpos(qpos)
 
     def label_maps(self, entity_ids: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         ids = np.minimum(entity_ids, len(self.class_lut) - 1)  # ids beyond the tables: nothing
@@ -110,8 +123,8 @@ def _rect_box(rect, z0: float, z1: float) -> tuple[list[float], list[float]]:
     return [(x1 - x0) / 2, (y1 - y0) / 2, (z1 - z0) / 2], [(x0 + x1) / 2, (y0 + y1) / 2, (z0 + z1) / 2]  # fmt: skip
 
 
-def _walls_and_doors(scene, episode: Episode, values) -> tuple[list[sapien.Entity], list[Thing]]:
-    layout, h, top = episode.layout, values["wall_height"], values["door_top"]
+def _walls_and_doors(scene, layout: Layout, values) -> tuple[list[sapien.Entity], list[Thing]]:
+    h, top = values["wall_height"], values["door_top"]
     wall_material, door_material = values["materials"]["walls"], values["materials"]["doors"]
     walls = [
         _surface(scene, f"wall_{i}", wall_material, boxes=[_rect_box(rect, 0.0, h)])
@@ -126,9 +139,9 @@ def _walls_and_doors(scene, episode: Episode, values) -> tuple[list[sapien.Entit
     return walls, doors
 
 
-def _obstacles(scene, episode: Episode, values) -> list[Thing]:
+def _obstacles(scene, layout: Layout, values) -> list[Thing]:
     things = []
-    specs = zip(episode.layout.obstacles, values["obstacles"], values["materials"]["obstacles"], strict=True)  # fmt: skip
+    specs = zip(layout.obstacles, values["obstacles"], values["materials"]["obstacles"], strict=True)  # fmt: skip
     for i, (rect, spec, material) in enumerate(specs):
         half, centre = _rect_box(rect, 0.0, spec["height"])
         if spec["shape"] == "cylinder":  # inscribed in the footprint, so inside the occupied cells
@@ -140,17 +153,17 @@ def _obstacles(scene, episode: Episode, values) -> list[Thing]:
     return things
 
 
-def _goal_marker(scene, episode: Episode, values) -> Thing:
-    gx, gy = episode.goal
+def _goal_marker(scene, goal, values, name: str = "goal_marker") -> Thing:
+    gx, gy = goal
     (disk_r, disk_t), (pole_r, pole_h) = GOAL_DISK, GOAL_POLE
     entity = _static(
         scene,
-        "goal_marker",
+        name,
         render_material(values["materials"]["goal_marker"]),
         cylinders=[([gx, gy, disk_t / 2], disk_r, disk_t), ([gx, gy, pole_h / 2], pole_r, pole_h)],
         spheres=[([gx, gy, pole_h], 0.07)],
     )
-    return Thing(0, "goal_marker", "goal_marker", [entity])
+    return Thing(0, "goal_marker", name, [entity])
 
 
 def _fetch(
@@ -176,8 +189,40 @@ def _fetch(
 
 
 def build_nav_scene(config: BuildConfig, episode: Episode, values: dict[str, Any]) -> NavScene:
+    """The scene of a single-robot episode."""
+    return build_floorplan_scene(config, episode.layout, [episode.goal], [values["camera"]], values)
+
+
+def _robot(config: BuildConfig, scene: sapien.Scene, cam: dict[str, Any], values, name: str):
+    """A robot (Fetch or the car), its labelled thing and its camera."""
+    r, nav = config.render, config.navigation
+    fovy = math.radians(cam["fovy_deg"])
+    if nav.robot == "car":
+        car = build_car(scene, nav.robot_radius, values["materials"]["car"])
+        pose = camera_pose(nav.robot_radius, cam["pitch_deg"])
+        camera = add_camera(
+            scene, "head", r.width, r.height, fovy, r.near, r.far, car.chassis, pose
+        )
+        return car, Thing(0, "car", name.replace("robot", "car"), car.entities), camera
+    fetch = _fetch(scene, cam, config.render.robot_triangles)
+    head = next(link for link in fetch.get_links() if link.name == CAMERA_LINK)
+    camera = add_camera(scene, "head", r.width, r.height, fovy, r.near, r.far, head.entity)
+    thing = Thing(
+        0, "robot", name.replace("robot", "fetch"), [link.entity for link in fetch.get_links()]
+    )
+    return fetch, thing, camera
+
+
+def build_floorplan_scene(
+    config: BuildConfig,
+    layout: Layout,
+    goals: list,
+    cameras: list[dict[str, Any]],
+    values: dict[str, Any],
+) -> NavScene:
+    """The floor plan with one robot per entry of ``cameras`` (its camera's values) and a goal
+    marker per goal. Instances: obstacles, doors, goal markers, robots, in that order."""
     scene = sapien.Scene()
-    layout = episode.layout
     width, depth = layout.size_m
     half = [width / 2 + FLOOR_MARGIN, depth / 2 + FLOOR_MARGIN, FLOOR_THICKNESS / 2]
     floor = _surface(
@@ -186,23 +231,19 @@ def build_nav_scene(config: BuildConfig, episode: Episode, values: dict[str, Any
         values["materials"]["floor"],
         boxes=[(half, [width / 2, depth / 2, -FLOOR_THICKNESS / 2])],
     )
-    walls, doors = _walls_and_doors(scene, episode, values)
-    things = [*_obstacles(scene, episode, values), *doors, _goal_marker(scene, episode, values)]
-    r, cam = config.render, values["camera"]
-    fovy = math.radians(cam["fovy_deg"])
-    robot: sapien.physx.PhysxArticulation | CarBody
-    if config.navigation.robot == "car":
-        robot = build_car(scene, config.navigation.robot_radius, values["materials"]["car"])
-        things.append(Thing(0, "car", "car", robot.entities))
-        pose = camera_pose(config.navigation.robot_radius, cam["pitch_deg"])
-        camera = add_camera(
-            scene, "head", r.width, r.height, fovy, r.near, r.far, robot.chassis, pose
+    walls, doors = _walls_and_doors(scene, layout, values)
+    one = len(cameras) == 1
+    things = [*_obstacles(scene, layout, values), *doors]
+    for k, goal in enumerate(goals):
+        things.append(
+            _goal_marker(scene, goal, values, "goal_marker" if one else f"goal_marker_{k}")
         )
-    else:
-        robot = _fetch(scene, values["camera"], config.render.robot_triangles)
-        things.append(Thing(0, "robot", "fetch", [link.entity for link in robot.get_links()]))
-        head = next(link for link in robot.get_links() if link.name == CAMERA_LINK)
-        camera = add_camera(scene, "head", r.width, r.height, fovy, r.near, r.far, head.entity)
+    robots, cams = [], []
+    for k, cam in enumerate(cameras):
+        robot, thing, camera = _robot(config, scene, cam, values, "robot" if one else f"robot_{k}")
+        robots.append(robot)
+        things.append(thing)
+        cams.append(camera)
     for i, thing in enumerate(things):
         thing.instance_id = i + 1
 
@@ -221,4 +262,4 @@ def build_nav_scene(config: BuildConfig, episode: Episode, values: dict[str, Any
     apply_lighting(scene, values["lighting"], config.render.shadow_map_size)
     # a key light and ceiling point lights (randomisers/floorplan_scene.py)
     pad_lights(scene, light_slots(0, max(config.lighting.lights[1], 1) - 1))
-    return NavScene(scene, camera, robot, things, instance_lut, class_lut)
+    return NavScene(scene, cams, robots, things, instance_lut, class_lut)

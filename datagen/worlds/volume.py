@@ -11,7 +11,7 @@ so its image's up points along the body's x.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
@@ -21,6 +21,7 @@ from datagen.aerial.episode import AerialEpisode
 from datagen.aerial.quadrotor import camera_mounts, quadrotor_parts
 from datagen.config import BuildConfig
 from datagen.engines.sim.cameras import add_camera
+from datagen.worlds.floorplan import Thing
 from datagen.worlds.realise import apply_lighting, light_slots, pad_lights
 from datagen.worlds.surfaces import box_entity, render_material, render_shape
 
@@ -33,16 +34,6 @@ GOAL_RADIUS = 0.08  # metres: the goal marker's sphere
 
 def aerial_classes(config: BuildConfig) -> tuple[str, ...]:
     return AERIAL_CLASSES
-
-
-@dataclass
-class Thing:
-    """A labelled instance: entities under one instance id."""
-
-    instance_id: int
-    class_name: str
-    name: str
-    entities: list[sapien.Entity] = field(default_factory=list)
 
 
 @dataclass

@@ -25,6 +25,7 @@ def test_a_camera_with_the_cached_table_renders_what_sapiens_own_table_renders(t
     import sapien
 
     from datagen.engines.sim.brdf_lut import LUT_SIZE, cache_file
+    from datagen.engines.sim.cameras import twin_camera
     from datagen.engines.sim.shader_pack import shader_dir
     from datagen.worlds.tabletop import build_scene
 
@@ -38,13 +39,7 @@ def test_a_camera_with_the_cached_table_renders_what_sapiens_own_table_renders(t
         faces.append(str(tmp_path / f"{name}.png"))
     scene.scene.render_system.cubemap = sapien.render.RenderCubemap(*faces)
     cached = scene.cameras["workspace"]
-    own = sapien.render.RenderCameraComponent(160, 120, shader_dir())  # computes SAPIEN's table
-    own.set_fovy(cached.fovy, compute_x=True)
-    own.near, own.far = cached.near, cached.far
-    mount = sapien.Entity()
-    mount.add_component(own)
-    scene.scene.add_entity(mount)
-    mount.set_pose(cached.entity.pose)
+    own = twin_camera(scene.scene, cached, shader_dir())  # computes SAPIEN's table
     scene.scene.update_render()
     pictures = []
     for camera in (cached, own):

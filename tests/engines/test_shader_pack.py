@@ -9,10 +9,10 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-import sapien
 
 from datagen.config import load_config
 from datagen.engines.sim import shader_pack
+from datagen.engines.sim.cameras import twin_camera
 from datagen.engines.sim.render import keep_renderer_alive
 from datagen.worlds.tabletop import build_scene
 
@@ -41,13 +41,7 @@ def test_the_pack_is_sapiens_default_with_the_filter_patched():
 def _pictures(config, index: int, shader_dir: str) -> np.ndarray:
     scene = build_scene(config, config.seed, index)
     workspace = scene.cameras["workspace"]
-    camera = sapien.render.RenderCameraComponent(workspace.width, workspace.height, shader_dir)
-    camera.set_fovy(workspace.fovy, compute_x=True)
-    camera.near, camera.far = workspace.near, workspace.far
-    mount = sapien.Entity()
-    mount.add_component(camera)
-    scene.scene.add_entity(mount)
-    mount.set_pose(workspace.entity.pose)
+    camera = twin_camera(scene.scene, workspace, shader_dir)
     scene.scene.update_render()
     pictures = []
     for cam in (workspace, camera):

@@ -38,3 +38,18 @@ def add_camera(
         camera.local_pose = pose if pose is not None else sapien.Pose()
     attach_brdf_lut(camera)
     return camera
+
+
+def twin_camera(
+    scene: sapien.Scene, camera: sapien.render.RenderCameraComponent, shader_dir: str
+) -> sapien.render.RenderCameraComponent:
+    """A camera of ``camera``'s size, field of view, clip planes and pose, with the shaders of
+    ``shader_dir`` and SAPIEN's own BRDF table: the other side of a comparison of the two."""
+    twin = sapien.render.RenderCameraComponent(camera.width, camera.height, shader_dir)
+    twin.set_fovy(camera.fovy, compute_x=True)
+    twin.near, twin.far = camera.near, camera.far
+    mount = sapien.Entity()
+    mount.add_component(twin)
+    scene.add_entity(mount)
+    mount.set_pose(camera.entity.pose)
+    return twin

@@ -1,0 +1,159 @@
+"""Episode ``index`` of a navigation build with several robots (``navigation.robots`` > 1): plan
+every robot's task and start time (:mod:`datagen.navigation.fleet`), build the floor plan with a
+robot and a goal marker each, drive them along their expert trajectories and render every robot's
+camera at the frame rate; one sample per episode, format ``datagen.nav_fleet/1``.
+
+Parts, per frame k (``fKKKK``) and robot r (camera ``r<r>``):
+``fKKKK.r<r>.rgb.png depth.png seg.png semantic.png``; per episode ``map.png`` (every robot's
+planned path and trajectory), ``occupancy.png`` and ``json`` (docs/navigation.md).
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import numpy as np
+
+from datagen.config import BuildConfig
+from datagen.engines.sim.encode import View, encode_view, metadata_bytes, png_bytes
+from datagen.engines.sim.render import DEPTH_SCALE, capture, keep_renderer_alive
+from datagen.navigation.fleet import FleetEpisode, plan_fleet_episode
+from datagen.navigation.grid import inflate
+from datagen.navigation.map_image import fleet_map, occupancy_image
+from datagen.outcomes import agents_outcome
+from datagen.randomisers.floorplan_scene import sample_nav_scene
+from datagen.sample import Sample, sample_key
+from datagen.scenes.navigation_episodes import planar_pose, robot_record, rounded, things_in_view
+from datagen.scenes.navigation_episodes import produce as produce_one
+from datagen.worlds.floorplan import NAV_CLASSES, build_floorplan_scene
+
+FLEET_FORMAT = "datagen.nav_fleet/1"
+
+
+def _agent_states(fleet: FleetEpisode, step: int) -> list[dict[str, Any]]:
+    out = []
+    for agent in fleet.agents:
+        traj, row = agent.episode.trajectory, int(agent.step_index(step))
+        moving = agent.delay <= step < agent.arrival
+        command = traj.commands[row] if moving and row < len(traj.commands) else (0.0, 0.0)
+        out.append({
+            "pose": rounded(traj.poses[row]), "command": rounded(command),
+            "goal_in_robot": rounded(traj.goal_in_robot[row]),
+            "distance_to_goal": round(float(traj.distance_to_goal[row]), 6),
+            "collision": bool(traj.collision[row]), "arrived": step >= agent.arrival,
+        })  # fmt: skip
+    return out
+
+
+def _agent_record(agent, dt: float) -> dict[str, Any]:
+    episode, traj = agent.episode, agent.episode.trajectory
+    shortest, travelled = episode.shortest_path_m, episode.travelled_m
+    return {
+        "start": rounded(episode.start), "goal": rounded(episode.goal), "delay_s": round(agent.delay * dt, 6),
+        "success": bool(traj.success), "path_length_m": round(travelled, 6),
+        "shortest_path_m": round(shortest, 6), "planned_path_m": round(episode.planned_path_m, 6),
+        "spl": round(float(traj.success) * shortest / max(travelled, shortest, 1e-9), 6),
+        "collision_steps": int(traj.collision.sum()), "planned_path": rounded(episode.path, 5),
+        "trajectory": traj.to_dict(),
+    }  # fmt: skip
+
+
+def produce(config: BuildConfig, seed: int, index: int, attempt: int = 0) -> Sample:
+    """The navigation family's sample: an episode of one robot (``navigation_episodes``) or, with
+    ``navigation.robots`` > 1, of several."""
+    if config.navigation.robots == 1:
+        return produce_one(config, seed, index, attempt)
+    return produce_fleet(config, seed, index, attempt)
+
+
+def produce_fleet(config: BuildConfig, seed: int, index: int, attempt: int = 0) -> Sample:
+    keep_renderer_alive()
+    nav = config.navigation
+    fleet = plan_fleet_episode(nav, seed, index, attempt)
+    layout = fleet.layout
+    values = sample_nav_scene(config, seed, index, layout, attempt)
+    scene = build_floorplan_scene(
+        config, layout, [a.episode.goal for a in fleet.agents], values["cameras"], values
+    )
+    every = max(1, round(1.0 / (nav.frame_rate_hz * fleet.dt)))
+    steps = sorted({*range(0, fleet.steps + 1, every), fleet.steps})
+    parts: dict[str, bytes] = {}
+    frames, mounts = [], {}
+    level = config.output.png_level
+    for f, step in enumerate(steps):
+        states = _agent_states(fleet, step)
+        for k, state in enumerate(states):
+            steer = state["command"][1] if nav.robot == "car" else 0.0
+            scene.set_base(*state["pose"], steer, k=k)
+        scene.scene.update_render()
+        record: dict[str, Any] = {
+            "frame": f,
+            "step": step,
+            "time_s": round(step * fleet.dt, 6),
+            "agents": states,
+            "cameras": {},
+        }
+        for k, camera in enumerate(scene.cameras):
+            frame = capture(camera)
+            instance, semantic = scene.label_maps(frame.entity_ids)
+            parts |= encode_view(
+                View(frame.rgb, frame.depth, instance, semantic), f"f{f:04d}.r{k}.", level
+            )
+            mounts.setdefault(
+                k,
+                (
+                    np.linalg.inv(planar_pose(*states[k]["pose"]))
+                    @ np.linalg.inv(frame.extrinsics),
+                    frame.intrinsics,
+                ),
+            )
+            own = scene.things[len(scene.things) - len(fleet.agents) + k].instance_id
+            seen = [
+                t
+                for t in things_in_view(scene, instance, keep_robots=True)
+                if t["instance_id"] != own
+            ]
+            record["cameras"][f"r{k}"] = {
+                "extrinsics_world_to_camera": rounded(frame.extrinsics, 7),
+                "things": seen,
+            }
+        frames.append(record)
+    inflated = inflate(layout.grid, nav.robot_radius + nav.planning_margin, layout.resolution)
+    parts["map.png"] = png_bytes(
+        fleet_map(layout, inflated, [a.episode for a in fleet.agents]), level
+    )
+    parts["occupancy.png"] = png_bytes(occupancy_image(layout.grid), level)
+    r = config.render
+    cameras = {}
+    for k, camera in enumerate(scene.cameras):
+        mount, intrinsics = mounts[k]
+        forward = mount[:3, 2]
+        cameras[f"r{k}"] = {
+            "width": r.width, "height": r.height, "fovy_deg": round(math.degrees(camera.fovy), 6),
+            "near": r.near, "far": r.far, "intrinsics": rounded(intrinsics), "camera_in_robot": rounded(mount, 7),
+            "height_m": round(float(mount[2, 3]), 6), "pitch_down_deg": round(math.degrees(-math.asin(float(forward[2]))), 6),
+            "convention": "opencv", "depth_scale": DEPTH_SCALE, "robot": k,
+        }  # fmt: skip
+    agents = [_agent_record(a, fleet.dt) for a in fleet.agents]
+    metadata = {
+        "format": FLEET_FORMAT, "key": sample_key(index), "index": index, "seed": seed,
+        "scene": config.scene, "family": nav.family, "classes": list(NAV_CLASSES),
+        "things": [{"instance_id": t.instance_id, "class": t.class_name, "name": t.name} for t in scene.things],
+        "episode": {
+            # the episode as a whole (what inspect, the monitor and the exports read)
+            **agents_outcome(agents),
+            "steps": fleet.steps, "duration_s": round(fleet.steps * fleet.dt, 6), "frames": len(steps),
+            "agents": agents,
+            "layout": {"family": layout.family, "resolution": layout.resolution, "size_m": rounded(layout.size_m),
+                       "grid_shape": list(layout.grid.shape), "walls": [list(w) for w in layout.walls],
+                       "doors": [list(d) for d in layout.doors], "obstacles": [list(o) for o in layout.obstacles],
+                       "params": layout.params},
+        },
+        "cameras": cameras,
+        "frames": frames,
+        "robot": robot_record(config, scene),
+        "randomisation": values,
+    }  # fmt: skip
+    parts["json"] = metadata_bytes(metadata)
+    return Sample(index, parts)
