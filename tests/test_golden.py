@@ -27,7 +27,8 @@ mesh's silhouette from the triangles the renderer draws (front faces): every ima
 default grasp and campaign samples, their JSON and the campaign's trajectory (its frames) were
 re-recorded; ``grasp_flat`` (the robot out of view) its ``rgb.png`` and sample 0's JSON (robot
 fractions); navigation its ``rgb.png`` frames (shadow edges). Issue 28 made a navigation episode's
-``shortest_path_m`` a true lower bound (its JSON re-recorded) and added an aerial episode
+``shortest_path_m`` a true lower bound, gave it a TartanAir-style ``poses.head.txt`` and named the
+commands of its robot (its JSON re-recorded, the pose file added), and added an aerial episode
 (``configs/aerial_corridor.yaml``, two drones). The
 digests were recorded with Mesa's lavapipe (llvmpipe) on x86-64, as on CI; another renderer draws
 other pixels, so the test runs only there.

@@ -29,7 +29,14 @@ from datagen.aerial.pictures import side_view, top_down
 from datagen.aerial.volumes import box_distance
 from datagen.config import BuildConfig
 from datagen.dataset.flow_png import encode_kitti
-from datagen.engines.sim.encode import View, encode_view, metadata_bytes, png_bytes
+from datagen.engines.sim.encode import (
+    POSE_CONVENTION,
+    View,
+    encode_view,
+    metadata_bytes,
+    png_bytes,
+    pose_file,
+)
 from datagen.engines.sim.optical_flow import flow_to_next
 from datagen.engines.sim.render import DEPTH_SCALE, Frame, capture, keep_renderer_alive
 from datagen.outcomes import agents_outcome
@@ -38,10 +45,6 @@ from datagen.sample import Sample, sample_key
 from datagen.worlds.volume import AERIAL_CLASSES, AerialScene, build_aerial_scene
 
 AERIAL_FORMAT = "datagen.aerial_episode/1"
-POSE_CONVENTION = (
-    "camera-to-world per frame: tx ty tz qx qy qz qw; world z up (metres, the floor plan's "
-    "origin); camera axes OpenCV (x right, y down, z forward)"
-)
 
 
 def frame_times(duration: float, rate_hz: float) -> np.ndarray:
@@ -126,16 +129,7 @@ def render_frames(
             parts |= encode_view(
                 View(frame.rgb, frame.depth, instance, semantic), f"f{f:04d}.{name}.", level
             )
-            camera_to_world = np.linalg.inv(frame.extrinsics)
-            poses[name].append(
-                " ".join(
-                    f"{v:.7f}"
-                    for v in [
-                        *camera_to_world[:3, 3],
-                        *quaternion_xyzw(camera_to_world[None, :3, :3])[0],
-                    ]
-                )
-            )
+            poses[name].append(frame.extrinsics)
             record["cameras"][name] = {"extrinsics_world_to_camera": _r(frame.extrinsics, 7),
                                        "things": _things_in_view(scene, instance)}  # fmt: skip
             if config.aerial.optical_flow and name in previous:
@@ -172,8 +166,8 @@ def produce(config: BuildConfig, seed: int, index: int, attempt: int = 0) -> Sam
     np.savez_compressed(buffer, occupancy=np.packbits(volume.occupancy, axis=None),
                         shape=np.asarray(volume.shape), resolution=np.float64(volume.resolution))  # fmt: skip
     parts["occupancy.npz"] = buffer.getvalue()
-    for name, lines in poses.items():
-        parts[f"poses.{name}.txt"] = ("\n".join(lines) + "\n").encode()
+    for name, extrinsics in poses.items():
+        parts[f"poses.{name}.txt"] = pose_file(extrinsics)
     agents = []
     for k, (agent, limits) in enumerate(zip(episode.agents, episode.limits, strict=True)):
         flown = flown_length(agent)

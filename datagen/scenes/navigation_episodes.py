@@ -15,7 +15,14 @@ import numpy as np
 from scipy import ndimage
 
 from datagen.config import BuildConfig
-from datagen.engines.sim.encode import View, encode_view, metadata_bytes, png_bytes
+from datagen.engines.sim.encode import (
+    POSE_CONVENTION,
+    View,
+    encode_view,
+    metadata_bytes,
+    png_bytes,
+    pose_file,
+)
 from datagen.engines.sim.render import DEPTH_SCALE, capture, keep_renderer_alive
 from datagen.navigation.episode import Episode, car_params, frame_steps, plan_episode
 from datagen.navigation.grid import inflate
@@ -70,7 +77,7 @@ def render_episode(
     """Encoded frame parts, per-frame records and the camera record."""
     traj = episode.trajectory
     parts: dict[str, bytes] = {}
-    records = []
+    records, extrinsics = [], []
     camera_in_robot = None
     for k, step in enumerate(steps):
         x, y, yaw = (float(v) for v in traj.poses[step])
@@ -82,6 +89,7 @@ def render_episode(
         instance, semantic = scene.label_maps(frame.entity_ids)
         view = View(frame.rgb, frame.depth, instance, semantic)
         parts |= encode_view(view, frame_prefix(k), config.output.png_level)
+        extrinsics.append(frame.extrinsics)
         if camera_in_robot is None:  # fixed mount: the same in every frame
             camera_in_robot = np.linalg.inv(planar_pose(x, y, yaw)) @ np.linalg.inv(
                 frame.extrinsics
@@ -114,6 +122,7 @@ def render_episode(
         "convention": "opencv",
         "depth_scale": DEPTH_SCALE,
     }
+    parts["poses.head.txt"] = pose_file(extrinsics)
     return parts, records, camera
 
 
@@ -199,6 +208,7 @@ def produce(config: BuildConfig, seed: int, index: int, attempt: int = 0) -> Sam
         "episode": episode_record(config, episode, steps),
         "camera": camera,
         "frames": frames,
+        "poses_convention": POSE_CONVENTION,
         "robot": robot_record(config, scene),
         "randomisation": values,
     }

@@ -16,7 +16,14 @@ from typing import Any
 import numpy as np
 
 from datagen.config import BuildConfig
-from datagen.engines.sim.encode import View, encode_view, metadata_bytes, png_bytes
+from datagen.engines.sim.encode import (
+    POSE_CONVENTION,
+    View,
+    encode_view,
+    metadata_bytes,
+    png_bytes,
+    pose_file,
+)
 from datagen.engines.sim.render import DEPTH_SCALE, capture, keep_renderer_alive
 from datagen.navigation.fleet import FleetEpisode, plan_fleet_episode
 from datagen.navigation.grid import inflate
@@ -79,7 +86,7 @@ def produce_fleet(config: BuildConfig, seed: int, index: int, attempt: int = 0) 
     every = max(1, round(1.0 / (nav.frame_rate_hz * fleet.dt)))
     steps = sorted({*range(0, fleet.steps + 1, every), fleet.steps})
     parts: dict[str, bytes] = {}
-    frames, mounts = [], {}
+    frames, mounts, extrinsics = [], {}, {k: [] for k in range(len(scene.cameras))}
     level = config.output.png_level
     for f, step in enumerate(steps):
         states = _agent_states(fleet, step)
@@ -97,6 +104,7 @@ def produce_fleet(config: BuildConfig, seed: int, index: int, attempt: int = 0) 
         for k, camera in enumerate(scene.cameras):
             frame = capture(camera)
             instance, semantic = scene.label_maps(frame.entity_ids)
+            extrinsics[k].append(frame.extrinsics)
             parts |= encode_view(
                 View(frame.rgb, frame.depth, instance, semantic), f"f{f:04d}.r{k}.", level
             )
@@ -124,6 +132,8 @@ def produce_fleet(config: BuildConfig, seed: int, index: int, attempt: int = 0) 
         fleet_map(layout, inflated, [a.episode for a in fleet.agents]), level
     )
     parts["occupancy.png"] = png_bytes(occupancy_image(layout.grid), level)
+    for k, poses in extrinsics.items():
+        parts[f"poses.r{k}.txt"] = pose_file(poses)
     r = config.render
     cameras = {}
     for k, camera in enumerate(scene.cameras):
@@ -152,6 +162,7 @@ def produce_fleet(config: BuildConfig, seed: int, index: int, attempt: int = 0) 
         },
         "cameras": cameras,
         "frames": frames,
+        "poses_convention": POSE_CONVENTION,
         "robot": robot_record(config, scene),
         "randomisation": values,
     }  # fmt: skip

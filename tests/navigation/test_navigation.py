@@ -166,6 +166,11 @@ def test_build_loads_as_episodes_and_as_frames(nav_build):
         assert item["frames"][0]["rgb"].shape == (RENDER.height, RENDER.width, 3)
         assert item["occupancy"].shape == tuple(meta["episode"]["layout"]["grid_shape"])
         assert item["map"].shape[:2] == tuple(3 * np.asarray(item["occupancy"].shape))
+        # the TartanAir-style pose file: each frame's camera-to-world position, to its 7 decimals
+        assert item["poses"]["head"].shape == (len(item["frames"]), 7)
+        for pose, frame in zip(item["poses"]["head"], item["frames"], strict=True):
+            to_world = np.linalg.inv(frame["meta"]["extrinsics_world_to_camera"])
+            np.testing.assert_allclose(pose[:3], to_world[:3, 3], atol=1e-5)
         total += len(item["frames"])
     frames = pickle.loads(pickle.dumps(load_frames(root)))  # picklable for DataLoader workers
     assert len(frames) == total

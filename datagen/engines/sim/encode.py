@@ -128,3 +128,23 @@ def _non_finite_path(value: Any, path: str = "") -> str:
         ):
             return found
     return ""
+
+
+POSE_CONVENTION = (
+    "camera-to-world per frame: tx ty tz qx qy qz qw; world z up (metres, the floor plan's "
+    "origin); camera axes OpenCV (x right, y down, z forward)"
+)
+
+
+def pose_file(world_to_camera: list[np.ndarray]) -> bytes:
+    """A camera's poses, one line per frame as TartanAir writes them (``POSE_CONVENTION``): the
+    position and the unit quaternion (w >= 0) of each camera-to-world transform."""
+    from scipy.spatial.transform import Rotation
+
+    lines = []
+    for extrinsics in world_to_camera:
+        camera_to_world = np.linalg.inv(extrinsics)
+        q = Rotation.from_matrix(camera_to_world[:3, :3]).as_quat()
+        q = -q if q[3] < 0 else q
+        lines.append(" ".join(f"{v:.7f}" for v in [*camera_to_world[:3, 3], *q]))
+    return ("\n".join(lines) + "\n").encode()
