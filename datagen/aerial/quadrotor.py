@@ -90,11 +90,18 @@ def bounding_radius(shape: QuadrotorShape) -> float:
     )
 
 
-def camera_mounts(shape: QuadrotorShape) -> dict[str, np.ndarray]:
-    """Where the cameras sit in the body frame: ``forward`` at the pod's front face,
-    ``down`` under the body (positions, metres)."""
+MOUNT_SHIFT = (0.04, 0.015)  # spans: how far the forward camera may sit off the pod's centre (y, z)
+
+
+def camera_mounts(
+    shape: QuadrotorShape, shift: tuple[float, float] = (0.0, 0.0)
+) -> dict[str, np.ndarray]:
+    """Where the cameras sit in the body frame: ``forward`` on the pod's front face, ``shift``
+    (fractions of ``MOUNT_SHIFT``, in [-1, 1]) left and up of its centre; ``down`` under the body
+    (positions, metres)."""
     s = shape.span
+    y, z = (f * m * s for f, m in zip(shift, MOUNT_SHIFT, strict=True))
     return {
-        "forward": np.array([0.5 * s + 0.005, 0.0, -0.04 * s]),
+        "forward": np.array([0.5 * s + 0.005, y, -0.04 * s + z]),
         "down": np.array([0.0, 0.0, -0.06 * s - 0.005]),
     }

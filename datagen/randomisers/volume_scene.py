@@ -34,12 +34,16 @@ def _u(rng: np.random.Generator, bounds: tuple[float, float]) -> float:
 
 
 def _cameras(rng: np.random.Generator, cfg) -> dict[str, Any]:
-    forward = {"fovy_deg": _u(rng, cfg.camera_fovy_deg), "pitch_deg": _u(rng, cfg.camera_pitch_deg)}
+    forward = {"fovy_deg": _u(rng, cfg.camera_fovy_deg), "pitch_deg": _u(rng, cfg.camera_pitch_deg),
+               # the mount on the pod's face, left and up, fractions of quadrotor.MOUNT_SHIFT
+               "shift": [_u(rng, (-1.0, 1.0)), _u(rng, (-1.0, 1.0))]}  # fmt: skip
     return {"forward": forward, "down": {"fovy_deg": _u(rng, cfg.down_fovy_deg)}}
 
 
 def _cameras(rng: np.random.Generator, cfg) -> dict[str, Any]:
-    forward = {"fovy_deg": _u(rng, cfg.camera_fovy_deg), "pitch_deg": _u(rng, cfg.camera_pitch_deg)}
+    forward = {"fovy_deg": _u(rng, cfg.camera_fovy_deg), "pitch_deg": _u(rng, cfg.camera_pitch_deg),
+               # the mount on the pod's face, left and up, fractions of quadrotor.MOUNT_SHIFT
+               "shift": [_u(rng, (-1.0, 1.0)), _u(rng, (-1.0, 1.0))]}  # fmt: skip
     return {"forward": forward, "down": {"fovy_deg": _u(rng, cfg.down_fovy_deg)}}
 
 

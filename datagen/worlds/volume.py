@@ -127,8 +127,8 @@ def build_aerial_scene(
         scene.add_entity(marker)
         marker.set_pose(sapien.Pose(agent.goal.tolist()))
         things.append(Thing(0, "goal_marker", f"goal_{k}", [marker]))
-        mounts = camera_mounts(shape)
         cam = values["cameras"][k]
+        mounts = camera_mounts(shape, tuple(cam["forward"]["shift"]))
         rigs = {
             f"d{k}": (
                 _mount(mounts["forward"], cam["forward"]["pitch_deg"]),

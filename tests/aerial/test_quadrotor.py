@@ -45,11 +45,13 @@ def _seen(points: np.ndarray, pitch_deg: float, fovy_deg: float, aspect: float) 
 
 @pytest.mark.parametrize("span", [0.25, 0.45])
 @pytest.mark.parametrize(("pitch", "fovy"), [(-20, 75), (5, 75), (15, 60), (-60, 75), (0, 90)])
-def test_the_forward_camera_sees_nothing_of_its_drone_up_to_its_limit(span, pitch, fovy):
-    """At 4:3 (the default 640x480), with the view's top at most MAX_CAMERA_TOP_DEG up."""
+@pytest.mark.parametrize("shift", [(0.0, 0.0), (1.0, 1.0), (-1.0, 1.0), (1.0, -1.0)])
+def test_the_forward_camera_sees_nothing_of_its_drone_up_to_its_limit(span, pitch, fovy, shift):
+    """At 4:3 (the default 640x480), with the view's top at most MAX_CAMERA_TOP_DEG up, the
+    mount anywhere its randomisation puts it."""
     assert pitch + fovy / 2 <= MAX_CAMERA_TOP_DEG
     shape = QuadrotorShape(span)
-    eye = camera_mounts(shape)["forward"]
+    eye = camera_mounts(shape, shift)["forward"]
     for name, mesh in quadrotor_parts(shape).items():
         seen = _seen(np.asarray(mesh.vertices) - eye, pitch, fovy, 4 / 3)
         assert not seen.any(), (name, pitch, fovy)
