@@ -43,6 +43,21 @@ def footprint_collides(
     return bool((np.hypot(px - x, py - y) < radius).any())
 
 
+def clearance(grid: np.ndarray, resolution: float, x: float, y: float, reach: float = 3.0) -> float:
+    """Metres from world (x, y) to the nearest occupied cell (its square), looking ``reach``
+    metres around; ``reach`` when none is that close. The grid's outside counts as occupied."""
+    rows, cols = grid.shape
+    edge = min(x, y, cols * resolution - x, rows * resolution - y)
+    c0, c1 = max(int((x - reach) / resolution), 0), min(int((x + reach) / resolution) + 1, cols)
+    r0, r1 = max(int((y - reach) / resolution), 0), min(int((y + reach) / resolution) + 1, rows)
+    r, c = np.nonzero(grid[r0:r1, c0:c1])
+    if r.size == 0:
+        return float(min(reach, max(edge, 0.0)))
+    px = np.clip(x, (c + c0) * resolution, (c + c0 + 1) * resolution)
+    py = np.clip(y, (r + r0) * resolution, (r + r0 + 1) * resolution)
+    return float(min(np.hypot(px - x, py - y).min(), max(edge, 0.0), reach))
+
+
 def sample_start_goal(
     rng: np.random.Generator,
     layout: Layout,

@@ -27,6 +27,7 @@ from datagen.engines.sim.render import DEPTH_SCALE, capture, keep_renderer_alive
 from datagen.navigation.episode import Episode, car_params, frame_steps, plan_episode
 from datagen.navigation.grid import inflate
 from datagen.navigation.map_image import episode_map, occupancy_image
+from datagen.navigation.planning import clearance
 from datagen.randomisers.floorplan_scene import sample_nav_scene
 from datagen.sample import Sample, sample_key
 from datagen.worlds.floorplan import NAV_CLASSES, NavScene, build_nav_scene
@@ -103,6 +104,8 @@ def render_episode(
             "command": rounded(command),
             "goal_in_robot": rounded(traj.goal_in_robot[step]),
             "distance_to_goal": round(float(traj.distance_to_goal[step]), 6),
+            # metres between the robot's footprint disk and the nearest wall or obstacle
+            "obstacle_gap": round(clearance(episode.layout.grid, episode.layout.resolution, x, y) - config.navigation.robot_radius, 6),
             "collision": bool(traj.collision[step]),
             "extrinsics_world_to_camera": rounded(frame.extrinsics, 7),
             "things": things_in_view(scene, instance),

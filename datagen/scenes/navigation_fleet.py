@@ -28,6 +28,7 @@ from datagen.engines.sim.render import DEPTH_SCALE, capture, keep_renderer_alive
 from datagen.navigation.fleet import FleetEpisode, plan_fleet_episode
 from datagen.navigation.grid import inflate
 from datagen.navigation.map_image import fleet_map, occupancy_image
+from datagen.navigation.planning import clearance
 from datagen.outcomes import agents_outcome
 from datagen.randomisers.floorplan_scene import sample_nav_scene
 from datagen.sample import Sample, sample_key
@@ -38,8 +39,9 @@ from datagen.worlds.floorplan import NAV_CLASSES, build_floorplan_scene
 FLEET_FORMAT = "datagen.nav_fleet/1"
 
 
-def _agent_states(fleet: FleetEpisode, step: int) -> list[dict[str, Any]]:
+def _agent_states(fleet: FleetEpisode, step: int, radius: float) -> list[dict[str, Any]]:
     out = []
+    layout = fleet.layout
     for agent in fleet.agents:
         traj, row = agent.episode.trajectory, int(agent.step_index(step))
         moving = agent.delay <= step < agent.arrival
@@ -48,6 +50,7 @@ def _agent_states(fleet: FleetEpisode, step: int) -> list[dict[str, Any]]:
             "pose": rounded(traj.poses[row]), "command": rounded(command),
             "goal_in_robot": rounded(traj.goal_in_robot[row]),
             "distance_to_goal": round(float(traj.distance_to_goal[row]), 6),
+            "obstacle_gap": round(clearance(layout.grid, layout.resolution, *traj.poses[row, :2]) - radius, 6),
             "collision": bool(traj.collision[row]), "arrived": step >= agent.arrival,
         })  # fmt: skip
     return out
@@ -89,7 +92,7 @@ def produce_fleet(config: BuildConfig, seed: int, index: int, attempt: int = 0) 
     frames, mounts, extrinsics = [], {}, {k: [] for k in range(len(scene.cameras))}
     level = config.output.png_level
     for f, step in enumerate(steps):
-        states = _agent_states(fleet, step)
+        states = _agent_states(fleet, step, nav.robot_radius)
         for k, state in enumerate(states):
             steer = state["command"][1] if nav.robot == "car" else 0.0
             scene.set_base(*state["pose"], steer, k=k)
