@@ -104,7 +104,10 @@ def test_frames_agree_with_the_robot_pose_and_the_layout(rendered, family):
         np.testing.assert_allclose(np.linalg.inv(E), planar_pose(*frame["pose"]) @ mount, atol=2e-4)
         # the footprint's gap to the nearest wall or obstacle: negative exactly when it collides
         assert (frame["obstacle_gap"] < 0) == frame["collision"]
-        assert frame["obstacle_gap"] <= _distance_to_rects(np.array([frame["pose"][:2]]), layout["walls"])[0] - 0.3 + 1e-6
+        assert (
+            frame["obstacle_gap"]
+            <= _distance_to_rects(np.array([frame["pose"][:2]]), layout["walls"])[0] - 0.3 + 1e-6
+        )
         # and the rendered depth puts floor pixels on z = 0 and wall pixels on a wall's faces
         depth = _decode(sample.parts[f"f{k:04d}.depth.png"]).astype(float) * camera["depth_scale"]
         semantic = _decode(sample.parts[f"f{k:04d}.semantic.png"])
