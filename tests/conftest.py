@@ -6,6 +6,7 @@ from __future__ import annotations
 import json
 import os
 import shutil
+import signal
 import subprocess
 import sys
 import uuid
@@ -206,14 +207,23 @@ def _sigint_ignored() -> bool:
     return False
 
 
+def _restore_sigint() -> None:
+    signal.signal(signal.SIGINT, signal.default_int_handler)
+    signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGINT})
+
+
+def pytest_sessionstart(session):
+    # a shell without job control hands a background command (`... &`) SIGINT ignored: start
+    # from the default, so that the check below sees only what a test did
+    if _sigint_ignored():
+        _restore_sigint()
+
+
 @pytest.fixture(autouse=True)
 def _sigint_stays_default(request):
     yield
     if _sigint_ignored():
-        import signal
-
-        signal.signal(signal.SIGINT, signal.default_int_handler)
-        signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGINT})
+        _restore_sigint()
         pytest.fail(f"{request.node.nodeid} left SIGINT ignored or blocked in the test process")
 
 
