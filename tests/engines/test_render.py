@@ -4,6 +4,7 @@ bit, on real captures and on edge values; the torch variant (the GPU path) equal
 from __future__ import annotations
 
 from dataclasses import replace
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -11,7 +12,13 @@ import pytest
 from datagen.config import load_config
 from datagen.engines.sim import picture_conversion as conversion
 from datagen.engines.sim import stage_clock
-from datagen.engines.sim.render import capture, gpu_read_back, keep_renderer_alive
+from datagen.engines.sim.render import (
+    _pictures_cpu,
+    _pictures_gpu,
+    capture,
+    gpu_read_back,
+    keep_renderer_alive,
+)
 
 pytestmark = pytest.mark.filterwarnings("ignore:invalid value encountered in cast")
 
@@ -112,3 +119,24 @@ def test_capture_equals_the_reference_on_real_pictures():
         assert np.array_equal(frame.entity_ids, segmentation[..., 1])
         assert frame.entity_ids.flags.c_contiguous and frame.depth.dtype == np.uint16
     assert (frame.depth == 0).all() and (position[..., 3] >= 1).all()  # the sky: no surface
+
+
+@pytest.mark.sim
+@pytest.mark.skipif(
+    not Path("/dev/nvidiactl").exists(), reason="needs an NVIDIA GPU (SAPIEN on CUDA, torch)"
+)
+def test_gpu_read_back_gives_the_cpu_paths_bytes():
+    """On a CUDA render device the pictures read back and converted on the GPU (what
+    ``capture`` does there) are the CPU path's bytes, at the default 640x480."""
+    from datagen.worlds.tabletop import build_scene
+
+    config = load_config("configs/grasp_tabletop.yaml")
+    keep_renderer_alive()
+    scene = build_scene(config, config.seed, 3)
+    scene.scene.update_render()
+    camera = scene.cameras["workspace"]
+    assert camera.entity.scene.render_system.device.is_cuda(), "SAPIEN renders on the CPU"
+    assert gpu_read_back(True), "torch sees no CUDA device"
+    on_gpu, on_cpu = _pictures_gpu(camera), _pictures_cpu(camera)
+    for name, gpu, cpu in zip(("rgb", "depth", "entity ids"), on_gpu, on_cpu, strict=True):
+        assert gpu.dtype == cpu.dtype and np.array_equal(gpu, cpu), name
