@@ -15,9 +15,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-import numpy as np
-
-from datagen.navigation.follow import Recorder, Trajectory, _progress, _wrap, lookahead_point
+from datagen.navigation.follow import Trajectory, _wrap, pursue
 from datagen.navigation.grid import Layout
 
 
@@ -55,31 +53,16 @@ def follow_ackermann(path_world, params: CarParams, layout: Layout | None = None
     """Drive from the path's first point, heading along its first leg, to its last; commands are
     (v, steering angle). Collisions are checked against ``layout.grid`` when a layout is given."""
     p = params
-    path = np.asarray(path_world, dtype=float).reshape(-1, 2)
-    if len(path) == 1:
-        path = np.vstack([path, path])
-    s_cum = np.concatenate([[0.0], np.cumsum(np.hypot(*np.diff(path, axis=0).T))])
-    goal, total, dt = path[-1], s_cum[-1], 1.0 / p.rate_hz
-    max_steps = math.ceil((3 * total / p.max_linear + 20.0) / dt)
-    first = path[1] - path[0]
-    x, y, yaw = float(path[0, 0]), float(path[0, 1]), math.atan2(first[1], first[0])
-    s_prev = 0.0
-    rec = Recorder(goal, p.robot_radius, layout)
-    success = False
-    while True:
-        distance = rec.observe(x, y, yaw)
-        if distance <= p.goal_tolerance:
-            success = True
-            break
-        if len(rec.cmds) >= max_steps:
-            break
-        s_prev = _progress(path, s_cum, np.array([x, y]), s_prev, 2 * p.lookahead + 0.5)
-        target = lookahead_point(path, s_cum, s_prev, p.lookahead)
+
+    def bicycle(x, y, yaw, target, distance, dt):
         reach = max(math.hypot(target[0] - x, target[1] - y), 1e-6)
         alpha = _wrap(math.atan2(target[1] - y, target[0] - x) - yaw)
         steer = math.atan(p.wheelbase * 2.0 * math.sin(alpha) / reach)
         steer = max(-p.max_steer, min(p.max_steer, steer))
         v = min(p.max_linear, max(0.1, distance))  # slow down near the goal
-        rec.cmds.append((v, steer))
-        x, y, yaw = _arc(x, y, yaw, v, steer, p.wheelbase, dt)
-    return rec.trajectory(success, dt)
+        return (v, steer), _arc(x, y, yaw, v, steer, p.wheelbase, dt)
+
+    return pursue(
+        path_world, None, p.lookahead, p.max_linear, p.rate_hz, p.goal_tolerance,
+        p.robot_radius, bicycle, layout,
+    )  # fmt: skip

@@ -4,6 +4,7 @@ at a fixed control rate. No dynamics, no slip: the simulator later replays or tr
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -109,31 +110,65 @@ def lookahead_point(
     )
 
 
+# one step of a drive: (x, y, yaw, look-ahead point, distance to the goal, dt) -> (command,
+# the pose after applying it for dt)
+Drive = Callable[
+    [float, float, float, np.ndarray, float, float],
+    tuple[tuple[float, float], tuple[float, float, float]],
+]
+
+
+def pursue(
+    path_world,
+    start_yaw: float | None,
+    lookahead: float,
+    max_linear: float,
+    rate_hz: float,
+    goal_tolerance: float,
+    robot_radius: float,
+    drive: Drive,
+    layout: Layout | None = None,
+    max_steps: int | None = None,
+) -> Trajectory:
+    """Pure pursuit from the path's first point to its last, heading ``start_yaw`` (None: along
+    the first leg) at the start; ``drive`` turns each step's look-ahead point into a command and
+    the next pose. Stops at the goal or after ``max_steps`` (default: 3x the path at full speed
+    + 20 s)."""
+    path = np.asarray(path_world, dtype=float).reshape(-1, 2)
+    if len(path) == 1:
+        path = np.vstack([path, path])
+    s_cum = np.concatenate([[0.0], np.cumsum(np.hypot(*np.diff(path, axis=0).T))])
+    goal, total, dt = path[-1], s_cum[-1], 1.0 / rate_hz
+    max_steps = max_steps or math.ceil((3 * total / max_linear + 20.0) / dt)
+    if start_yaw is None:
+        first = path[1] - path[0]
+        start_yaw = math.atan2(first[1], first[0])
+    x, y, yaw = float(path[0, 0]), float(path[0, 1]), float(start_yaw)
+    s_prev = 0.0
+    rec = Recorder(goal, robot_radius, layout)
+    success = False
+    while True:
+        distance = rec.observe(x, y, yaw)
+        if distance <= goal_tolerance:
+            success = True
+            break
+        if len(rec.cmds) >= max_steps:
+            break
+        s_prev = _progress(path, s_cum, np.array([x, y]), s_prev, 2 * lookahead + 0.5)
+        target = lookahead_point(path, s_cum, s_prev, lookahead)
+        command, (x, y, yaw) = drive(x, y, yaw, target, distance, dt)
+        rec.cmds.append(command)
+    return rec.trajectory(success, dt)
+
+
 def follow(
     path_world, start_yaw: float, params: FollowParams | None = None, layout: Layout | None = None
 ) -> Trajectory:
     """Drive from the path's first point to its last; collisions are checked against
     ``layout.grid`` (un-inflated) when a layout is given."""
     p = params or FollowParams()
-    path = np.asarray(path_world, dtype=float).reshape(-1, 2)
-    if len(path) == 1:
-        path = np.vstack([path, path])
-    s_cum = np.concatenate([[0.0], np.cumsum(np.hypot(*np.diff(path, axis=0).T))])
-    goal, total, dt = path[-1], s_cum[-1], 1.0 / p.rate_hz
-    max_steps = p.max_steps or math.ceil((3 * total / p.max_linear + 20.0) / dt)
-    x, y, yaw = float(path[0, 0]), float(path[0, 1]), float(start_yaw)
-    s_prev = 0.0
-    rec = Recorder(goal, p.robot_radius, layout)
-    success = False
-    while True:
-        distance = rec.observe(x, y, yaw)
-        if distance <= p.goal_tolerance:
-            success = True
-            break
-        if len(rec.cmds) >= max_steps:
-            break
-        s_prev = _progress(path, s_cum, np.array([x, y]), s_prev, 2 * p.lookahead + 0.5)
-        target = lookahead_point(path, s_cum, s_prev, p.lookahead)
+
+    def unicycle(x, y, yaw, target, distance, dt):
         tdist = max(math.hypot(target[0] - x, target[1] - y), 1e-6)
         alpha = _wrap(math.atan2(target[1] - y, target[0] - x) - yaw)
         if abs(alpha) > p.turn_in_place:
@@ -144,11 +179,11 @@ def follow(
             if abs(w) > p.max_angular:  # keep the curvature, lower the speed
                 v *= p.max_angular / abs(w)
                 w = math.copysign(p.max_angular, w)
-        rec.cmds.append((v, w))
         heading = yaw + 0.5 * w * dt  # midpoint integration of the unicycle
-        x, y, yaw = (
-            x + v * dt * math.cos(heading),
-            y + v * dt * math.sin(heading),
-            _wrap(yaw + w * dt),
-        )
-    return rec.trajectory(success, dt)
+        pose = (x + v * dt * math.cos(heading), y + v * dt * math.sin(heading), _wrap(yaw + w * dt))
+        return (v, w), pose
+
+    return pursue(
+        path_world, start_yaw, p.lookahead, p.max_linear, p.rate_hz, p.goal_tolerance,
+        p.robot_radius, unicycle, layout, p.max_steps,
+    )  # fmt: skip
