@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+from collections.abc import Iterator
 from dataclasses import dataclass
 
 import numpy as np
@@ -83,19 +84,28 @@ def follow_params(cfg: NavigationConfig) -> FollowParams:
 LAYOUT_ATTEMPTS = 10
 
 
-def plan_episode(cfg: NavigationConfig, seed: int, index: int, retry: int = 0) -> Episode:
-    """Draws a layout and a task until one has a start/goal pair with a path (streams
-    ``nav_layout``/``nav_task``, then ``nav_layout/1``/``nav_task/1``, ...: still a function of
-    (seed, index) alone). Raises :class:`PlanningError` after ``LAYOUT_ATTEMPTS`` layouts."""
-    reasons = []
+def layout_attempts(
+    cfg: NavigationConfig, seed: int, index: int, retry: int = 0
+) -> Iterator[tuple[Layout, np.random.Generator]]:
+    """The ``LAYOUT_ATTEMPTS`` layouts an episode may draw, each with the rng of its tasks
+    (streams ``nav_layout``/``nav_task``, then ``nav_layout/1``/``nav_task/1``, ...: still a
+    function of (seed, index) alone)."""
     for attempt in range(LAYOUT_ATTEMPTS):
         suffix = f"/{attempt}" if attempt else ""
         layout = make_layout(
             cfg.family, sample_rng(seed, index, "nav_layout" + suffix, retry), layout_params(cfg)
         )
         layout.params["attempt"] = attempt
+        yield layout, sample_rng(seed, index, "nav_task" + suffix, retry)
+
+
+def plan_episode(cfg: NavigationConfig, seed: int, index: int, retry: int = 0) -> Episode:
+    """Draws a layout and a task until one has a start/goal pair with a path
+    (:func:`layout_attempts`). Raises :class:`PlanningError` after ``LAYOUT_ATTEMPTS`` layouts."""
+    reasons = []
+    for layout, rng in layout_attempts(cfg, seed, index, retry):
         try:
-            return plan_task(cfg, layout, sample_rng(seed, index, "nav_task" + suffix, retry))
+            return plan_task(cfg, layout, rng)
         except PlanningError as exc:
             reasons.append(str(exc))
     raise PlanningError(

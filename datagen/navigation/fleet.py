@@ -18,11 +18,9 @@ from dataclasses import dataclass
 import numpy as np
 
 from datagen.config.sections import NavigationConfig
-from datagen.navigation.episode import LAYOUT_ATTEMPTS, Episode, layout_params, plan_task
+from datagen.navigation.episode import LAYOUT_ATTEMPTS, Episode, layout_attempts, plan_task
 from datagen.navigation.grid import Layout
-from datagen.navigation.layouts import make_layout
 from datagen.navigation.planning import PlanningError
-from datagen.seeding import sample_rng
 
 DELAY_STEPS = 5  # control steps between tried delays
 MAX_DELAY_S = 30.0  # seconds
@@ -90,13 +88,7 @@ def plan_fleet_episode(
 ) -> FleetEpisode:
     apart = 2 * cfg.robot_radius + cfg.planning_margin
     reasons = []
-    for attempt in range(LAYOUT_ATTEMPTS):
-        suffix = f"/{attempt}" if attempt else ""
-        layout = make_layout(
-            cfg.family, sample_rng(seed, index, "nav_layout" + suffix, retry), layout_params(cfg)
-        )
-        layout.params["attempt"] = attempt
-        rng = sample_rng(seed, index, "nav_task" + suffix, retry)
+    for layout, rng in layout_attempts(cfg, seed, index, retry):
         agents: list[GroundAgent] = []
         for _ in range(cfg.robots):
             ends = [np.asarray(p[:2]) for a in agents for p in (a.episode.start, a.episode.goal)]
