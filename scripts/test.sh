@@ -5,8 +5,23 @@ set -euo pipefail
 ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 bash "$ROOT/scripts/install.sh"
 # the readers the export tests load datagen's exports with (lerobot 0.4.4, mlcroissant), in an
-# environment of their own (.venv-readers): made once, then checked
-bash "$ROOT/scripts/readers_env.sh"
+# environment of their own (.venv-readers): made once (minutes), then checked; in the background
+# while the checks and the pure tests run, which do not use it
+READERS_LOG="$(mktemp)"
+# its own process group, so that a failed check stops pip too
+setsid bash "$ROOT/scripts/readers_env.sh" >"$READERS_LOG" 2>&1 &
+READERS_PID=$!
+trap 'kill -- "-$READERS_PID" 2>/dev/null || kill "$READERS_PID" 2>/dev/null; rm -f "$READERS_LOG"' EXIT
+readers_ready() {
+  local rc=0
+  wait "$READERS_PID" || rc=$?
+  cat "$READERS_LOG"
+  rm -f "$READERS_LOG"
+  if [ "$rc" -ne 0 ]; then
+    echo "[test] the reader environment could not be made (above); the export tests need it" >&2
+    exit "$rc"
+  fi
+}
 cd "$ROOT"
 echo "[test] ruff format --check, ruff check, lint-imports (import contracts in pyproject.toml)"
 .venv/bin/ruff format --check --quiet .
@@ -19,6 +34,7 @@ SITE="$(mktemp -d)"
 .venv/bin/mkdocs build --strict --quiet -d "$SITE"
 rm -rf "$SITE"
 if [ "$#" -gt 0 ]; then
+  readers_ready
   echo "[test] pytest $*"
   exec .venv/bin/pytest "$@"
 fi
@@ -26,5 +42,6 @@ fi
 # prints it (the pure tests), then every test it leaves out.
 echo "[test] pytest: the pure tests (the quick loop of docs/testing.md)"
 .venv/bin/pytest -q -m "not sim and not mqtt and not ray and not slow"
+readers_ready
 echo "[test] pytest: the tests that use the simulator, the broker, Ray or minutes"
 exec .venv/bin/pytest -m "sim or mqtt or ray or slow"
