@@ -32,6 +32,12 @@ def navigation_outcome(episode: Mapping[str, Any]) -> Outcome:
     return {"kind": "navigation", "success": bool(episode["success"]), "spl": episode["spl"]}
 
 
+def spl(success: bool, shortest_m: float, travelled_m: float) -> float:
+    """Success weighted by path length (Anderson et al. 2018): ``shortest / max(travelled,
+    shortest)`` when the agent succeeded, else 0 (6 decimals)."""
+    return round(float(success) * shortest_m / max(travelled_m, shortest_m, 1e-9), 6)
+
+
 def agents_outcome(agents: list[Mapping[str, Any]]) -> dict[str, Any]:
     """An episode of several agents (drones, robots) as a whole, from each agent's record: every
     one succeeded; SPL and path lengths averaged over them (``round``: 6 decimals)."""

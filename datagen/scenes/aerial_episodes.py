@@ -39,7 +39,7 @@ from datagen.engines.sim.encode import (
 )
 from datagen.engines.sim.optical_flow import flow_to_next
 from datagen.engines.sim.render import DEPTH_SCALE, Frame, capture, keep_renderer_alive
-from datagen.outcomes import agents_outcome
+from datagen.outcomes import agents_outcome, spl
 from datagen.randomisers.volume_scene import sample_aerial_scene
 from datagen.sample import Sample, sample_key
 from datagen.worlds.volume import AERIAL_CLASSES, AerialScene, build_aerial_scene
@@ -182,7 +182,7 @@ def produce(config: BuildConfig, seed: int, index: int, attempt: int = 0) -> Sam
             "flight_s": round(agent.flight.duration, 6), "waypoints": _r(agent.flight.waypoints, 5),
             "slow_down": round(agent.flight.slow_down, 6), "midpoints": agent.flight.splits,
             "success": success, "path_length_m": round(flown, 6), "shortest_path_m": round(shortest, 6),
-            "spl": round(float(success) * shortest / max(flown, shortest, 1e-9), 6),
+            "spl": spl(success, shortest, flown),
             "max_speed": round(float(np.linalg.norm(states[k].velocity, axis=1).max()), 6),
             "altitude_m": [round(float(states[k].position[:, 2].min()), 6), round(float(states[k].position[:, 2].max()), 6)],
         })  # fmt: skip

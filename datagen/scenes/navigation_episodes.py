@@ -15,6 +15,7 @@ import numpy as np
 from scipy import ndimage
 
 from datagen.config import BuildConfig
+from datagen.config.sections import RenderConfig
 from datagen.engines.sim.encode import (
     POSE_CONVENTION,
     View,
@@ -25,9 +26,10 @@ from datagen.engines.sim.encode import (
 )
 from datagen.engines.sim.render import DEPTH_SCALE, capture, keep_renderer_alive
 from datagen.navigation.episode import Episode, car_params, frame_steps, plan_episode
-from datagen.navigation.grid import inflate
+from datagen.navigation.grid import Layout, inflate
 from datagen.navigation.map_image import episode_map, occupancy_image
 from datagen.navigation.planning import clearance
+from datagen.outcomes import spl
 from datagen.randomisers.floorplan_scene import sample_nav_scene
 from datagen.sample import Sample, sample_key
 from datagen.worlds.floorplan import NAV_CLASSES, NavScene, build_nav_scene
@@ -110,21 +112,7 @@ def render_episode(
             "extrinsics_world_to_camera": rounded(frame.extrinsics, 7),
             "things": things_in_view(scene, instance),
         })  # fmt: skip
-    forward = camera_in_robot[:3, 2]  # OpenCV z axis = viewing direction
-    r = config.render
-    camera = {
-        "width": r.width,
-        "height": r.height,
-        "fovy_deg": round(math.degrees(scene.camera.fovy), 6),
-        "near": r.near,
-        "far": r.far,
-        "intrinsics": rounded(intrinsics),
-        "camera_in_robot": rounded(camera_in_robot, 7),
-        "height_m": round(float(camera_in_robot[2, 3]), 6),
-        "pitch_down_deg": round(math.degrees(-math.asin(float(forward[2]))), 6),
-        "convention": "opencv",
-        "depth_scale": DEPTH_SCALE,
-    }
+    camera = camera_record(config.render, scene.camera.fovy, camera_in_robot, intrinsics)
     parts["poses.head.txt"] = pose_file(extrinsics)
     return parts, records, camera
 
@@ -138,7 +126,7 @@ def episode_record(config: BuildConfig, episode: Episode, steps: list[int]) -> d
         "shortest_path_m": round(shortest, 6),
         "planned_path_m": round(episode.planned_path_m, 6),
         "astar_path_m": round(episode.astar_length_m, 6),
-        "spl": round(float(traj.success) * shortest / max(travelled, shortest, 1e-9), 6),
+        "spl": spl(traj.success, shortest, travelled),
         "steps": len(traj.commands),
         "duration_s": round(len(traj.commands) * traj.dt, 6),
         "frames": len(steps),
@@ -150,16 +138,40 @@ def episode_record(config: BuildConfig, episode: Episode, steps: list[int]) -> d
         "inflation_m": round(episode.inflation, 6),
         "planned_path": rounded(episode.path, 5),
         "trajectory": traj.to_dict(),
-        "layout": {
-            "family": layout.family,
-            "resolution": layout.resolution,
-            "size_m": rounded(layout.size_m),
-            "grid_shape": list(layout.grid.shape),
-            "walls": [list(w) for w in layout.walls],
-            "doors": [list(d) for d in layout.doors],
-            "obstacles": [list(o) for o in layout.obstacles],
-            "params": layout.params,
-        },
+        "layout": layout_record(layout),
+    }
+
+
+def camera_record(
+    render: RenderConfig, fovy: float, camera_in_robot: np.ndarray, intrinsics: np.ndarray
+) -> dict[str, Any]:
+    """A robot camera's record: its image, lens and fixed mount (``fovy`` in radians)."""
+    forward = camera_in_robot[:3, 2]  # OpenCV z axis = viewing direction
+    return {
+        "width": render.width,
+        "height": render.height,
+        "fovy_deg": round(math.degrees(fovy), 6),
+        "near": render.near,
+        "far": render.far,
+        "intrinsics": rounded(intrinsics),
+        "camera_in_robot": rounded(camera_in_robot, 7),
+        "height_m": round(float(camera_in_robot[2, 3]), 6),
+        "pitch_down_deg": round(math.degrees(-math.asin(float(forward[2]))), 6),
+        "convention": "opencv",
+        "depth_scale": DEPTH_SCALE,
+    }
+
+
+def layout_record(layout: Layout) -> dict[str, Any]:
+    return {
+        "family": layout.family,
+        "resolution": layout.resolution,
+        "size_m": rounded(layout.size_m),
+        "grid_shape": list(layout.grid.shape),
+        "walls": [list(w) for w in layout.walls],
+        "doors": [list(d) for d in layout.doors],
+        "obstacles": [list(o) for o in layout.obstacles],
+        "params": layout.params,
     }
 
 

@@ -10,7 +10,6 @@ planned path and trajectory), ``occupancy.png`` and ``json`` (docs/navigation.md
 
 from __future__ import annotations
 
-import math
 from typing import Any
 
 import numpy as np
@@ -24,15 +23,22 @@ from datagen.engines.sim.encode import (
     png_bytes,
     pose_file,
 )
-from datagen.engines.sim.render import DEPTH_SCALE, capture, keep_renderer_alive
+from datagen.engines.sim.render import capture, keep_renderer_alive
 from datagen.navigation.fleet import FleetEpisode, plan_fleet_episode
 from datagen.navigation.grid import inflate
 from datagen.navigation.map_image import fleet_map, occupancy_image
 from datagen.navigation.planning import clearance
-from datagen.outcomes import agents_outcome
+from datagen.outcomes import agents_outcome, spl
 from datagen.randomisers.floorplan_scene import sample_nav_scene
 from datagen.sample import Sample, sample_key
-from datagen.scenes.navigation_episodes import planar_pose, robot_record, rounded, things_in_view
+from datagen.scenes.navigation_episodes import (
+    camera_record,
+    layout_record,
+    planar_pose,
+    robot_record,
+    rounded,
+    things_in_view,
+)
 from datagen.scenes.navigation_episodes import produce as produce_one
 from datagen.worlds.floorplan import NAV_CLASSES, build_floorplan_scene
 
@@ -63,7 +69,7 @@ def _agent_record(agent, dt: float) -> dict[str, Any]:
         "start": rounded(episode.start), "goal": rounded(episode.goal), "delay_s": round(agent.delay * dt, 6),
         "success": bool(traj.success), "path_length_m": round(travelled, 6),
         "shortest_path_m": round(shortest, 6), "planned_path_m": round(episode.planned_path_m, 6),
-        "spl": round(float(traj.success) * shortest / max(travelled, shortest, 1e-9), 6),
+        "spl": spl(traj.success, shortest, travelled),
         "collision_steps": int(traj.collision.sum()), "planned_path": rounded(episode.path, 5),
         "trajectory": traj.to_dict(),
     }  # fmt: skip
@@ -137,17 +143,10 @@ def produce_fleet(config: BuildConfig, seed: int, index: int, attempt: int = 0) 
     parts["occupancy.png"] = png_bytes(occupancy_image(layout.grid), level)
     for k, poses in extrinsics.items():
         parts[f"poses.r{k}.txt"] = pose_file(poses)
-    r = config.render
-    cameras = {}
-    for k, camera in enumerate(scene.cameras):
-        mount, intrinsics = mounts[k]
-        forward = mount[:3, 2]
-        cameras[f"r{k}"] = {
-            "width": r.width, "height": r.height, "fovy_deg": round(math.degrees(camera.fovy), 6),
-            "near": r.near, "far": r.far, "intrinsics": rounded(intrinsics), "camera_in_robot": rounded(mount, 7),
-            "height_m": round(float(mount[2, 3]), 6), "pitch_down_deg": round(math.degrees(-math.asin(float(forward[2]))), 6),
-            "convention": "opencv", "depth_scale": DEPTH_SCALE, "robot": k,
-        }  # fmt: skip
+    cameras = {
+        f"r{k}": camera_record(config.render, camera.fovy, *mounts[k]) | {"robot": k}
+        for k, camera in enumerate(scene.cameras)
+    }
     agents = [_agent_record(a, fleet.dt) for a in fleet.agents]
     metadata = {
         "format": FLEET_FORMAT, "key": sample_key(index), "index": index, "seed": seed,
@@ -158,10 +157,7 @@ def produce_fleet(config: BuildConfig, seed: int, index: int, attempt: int = 0) 
             **agents_outcome(agents),
             "steps": fleet.steps, "duration_s": round(fleet.steps * fleet.dt, 6), "frames": len(steps),
             "agents": agents,
-            "layout": {"family": layout.family, "resolution": layout.resolution, "size_m": rounded(layout.size_m),
-                       "grid_shape": list(layout.grid.shape), "walls": [list(w) for w in layout.walls],
-                       "doors": [list(d) for d in layout.doors], "obstacles": [list(o) for o in layout.obstacles],
-                       "params": layout.params},
+            "layout": layout_record(layout),
         },
         "cameras": cameras,
         "frames": frames,
