@@ -193,34 +193,38 @@ def _grasp(meta: dict[str, Any], traj: dict[str, Any], part_names: set[str]) -> 
     )
 
 
-def _navigation(meta: dict[str, Any], fps: float) -> Episode:
-    views = labelled_views(meta)
-    records = [view.record for view in views]
-    kept = [
-        k
-        for k, record in enumerate(records)
-        if abs(float(record["time_s"]) - k / fps) <= GRID_TOLERANCE_S
+def _on_grid(records: list[dict[str, Any]], fps: float) -> list[int]:
+    """Indices of the records whose time is on the ``fps`` grid (frame n at n / fps)."""
+    return [
+        n
+        for n, record in enumerate(records)
+        if abs(float(record["time_s"]) - n / fps) <= GRID_TOLERANCE_S
     ]
-    views = [views[k] for k in kept]
-    records = [records[k] for k in kept]
+
+
+def _ground(
+    meta: dict[str, Any], fps: float, key: str, states: list[dict[str, Any]], success: bool,
+    prefixes: list[str],
+) -> Episode:  # fmt: skip
+    """A ground robot's episode from its per-frame states and its frames' part prefixes."""
     return Episode(
-        key=meta["key"],
+        key=key,
         kind="navigation",
         task=f"drive to the goal through the {_words(meta['family'])}",
         robot=str(meta["robot"].get("name", "")),
         fps=fps,
-        state=np.array([r["pose"] for r in records], np.float32),
+        state=np.array([s["pose"] for s in states], np.float32),
         state_names=["x", "y", "yaw"],
-        action=np.array([r["command"] for r in records], np.float32),
+        action=np.array([s["command"] for s in states], np.float32),
         # (v, w) for Fetch, (v, steering angle) for the car
         action_names=list(meta["robot"].get("commands", ["linear_m_s", "angular_rad_s"])),
-        success=bool(meta["episode"]["success"]),
-        cameras={"head": [f"{v.prefix}rgb.png" for v in views]},
-        depth={"head": [f"{v.prefix}depth.png" for v in views]},
+        success=success,
+        cameras={"head": [f"{p}rgb.png" for p in prefixes]},
+        depth={"head": [f"{p}depth.png" for p in prefixes]},
         extras={
-            "goal_in_robot": np.array([r["goal_in_robot"] for r in records], np.float32),
-            "distance_to_goal": np.array([[r["distance_to_goal"]] for r in records], np.float32),
-            "collision": np.array([[r["collision"]] for r in records], np.bool_),
+            "goal_in_robot": np.array([s["goal_in_robot"] for s in states], np.float32),
+            "distance_to_goal": np.array([[s["distance_to_goal"]] for s in states], np.float32),
+            "collision": np.array([[s["collision"]] for s in states], np.bool_),
         },
         extra_names={
             "goal_in_robot": ["x_m", "y_m"],
@@ -230,12 +234,17 @@ def _navigation(meta: dict[str, Any], fps: float) -> Episode:
     )
 
 
+def _navigation(meta: dict[str, Any], fps: float) -> Episode:
+    views = labelled_views(meta)
+    views = [views[n] for n in _on_grid([v.record for v in views], fps)]
+    return _ground(
+        meta, fps, meta["key"], [v.record for v in views], bool(meta["episode"]["success"]),
+        [v.prefix for v in views],
+    )  # fmt: skip
+
+
 def _aerial(meta: dict[str, Any], fps: float, k: int) -> Episode:
-    records = [
-        r
-        for n, r in enumerate(meta["frames"])
-        if abs(float(r["time_s"]) - n / fps) <= GRID_TOLERANCE_S
-    ]
+    records = [meta["frames"][n] for n in _on_grid(meta["frames"], fps)]
     states = [r["agents"][k] for r in records]
     # by role, not by drone: every drone's episode has the same features
     roles = {c.removeprefix(f"d{k}").lstrip("_") or "forward": c
@@ -277,34 +286,8 @@ def _aerial(meta: dict[str, Any], fps: float, k: int) -> Episode:
 
 def _ground_agent(meta: dict[str, Any], fps: float, k: int) -> Episode:
     """Robot ``k`` of a ``datagen.nav_fleet/1`` episode, as a single robot's episode."""
-    records = [
-        r
-        for n, r in enumerate(meta["frames"])
-        if abs(float(r["time_s"]) - n / fps) <= GRID_TOLERANCE_S
-    ]
-    states = [r["agents"][k] for r in records]
-    frames = [f"f{r['frame']:04d}.r{k}" for r in records]
-    return Episode(
-        key=f"{meta['key']}.r{k}",
-        kind="navigation",
-        task=f"drive to the goal through the {_words(meta['family'])}",
-        fps=fps,
-        state=np.array([s["pose"] for s in states], np.float32),
-        state_names=["x", "y", "yaw"],
-        action=np.array([s["command"] for s in states], np.float32),
-        action_names=list(meta["robot"].get("commands", ["linear_m_s", "angular_rad_s"])),
-        success=bool(meta["episode"]["agents"][k]["success"]),
-        cameras={"head": [f"{f}.rgb.png" for f in frames]},
-        depth={"head": [f"{f}.depth.png" for f in frames]},
-        extras={
-            "goal_in_robot": np.array([s["goal_in_robot"] for s in states], np.float32),
-            "distance_to_goal": np.array([[s["distance_to_goal"]] for s in states], np.float32),
-            "collision": np.array([[s["collision"]] for s in states], np.bool_),
-        },
-        extra_names={
-            "goal_in_robot": ["x_m", "y_m"],
-            "distance_to_goal": ["metres"],
-            "collision": ["collision"],
-        },
-        robot=str(meta["robot"].get("name", "")),
-    )
+    records = [meta["frames"][n] for n in _on_grid(meta["frames"], fps)]
+    return _ground(
+        meta, fps, f"{meta['key']}.r{k}", [r["agents"][k] for r in records],
+        bool(meta["episode"]["agents"][k]["success"]), [f"f{r['frame']:04d}.r{k}." for r in records],
+    )  # fmt: skip
