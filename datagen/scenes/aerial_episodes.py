@@ -16,7 +16,6 @@ import math
 from typing import Any
 
 import numpy as np
-from scipy import ndimage
 
 from datagen.aerial.episode import (
     AerialEpisode,
@@ -42,6 +41,7 @@ from datagen.engines.sim.render import DEPTH_SCALE, Frame, capture, keep_rendere
 from datagen.outcomes import agents_outcome, spl
 from datagen.randomisers.volume_scene import sample_aerial_scene
 from datagen.sample import Sample, sample_key
+from datagen.scenes.navigation_episodes import things_in_view
 from datagen.worlds.volume import AERIAL_CLASSES, AerialScene, build_aerial_scene
 
 AERIAL_FORMAT = "datagen.aerial_episode/1"
@@ -61,20 +61,6 @@ def _pose(position: np.ndarray, rotation: np.ndarray) -> np.ndarray:
     matrix = np.eye(4)
     matrix[:3, :3], matrix[:3, 3] = rotation, position
     return matrix
-
-
-def _things_in_view(scene: AerialScene, instance: np.ndarray) -> list[dict[str, Any]]:
-    out = []
-    slices = ndimage.find_objects(instance)
-    for thing in scene.things:
-        box = slices[thing.instance_id - 1] if thing.instance_id <= len(slices) else None
-        if box is None:
-            continue
-        rows, cols = box
-        out.append({"instance_id": thing.instance_id, "class": thing.class_name, "name": thing.name,
-                    "bbox_xyxy": [cols.start, rows.start, cols.stop - 1, rows.stop - 1],
-                    "pixels": int((instance[box] == thing.instance_id).sum())})  # fmt: skip
-    return out
 
 
 def _agent_record(episode: AerialEpisode, k: int, states, index: int, boxes: np.ndarray, tolerance: float) -> dict[str, Any]:  # fmt: skip
@@ -131,7 +117,7 @@ def render_frames(
             )
             poses[name].append(frame.extrinsics)
             record["cameras"][name] = {"extrinsics_world_to_camera": _r(frame.extrinsics, 7),
-                                       "things": _things_in_view(scene, instance)}  # fmt: skip
+                                       "things": things_in_view(scene.things, instance)}  # fmt: skip
             if config.aerial.optical_flow and name in previous:
                 before, before_instance = previous[name]
                 motions = {

@@ -9,6 +9,7 @@ pixel per cell, 255 = occupied) and ``json`` (see docs/navigation.md).
 from __future__ import annotations
 
 import math
+from collections.abc import Container, Sequence
 from typing import Any
 
 import numpy as np
@@ -32,7 +33,7 @@ from datagen.navigation.planning import clearance
 from datagen.outcomes import spl
 from datagen.randomisers.floorplan_scene import sample_nav_scene
 from datagen.sample import Sample, sample_key
-from datagen.worlds.floorplan import NAV_CLASSES, NavScene, build_nav_scene
+from datagen.worlds.floorplan import NAV_CLASSES, NavScene, Thing, build_nav_scene
 from datagen.worlds.robots import FETCH
 
 NAV_FORMAT = "datagen.nav_episode/1"
@@ -49,15 +50,15 @@ def planar_pose(x: float, y: float, yaw: float) -> np.ndarray:
 
 
 def things_in_view(
-    scene: NavScene, instance: np.ndarray, keep_robots: bool = False
+    things: Sequence[Thing], instance: np.ndarray, skip: Container[str] = ()
 ) -> list[dict[str, Any]]:
-    """2-D boxes of the labelled instances the camera sees (the robots excluded, unless
-    ``keep_robots``: the caller leaves out the camera's own)."""
+    """2-D boxes of the labelled things the camera sees, leaving out those of the classes in
+    ``skip``."""
     out = []
     slices = ndimage.find_objects(instance)
-    for thing in scene.things:
+    for thing in things:
         box = slices[thing.instance_id - 1] if thing.instance_id <= len(slices) else None
-        if box is None or (thing.class_name in ("robot", "car") and not keep_robots):
+        if box is None or thing.class_name in skip:
             continue
         rows, cols = box
         out.append({
@@ -110,7 +111,7 @@ def render_episode(
             "obstacle_gap": round(clearance(episode.layout.grid, episode.layout.resolution, x, y) - config.navigation.robot_radius, 6),
             "collision": bool(traj.collision[step]),
             "extrinsics_world_to_camera": rounded(frame.extrinsics, 7),
-            "things": things_in_view(scene, instance),
+            "things": things_in_view(scene.things, instance, skip=("robot", "car")),
         })  # fmt: skip
     camera = camera_record(config.render, scene.camera.fovy, camera_in_robot, intrinsics)
     parts["poses.head.txt"] = pose_file(extrinsics)

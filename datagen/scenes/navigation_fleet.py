@@ -126,11 +126,7 @@ def produce_fleet(config: BuildConfig, seed: int, index: int, attempt: int = 0) 
                 ),
             )
             own = scene.things[len(scene.things) - len(fleet.agents) + k].instance_id
-            seen = [
-                t
-                for t in things_in_view(scene, instance, keep_robots=True)
-                if t["instance_id"] != own
-            ]
+            seen = [t for t in things_in_view(scene.things, instance) if t["instance_id"] != own]
             record["cameras"][f"r{k}"] = {
                 "extrinsics_world_to_camera": rounded(frame.extrinsics, 7),
                 "things": seen,
