@@ -41,7 +41,7 @@ from datagen.engines.sim.render import DEPTH_SCALE, Frame, capture, keep_rendere
 from datagen.outcomes import agents_outcome, spl
 from datagen.randomisers.volume_scene import sample_aerial_scene
 from datagen.sample import Sample, sample_key
-from datagen.scenes.navigation_episodes import things_in_view
+from datagen.scenes.navigation_episodes import rounded, things_in_view
 from datagen.worlds.volume import AERIAL_CLASSES, AerialScene, build_aerial_scene
 
 AERIAL_FORMAT = "datagen.aerial_episode/1"
@@ -51,10 +51,6 @@ def frame_times(duration: float, rate_hz: float) -> np.ndarray:
     """Seconds of the rendered frames: every 1/rate from 0, and the episode's end."""
     times = np.arange(0.0, duration, 1.0 / rate_hz)
     return np.append(times, duration) if duration - times[-1] > 1e-9 else times
-
-
-def _r(a, digits: int = 6) -> list:
-    return np.round(np.asarray(a, float), digits).tolist()
 
 
 def _pose(position: np.ndarray, rotation: np.ndarray) -> np.ndarray:
@@ -68,12 +64,12 @@ def _agent_record(episode: AerialEpisode, k: int, states, index: int, boxes: np.
     p, rotation = states.position[index], states.rotation[index]
     gap = float(box_distance(p[None], boxes)[0]) - limits.radius
     return {
-        "position": _r(p), "quaternion_xyzw": _r(quaternion_xyzw(rotation[None])[0]),
-        "velocity": _r(states.velocity[index]), "acceleration": _r(states.acceleration[index]),
-        "body_rates": _r(states.body_rates[index]), "thrust": round(float(states.thrust[index]), 6),
-        "imu": {"accelerometer": _r(states.specific_force[index]), "gyroscope": _r(states.body_rates[index])},
+        "position": rounded(p), "quaternion_xyzw": rounded(quaternion_xyzw(rotation[None])[0]),
+        "velocity": rounded(states.velocity[index]), "acceleration": rounded(states.acceleration[index]),
+        "body_rates": rounded(states.body_rates[index]), "thrust": round(float(states.thrust[index]), 6),
+        "imu": {"accelerometer": rounded(states.specific_force[index]), "gyroscope": rounded(states.body_rates[index])},
         "distance_to_goal": round(float(np.linalg.norm(agent.goal - p)), 6),
-        "goal_in_body": _r(rotation.T @ (agent.goal - p)),
+        "goal_in_body": rounded(rotation.T @ (agent.goal - p)),
         "obstacle_gap": round(gap, 6), "collision": gap < 0.0,
         "arrived": bool(np.linalg.norm(agent.goal - p) <= tolerance),
     }  # fmt: skip
@@ -116,7 +112,7 @@ def render_frames(
                 View(frame.rgb, frame.depth, instance, semantic), f"f{f:04d}.{name}.", level
             )
             poses[name].append(frame.extrinsics)
-            record["cameras"][name] = {"extrinsics_world_to_camera": _r(frame.extrinsics, 7),
+            record["cameras"][name] = {"extrinsics_world_to_camera": rounded(frame.extrinsics, 7),
                                        "things": things_in_view(scene.things, instance)}  # fmt: skip
             if config.aerial.optical_flow and name in previous:
                 before, before_instance = previous[name]
@@ -164,8 +160,8 @@ def produce(config: BuildConfig, seed: int, index: int, attempt: int = 0) -> Sam
         )
         agents.append({
             "span_m": episode.shapes[k].span, "radius_m": round(limits.radius, 6),
-            "start": _r(agent.start), "goal": _r(agent.goal), "take_off_s": round(agent.take_off, 6),
-            "flight_s": round(agent.flight.duration, 6), "waypoints": _r(agent.flight.waypoints, 5),
+            "start": rounded(agent.start), "goal": rounded(agent.goal), "take_off_s": round(agent.take_off, 6),
+            "flight_s": round(agent.flight.duration, 6), "waypoints": rounded(agent.flight.waypoints, 5),
             "slow_down": round(agent.flight.slow_down, 6), "midpoints": agent.flight.splits,
             "success": success, "path_length_m": round(flown, 6), "shortest_path_m": round(shortest, 6),
             "spl": spl(success, shortest, flown),
@@ -189,8 +185,8 @@ def produce(config: BuildConfig, seed: int, index: int, attempt: int = 0) -> Sam
                                   "params": volume.layout.params}},
         },
         "cameras": {name: {"width": r.width, "height": r.height, "fovy_deg": round(math.degrees(cam.fovy), 6),
-                           "near": r.near, "far": r.far, "intrinsics": _r(cam.get_intrinsic_matrix()),
-                           "camera_in_body": _r(scene.camera_in_body[name], 7), "convention": "opencv",
+                           "near": r.near, "far": r.far, "intrinsics": rounded(cam.get_intrinsic_matrix()),
+                           "camera_in_body": rounded(scene.camera_in_body[name], 7), "convention": "opencv",
                            "depth_scale": DEPTH_SCALE, "drone": int(name[1:].split("_")[0])}
                     for name, cam in scene.cameras.items()},
         "poses_convention": POSE_CONVENTION,
