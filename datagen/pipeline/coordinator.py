@@ -153,7 +153,7 @@ class Coordinator:
                     set(range(total)) - durable, self.config.transfer.ack_timeout_s
                 )
                 self.acks.clear()
-                self._report(total - len(self.schedule.remaining))
+                self._report(total - self.schedule.not_durable)
                 # no idle workers: at most one per sample still to make (a resume may need fewer)
                 needed = len(self.schedule.remaining)
                 for worker_id in starting[needed:]:
@@ -196,7 +196,7 @@ class Coordinator:
                 index = self.acks.popleft()
                 if 0 <= index < total:
                     self.schedule.on_acked(index)
-            self._report(total - len(self.schedule.remaining))
+            self._report(total - self.schedule.not_durable)
             if self.schedule.done:
                 return
             self.supervisor.check()

@@ -175,7 +175,7 @@ class LiveStatus:
         c = self.coordinator
         assert c is not None
         now = time.time()
-        durable = self.total - len(c.schedule.remaining) if c.schedule is not None else 0
+        durable = self.total - c.schedule.not_durable if c.schedule is not None else 0
         if self.state == "finished":
             durable = self.total
         self._record(now - self.started, durable)

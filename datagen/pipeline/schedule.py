@@ -21,11 +21,17 @@ class Schedule:
         self.per_worker = per_worker  # samples handed to a worker and not yet published
         self.assigned: dict[int, list[int]] = {}  # worker -> indices sent, not yet published
         self.published: dict[int, dict[int, float]] = {}  # worker -> {index: publish time}
+        self.given_up: set[int] = set()  # failed on every attempt: not waited for, not durable
         self.reissued = 0
 
     @property
     def done(self) -> bool:
         return not self.remaining
+
+    @property
+    def not_durable(self) -> int:
+        """Samples of the schedule that no writer acknowledged: to make, or given up."""
+        return len(self.remaining) + len(self.given_up)
 
     def add_worker(self, worker: int) -> None:
         self.assigned[worker] = []
@@ -49,6 +55,7 @@ class Schedule:
 
     def on_acked(self, index: int) -> None:
         self.remaining.discard(index)
+        self.given_up.discard(index)
         for indices in self.published.values():
             indices.pop(index, None)
 
@@ -57,7 +64,9 @@ class Schedule:
         coordinator reports it when everything else is durable)."""
         if index in self.assigned.get(worker, []):
             self.assigned[worker].remove(index)
-        self.remaining.discard(index)
+        if index in self.remaining:
+            self.remaining.discard(index)
+            self.given_up.add(index)
 
     def on_worker_lost(self, worker: int, keep_published: bool = False) -> list[int]:
         """The worker died: everything it held and nobody acknowledged is issued again. A worker

@@ -57,3 +57,17 @@ def test_an_ack_while_queued_again_skips_the_sample():
     s.reissue_overdue(now=5.0)
     s.on_acked(0)
     assert 0 not in s.next_for(0)
+
+
+def test_a_sample_given_up_is_done_with_but_not_durable():
+    s = Schedule(range(3), ack_timeout_s=10)
+    s.add_worker(0)
+    assert s.next_for(0) == [0, 1]
+    s.on_published(0, 0, now=0.0)
+    s.on_acked(0)
+    s.on_given_up(0, 1)
+    assert s.not_durable == 2  # 1 given up, 2 still to make
+    assert s.next_for(0) == [2]
+    s.on_published(0, 2, now=0.0)
+    s.on_acked(2)
+    assert s.done and s.not_durable == 1
