@@ -243,7 +243,7 @@ def run_build_command(args: argparse.Namespace, config=None) -> int:
     out = Path(args.out)
     plan = check_build(args, config, out)  # before anything starts: UserInputError -> exit 2
     if args.check:
-        print(f"datagen: check passed: {args.config}: {_PLANS[plan].format(out=out)}")
+        print(f"datagen: check passed: {args.config}: {_check_report(args, config, out, plan)}")
         return 0
     if args.ca_file:  # read by every MQTT client of the build, workers and writer included
         os.environ["DATAGEN_MQTT_CA_FILE"] = args.ca_file
@@ -286,7 +286,7 @@ def run_build_command(args: argparse.Namespace, config=None) -> int:
             shown = ", ".join(result.changed_keys) + (" ..." if result.changed > 10 else "")
             print(
                 f"datagen: made again {result.changed} samples whose bytes on disk were not those "
-                f"journalled when they were made durable (changed since): {shown}"
+                f"recorded when they were made durable (changed since): {shown}"
             )
         print(
             f"datagen: {made} samples in {result.seconds:.1f} s ({rate:.2f} samples/s){resumed} -> {out}"
@@ -352,7 +352,18 @@ _PLANS = {
     "resume": "the config and options are valid; the interrupted build in {out} can be resumed",
     "overwrite": "the config and options are valid; {out} holds a datagen output that "
     "--overwrite would replace",
+    "remake": "the config and options are valid; {out} holds this build, but its shards differ "
+    "from its manifest ({problems}): --resume would make them again",
 }
+
+
+def _check_report(args: argparse.Namespace, config: BuildConfig, out: Path, plan: str) -> str:
+    """What ``--check`` says of ``out`` (a finished build's shards are read whole, as built)."""
+    from datagen.pipeline.out_dir import finished_build_problems
+
+    if plan == "complete" and (problems := finished_build_problems(out, config, args.resume)):
+        return _PLANS["remake"].format(out=out, problems="; ".join(problems))
+    return _PLANS[plan].format(out=out)
 
 
 def check_build(args: argparse.Namespace, config: BuildConfig, out: Path) -> str:

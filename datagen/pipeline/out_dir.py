@@ -18,6 +18,7 @@ from typing import Any
 from datagen.config import BuildConfig
 from datagen.engines.transfer.wire import SECRET_ENV, parse_secret
 from datagen.errors import BuildError, OutDirError
+from datagen.pipeline import finished_build
 from datagen.registries import EXPORTS
 from datagen.safe_json import loads_bounded
 from datagen.shards import DATASET_FORMAT, MANIFEST, write_manifest
@@ -55,10 +56,15 @@ class BuildIdentity:
 def prepare_out_dir(
     out_dir: Path, config: BuildConfig, overwrite: bool, resume: bool, build_id: str | None
 ) -> tuple[BuildIdentity | None, bool]:
-    """Returns (build identity, already complete). Refuses to mix builds in one directory."""
+    """Returns (build identity, already complete). Refuses to mix builds in one directory. A
+    finished build whose shards differ from its manifest is named (OutDirError), or with
+    ``resume`` reopened and resumed: what differs is made again."""
     plan = plan_out_dir(out_dir, config, overwrite, resume)
     if plan == "complete":
-        return None, True
+        if not finished_build_problems(out_dir, config, resume):
+            return None, True
+        finished_build.reopen(out_dir, (_read_json(out_dir / MANIFEST) or {})["shards"])
+        plan = "resume"
     if plan == "resume":
         state = _read_json(out_dir / BUILD_STATE) or {}
         return BuildIdentity(state["build_id"], parse_secret(state["secret"])), False
@@ -82,7 +88,8 @@ def prepare_out_dir(
 
 def plan_out_dir(out_dir: Path, config: BuildConfig, overwrite: bool, resume: bool) -> str:
     """What a build of ``config`` with these options does with ``out_dir``, changing nothing:
-    ``complete`` (it holds this build: nothing to do), ``resume``, ``overwrite`` (a datagen
+    ``complete`` (it holds this build, finished: ``prepare_out_dir`` reads it against its
+    manifest before nothing is done), ``resume``, ``overwrite`` (a datagen
     output, cleared first) or ``new`` (absent or empty). Raises OutDirError, saying what it
     found, for a directory the build must not use: not a directory, not writable, holding
     something else (without ``--overwrite``), not a datagen output or holding files datagen
@@ -103,23 +110,7 @@ def plan_out_dir(out_dir: Path, config: BuildConfig, overwrite: bool, resume: bo
         return "complete"
     state = _read_json(out_dir / BUILD_STATE)
     if resume:
-        if state is None:
-            raise OutDirError(
-                f"{out_dir}: nothing to resume (no {BUILD_STATE}); start it without --resume"
-            )
-        if state.get("config") != config.to_dict():
-            previous = state.get("config") if isinstance(state.get("config"), dict) else {}
-            differing = sorted(k for k, v in config.to_dict().items() if previous.get(k) != v)
-            raise OutDirError(
-                f"{out_dir} was started with another config (differs in: {', '.join(differing)}); "
-                "resume with the same config, seed and sample count"
-            )
-        try:
-            parse_secret(state["secret"])
-            if not isinstance(state["build_id"], str):
-                raise ValueError("build_id is not a string")
-        except (KeyError, TypeError, ValueError) as exc:
-            raise OutDirError(f"{out_dir / BUILD_STATE}: unreadable build state ({exc})") from None
+        check_build_state(out_dir, config)
         return "resume"
     entries = _entries(out_dir)
     if not entries or _only_waiting_writers(out_dir, entries):
@@ -144,6 +135,58 @@ def plan_out_dir(out_dir: Path, config: BuildConfig, overwrite: bool, resume: bo
             "and run the command again"
         )
     return "overwrite"
+
+
+def check_build_state(out_dir: Path, config: BuildConfig) -> None:
+    """Raises OutDirError unless ``out_dir``'s build state lets a build of ``config`` resume:
+    readable, of that config, with its build id and secret."""
+    state = _read_json(out_dir / BUILD_STATE)
+    if state is None:
+        raise OutDirError(
+            f"{out_dir}: nothing to resume (no {BUILD_STATE}); start it without --resume"
+        )
+    if (started := state.get("config")) != config.to_dict():
+        previous = started if isinstance(started, dict) else {}
+        differing = sorted(k for k, v in config.to_dict().items() if previous.get(k) != v)
+        raise OutDirError(
+            f"{out_dir} was started with another config (differs in: {', '.join(differing)}); "
+            "resume with the same config, seed and sample count"
+        )
+    try:
+        parse_secret(state["secret"])
+        if not isinstance(state["build_id"], str):
+            raise ValueError("build_id is not a string")
+    except (KeyError, TypeError, ValueError) as exc:
+        raise OutDirError(f"{out_dir / BUILD_STATE}: unreadable build state ({exc})") from None
+
+
+def finished_build_problems(out_dir: Path, config: BuildConfig, resume: bool) -> list[str]:
+    """What differs from its manifest in the finished build of ``config`` in ``out_dir`` (its
+    shards read whole: ``finished_build``); raises OutDirError, naming it and what to run,
+    unless ``resume`` and a resume can make it again there."""
+    problems = finished_build.differences(out_dir, config)
+    if problems:
+        _check_remake(out_dir, config, problems, resume)
+    return problems
+
+
+def _check_remake(out_dir: Path, config: BuildConfig, problems: list[str], resume: bool) -> None:
+    found = finished_build.described(out_dir, problems)
+    if not finished_build.remakeable(problems):
+        raise OutDirError(f"{found}; build it anew with --overwrite, or into another --out")
+    if not resume:
+        raise OutDirError(
+            f"{found}; pass --resume to make what differs again (from each sample's seed and "
+            "index), or --overwrite to build it all anew"
+        )
+    try:
+        check_build_state(out_dir, config)
+    except OutDirError:
+        raise OutDirError(
+            f"{found}; its {BUILD_STATE} (the build's id and secret) is missing or not this "
+            "build's, so nothing can be made again in place: build it anew with --overwrite, "
+            "or into another --out"
+        ) from None
 
 
 def _written_by_datagen(name: str) -> bool:

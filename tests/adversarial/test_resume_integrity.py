@@ -89,6 +89,48 @@ def test_resume_remakes_samples_changed_on_disk_since_they_were_made_durable(tmp
     assert "made again 2 samples" in line and "000000000, 000000001" in line, line
 
 
+@pytest.mark.sim
+@pytest.mark.mqtt
+@pytest.mark.slow
+def test_a_finished_build_changed_on_disk_is_checked_and_made_again(tmp_path):
+    """Issue 38, medium 12: ``--resume`` of a finished build said "nothing to do" and kept a
+    sample changed on disk since; ``datagen verify`` found it."""
+    config, out = tiny_config(tmp_path), tmp_path / "out"
+    run(build_command(config, out))
+    [shard] = out.glob("shard-*.tar")
+    made = load_parts(shard, "000000001")
+    alter(shard, "000000001.json", another_digit)
+    changed = shard.read_bytes()
+
+    again = run(build_command(config, out), expect=2)  # not told to resume: says what to run
+    assert "000000001" in again.stderr and "--resume" in again.stderr, again.stderr
+    checked = run(build_command(config, out, "--check", "--resume"))
+    assert "would make them again" in checked.stdout and "000000001" in checked.stdout
+    state, aside = out / "build.json", tmp_path / "build.json"
+    state.rename(aside)  # the build's id and secret gone: nothing can be made again in place
+    orphan = run(build_command(config, out, "--resume"), expect=2)
+    assert "000000001" in orphan.stderr and "--overwrite" in orphan.stderr, orphan.stderr
+    aside.rename(state)
+    assert shard.read_bytes() == changed and (out / MANIFEST).is_file()  # refusals change nothing
+
+    resumed = run(build_command(config, out, "--resume"))
+    assert "nothing to do" not in resumed.stdout
+    [line] = [line for line in resumed.stdout.splitlines() if "made again" in line]
+    assert "made again 1 samples" in line and "000000001" in line, line
+    verify(out)
+    dataset = load(out)
+    assert dataset.keys == [f"{i:09d}" for i in range(N)]
+    assert dataset.raw(1) == made, "000000001 is not the sample its (seed, index) makes"
+    assert "nothing to do" in run(build_command(config, out, "--resume")).stdout
+
+
+def run(command: list[str], expect: int = 0) -> subprocess.CompletedProcess:
+    done = subprocess.run(command, cwd=REPO, capture_output=True, text=True, timeout=300)
+    assert done.returncode == expect, done.stdout + done.stderr
+    assert "Traceback" not in done.stderr, done.stderr
+    return done
+
+
 def load_parts(shard: Path, key: str) -> dict[str, bytes]:
     """The parts of sample ``key`` as stored in ``shard``."""
     parts = {}
