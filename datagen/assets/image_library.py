@@ -8,6 +8,10 @@ pixels on a side. Grey pictures are used as grey RGB, an alpha channel is droppe
 pictures are scaled to 8 bits. A folder with no usable picture is a config error. Pictures are
 drawn at most :data:`DRAWN_SIDE` pixels on a side (downscaled once per process), as sRGB. A
 folder of more than :data:`MAX_FILES` files is refused (someone named the wrong folder).
+
+Every file is read by the one bounded decoder (:mod:`datagen.images`): a regular file opened
+without following a link, bounded in bytes, its size read from its header before any pixel is
+decoded. A reason holds no path of the machine (:func:`machine_free`): the manifest lists it.
 """
 
 from __future__ import annotations
@@ -15,12 +19,21 @@ from __future__ import annotations
 import functools
 import hashlib
 import logging
-import struct
+import re
 from dataclasses import dataclass, field
-from pathlib import Path
+from pathlib import Path, PurePosixPath
 
 import cv2
 import numpy as np
+
+from datagen.images import (
+    MAX_IMAGE_FILE_BYTES,
+    ImageInputError,
+    decode_image,
+    header_size,
+    read_image_file,
+    read_regular_file,
+)
 
 log = logging.getLogger(__name__)
 IMAGE_SUFFIXES = {".png", ".jpg", ".jpeg"}
@@ -28,6 +41,9 @@ MIN_SIDE = 8  # pixels: smaller pictures carry no pattern worth drawing
 MAX_SIDE = 4096  # pixels: bigger pictures cost seconds and GiBs to decode in every worker
 DRAWN_SIDE = 512  # pixels: what a surface shows at the image sizes we render
 MAX_FILES = 10_000  # files under a picture folder: more means the wrong folder was named
+_WHAT = "the file"  # how a reason names the file it is listed with
+# an absolute path inside a message: "/" not after a name, "." or "-" (so "a/b" stays)
+_ABSOLUTE_PATH = re.compile(r"(?<![\w./-])/[^\s'\"<>:,;()]*[^\s'\"<>:,;().]")
 
 
 class ImageFolderError(ValueError):
@@ -56,24 +72,17 @@ class ImageLibrary:
         }
 
 
-_JPEG_FRAME_MARKERS = {0xC0, 0xC1, 0xC2, 0xC3, 0xC5, 0xC6, 0xC7, 0xC9, 0xCA, 0xCB, 0xCD, 0xCE, 0xCF}
+def machine_free(text: str, base: Path) -> str:
+    """``text`` (an error about a file of the folder ``base``) as one line that holds no path
+    of the machine: paths in ``base`` relative to it, any other absolute path by its name."""
+    for prefix in {f"{base}/", f"{base.resolve()}/"}:
+        text = text.replace(prefix, "")
+    text = _ABSOLUTE_PATH.sub(lambda m: PurePosixPath(m.group()).name, text)
+    return " ".join(text.split())[:300]
 
 
-def header_size(data: bytes) -> tuple[int, int] | None:
-    """(width, height) from a PNG or JPEG header, read before decoding (a huge picture is
-    refused without allocating its pixels); None if the header does not say."""
-    if data[:8] == b"\x89PNG\r\n\x1a\n" and data[12:16] == b"IHDR":
-        return struct.unpack(">II", data[16:24])
-    if data[:2] != b"\xff\xd8":
-        return None
-    at = 2
-    while at + 9 <= len(data) and data[at] == 0xFF:
-        marker, length = data[at + 1], struct.unpack(">H", data[at + 2 : at + 4])[0]
-        if marker in _JPEG_FRAME_MARKERS:  # frame header: precision, height, width
-            height, width = struct.unpack(">HH", data[at + 5 : at + 9])
-            return width, height
-        at += 2 + length
-    return None
+def _reason(exc: BaseException) -> str:
+    return str(exc).removeprefix(f"{_WHAT}: ")
 
 
 def _rgb8(image: np.ndarray) -> np.ndarray:
@@ -93,13 +102,14 @@ def check_picture(path: Path) -> tuple[str, int, int]:
     """(sha256, width, height) of a usable picture; raises ValueError saying why it is not."""
     if path.suffix.lower() not in IMAGE_SUFFIXES:
         raise ValueError(f"not a PNG or JPEG file ({path.suffix or 'no suffix'})")
-    data = path.read_bytes()
+    data = read_regular_file(path, what=_WHAT, max_bytes=MAX_IMAGE_FILE_BYTES)
     size = header_size(data)
     if size is not None and max(size) > MAX_SIDE:
         raise ValueError(f"{size[0]}x{size[1]} px, larger than {MAX_SIDE} px: downscale it")
-    image = cv2.imdecode(np.frombuffer(data, np.uint8), cv2.IMREAD_UNCHANGED)
-    if image is None:
-        raise ValueError("unreadable: OpenCV cannot decode it (corrupt or not an image)")
+    try:
+        image = decode_image(data, what=_WHAT, max_pixels=MAX_SIDE**2)
+    except ImageInputError as exc:
+        raise ValueError(f"unreadable: cannot decode it: {_reason(exc)}") from None
     height, width = image.shape[:2]
     if min(width, height) < MIN_SIDE:
         raise ValueError(f"{width}x{height} px, smaller than {MIN_SIDE} px on a side")
@@ -116,7 +126,7 @@ def load_library(root: str) -> ImageLibrary:
     library = ImageLibrary(base)
     paths = []
     for path in base.rglob("*"):
-        if path.is_file():
+        if path.is_file() or path.is_symlink():  # a link is listed, then skipped: never read
             paths.append(path)
         if len(paths) > MAX_FILES:
             raise ImageFolderError(f"{base}: more than {MAX_FILES} files; name a folder of pictures")  # fmt: skip
@@ -125,7 +135,7 @@ def load_library(root: str) -> ImageLibrary:
         try:
             digest, width, height = check_picture(path)
         except (OSError, ValueError, cv2.error) as exc:
-            library.skipped.append((relative, str(exc)[:300]))
+            library.skipped.append((relative, machine_free(_reason(exc), base)))
             continue
         library.pictures.append(Picture(relative, digest, width, height))
     if not library.pictures:  # the error names what was skipped: no warnings besides
@@ -138,16 +148,14 @@ def load_library(root: str) -> ImageLibrary:
 
 @functools.lru_cache(maxsize=256)
 def file_sha256(root: str, path: str) -> str:
-    return hashlib.sha256((Path(root) / path).read_bytes()).hexdigest()
+    data = read_regular_file(Path(root) / path, max_bytes=MAX_IMAGE_FILE_BYTES)
+    return hashlib.sha256(data).hexdigest()
 
 
 @functools.lru_cache(maxsize=64)
 def load_image(root: str, path: str) -> np.ndarray:
     """The picture ``root/path`` as drawn: (H, W, 3) uint8 RGB, at most DRAWN_SIDE a side."""
-    image = cv2.imread(str(Path(root) / path), cv2.IMREAD_UNCHANGED)
-    if image is None:
-        raise ValueError(f"{Path(root) / path}: unreadable picture")
-    image = _rgb8(image)
+    image = _rgb8(read_image_file(Path(root) / path, max_pixels=MAX_SIDE**2))
     scale = DRAWN_SIDE / max(image.shape[:2])
     if scale < 1:
         size = (max(1, round(image.shape[1] * scale)), max(1, round(image.shape[0] * scale)))

