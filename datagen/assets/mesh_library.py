@@ -25,6 +25,8 @@ from pathlib import Path
 import numpy as np
 import trimesh
 
+from datagen.assets.image_library import machine_free
+
 log = logging.getLogger(__name__)
 MESH_SUFFIXES = {".obj", ".stl", ".ply", ".glb", ".gltf", ".usd", ".usda", ".usdc"}
 MAX_PARTS = 8  # convex parts per object
@@ -265,7 +267,7 @@ def load_library(root: str) -> AssetLibrary:
             mesh = _normalised(load_mesh(path))
             parts = convex_parts(mesh)
         except Exception as exc:  # a broken file of any kind is reported, never fatal
-            library.skipped.append((relative, f"{type(exc).__name__}: {exc}"[:300]))
+            library.skipped.append((relative, machine_free(f"{type(exc).__name__}: {exc}", base)))
             continue
         digest = hashlib.sha256(path.read_bytes()).hexdigest()
         library.assets.append(Asset(path.relative_to(base).parts[0], relative, digest, mesh, parts))
