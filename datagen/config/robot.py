@@ -15,6 +15,7 @@ from datagen.errors import ConfigError
 from datagen.registries import ROBOTS
 from datagen.robot_specs import GripperSpec, RobotSpec
 from datagen.robot_specs.urdf import Urdf, read_urdf
+from datagen.robot_specs.urdf_files import check_files
 
 
 @dataclass(frozen=True)
@@ -57,12 +58,25 @@ def robot_workspace(cfg: RobotConfig) -> Workspace:
     return Workspace(spec.workspace_scale, spec.object_scale)
 
 
+def user_urdf(file: str, source: str) -> Urdf:
+    """The user's URDF, checked before any process loads it: bounded XML, every number finite
+    and in range, one tree, each mesh and texture a bounded regular file (docs/robots.md)."""
+    path = Path(file)
+    if not path.is_file():
+        raise ConfigError(f"{source}: robot.urdf.file: expected a URDF file, got {file!r}")
+    try:
+        urdf = read_urdf(path.resolve())
+        check_files(path.resolve())
+    except ConfigError as error:
+        raise ConfigError(f"{source}: robot.urdf.file: {error}") from None
+    return urdf
+
+
 def urdf_robot(name: str, cfg: UrdfRobotConfig, source: str) -> RobotSpec:
     path = Path(cfg.file)
-    if not path.is_file():
-        raise ConfigError(f"{source}: robot.urdf.file: expected a URDF file, got {cfg.file!r}")
-    urdf = read_urdf(path.resolve())
-    arm = [_joint(urdf, j, ("revolute", "continuous", "prismatic"), "arm_joints", source) for j in cfg.arm_joints]  # fmt: skip
+    urdf = user_urdf(cfg.file, source)
+    moving = ("revolute", "continuous", "prismatic")
+    arm = [_joint(urdf, j, moving, "arm_joints", source) for j in cfg.arm_joints]
     if not arm:
         raise ConfigError(f"{source}: robot.urdf.arm_joints: expected the arm's joint names")
     fingers = [_joint(urdf, j, ("prismatic",), "finger_joints", source) for j in cfg.finger_joints]

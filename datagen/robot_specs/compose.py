@@ -19,6 +19,8 @@ from pathlib import Path
 import numpy as np
 
 from datagen.robot_specs import Vector3, locate
+from datagen.robot_specs.urdf_files import mesh_path
+from datagen.robot_specs.urdf_xml import parse_urdf_xml
 from datagen.user_cache import user_cache
 
 HAND_SOURCE = "mani_skill:robots/panda/panda_v2.urdf"
@@ -48,14 +50,7 @@ def cache_dir() -> Path:
     return user_cache("robots")
 
 
-def _parse(path: Path) -> ET.Element:
-    try:
-        return ET.parse(path).getroot()
-    except (OSError, ET.ParseError) as error:
-        raise ValueError(f"{path}: not a readable URDF ({error})") from None
-
-
-def _planner_mesh(mesh_file: Path) -> Path:
+def planner_mesh(mesh_file: Path) -> Path:
     """mplib 0.1.1 plans with ``<collision mesh>.convex.stl``; where none is beside the mesh,
     the mesh and its convex hull are copied into the cache."""
     if Path(f"{mesh_file}.convex.stl").is_file():
@@ -70,20 +65,8 @@ def _planner_mesh(mesh_file: Path) -> Path:
         mesh = trimesh.load(mesh_file, force="mesh")
         mesh.merge_vertices()  # thin parts (koch's 2.8 mm chassis) otherwise give an open hull
         hull = trimesh.convex.convex_hull(mesh, qhull_options="QbB Pp Qt")
-        _write_once(hull_file, hull.export(file_type="stl"))
-    return _write_once(copy, data)
-
-
-def _mesh_path(source: Path, filename: str) -> Path:
-    """A mesh file name resolved: relative to ``source``'s folder, or ``package://<pkg>/...``
-    under the nearest folder of ``source`` named ``<pkg>``."""
-    if not filename.startswith("package://"):
-        return (source.parent / filename).resolve()
-    package, _, rest = filename.removeprefix("package://").partition("/")
-    for folder in source.parents:
-        if folder.name == package:
-            return (folder / rest).resolve()
-    raise ValueError(f"{source}: mesh {filename!r}: no folder {package!r} above the URDF")
+        write_once(hull_file, hull.export(file_type="stl"))
+    return write_once(copy, data)
 
 
 def _relink_meshes(element: ET.Element, source: Path) -> None:
@@ -93,15 +76,15 @@ def _relink_meshes(element: ET.Element, source: Path) -> None:
         for geometry in element.iter(kind):
             for mesh in geometry.iter("mesh"):
                 filename = mesh.get("filename", "")
-                path = _mesh_path(source, filename)
+                path = mesh_path(source, filename)
                 if kind == "collision":
-                    path = _planner_mesh(path)
+                    path = planner_mesh(path)
                 mesh.set("filename", os.path.relpath(path, cache_dir()))
 
 
 def _hand_parts(hand_urdf: Path) -> list[ET.Element]:
     """The hand's links and the joints among them, as in ``hand_urdf``."""
-    root = _parse(hand_urdf)
+    root = parse_urdf_xml(hand_urdf)
     links = {link.get("name"): link for link in root.findall("link")}
     missing = [name for name in HAND_LINKS if name not in links]
     if missing:
@@ -135,7 +118,7 @@ def _mount_joint(composition: Composition) -> ET.Element:
 def composed_text(composition: Composition) -> str:
     """The composed URDF (mesh paths relative to :func:`cache_dir`, where it is written)."""
     arm_urdf, hand_urdf = locate(composition.arm), locate(composition.hand)
-    root = _parse(arm_urdf)
+    root = parse_urdf_xml(arm_urdf)
     names = {link.get("name") for link in root.findall("link")}
     if composition.flange not in names:
         raise ValueError(f"{arm_urdf}: no link {composition.flange!r} to mount the hand on")
@@ -154,7 +137,7 @@ def composed_text(composition: Composition) -> str:
     return '<?xml version="1.0"?>\n' + note + ET.tostring(root, encoding="unicode") + "\n"
 
 
-def _write_once(path: Path, content: str | bytes) -> Path:
+def write_once(path: Path, content: str | bytes) -> Path:
     """``content`` at ``path``, unless already there; atomic (temporary file, then rename)."""
     if path.is_file():
         return path
@@ -172,7 +155,7 @@ def compose_urdf(composition: Composition) -> Path:
     """The composed URDF's path, written on first use."""
     text = composed_text(composition)
     digest = hashlib.sha256(text.encode("utf-8")).hexdigest()[:16]
-    return _write_once(cache_dir() / f"{composition.name}-{digest}.urdf", text)
+    return write_once(cache_dir() / f"{composition.name}-{digest}.urdf", text)
 
 
 def _adjacent_pairs(root: ET.Element) -> set[tuple[str, str]]:
@@ -218,7 +201,7 @@ def collision_pairs(
         touching = {tuple(sorted((c.link_name1, c.link_name2))) for c in world.collide_full()}
         for pair in touching:
             counts[pair] = counts.get(pair, 0) + 1
-    root = _parse(urdf)
+    root = parse_urdf_xml(urdf)
     solid = sorted(
         link.get("name") for link in root.iter("link") if link.find("collision") is not None
     )
@@ -261,7 +244,7 @@ def _pairs_srdf(path: Path, name: str, urdf: Path, seed: int) -> Path:
     for (first, second), reason in sorted(collision_pairs(urdf, seed).items()):
         ET.SubElement(root, "disable_collisions", link1=first, link2=second, reason=reason)
     ET.indent(root, space="  ")
-    return _write_once(
+    return write_once(
         path, '<?xml version="1.0"?>\n' + ET.tostring(root, encoding="unicode") + "\n"
     )
 
@@ -290,7 +273,7 @@ class FrameComposition:
 
 def framed_text(composition: FrameComposition) -> str:
     source = locate(composition.source)
-    root = _parse(source)
+    root = parse_urdf_xml(source)
     names = {link.get("name") for link in root.findall("link")}
     for frame in composition.frames:
         if frame.parent not in names or frame.name in names:
@@ -333,4 +316,4 @@ def compose_framed_urdf(composition: FrameComposition) -> Path:
     """The URDF with its frames added, written on first use."""
     text = framed_text(composition)
     digest = hashlib.sha256(text.encode("utf-8")).hexdigest()[:16]
-    return _write_once(cache_dir() / f"{composition.name}-{digest}.urdf", text)
+    return write_once(cache_dir() / f"{composition.name}-{digest}.urdf", text)

@@ -17,7 +17,9 @@ from pathlib import Path
 
 from datagen.errors import ConfigError
 from datagen.robot_specs import RobotSpec
-from datagen.robot_specs.compose import _mesh_path, _parse, _planner_mesh, _write_once, cache_dir
+from datagen.robot_specs.compose import cache_dir, planner_mesh, write_once
+from datagen.robot_specs.urdf_files import mesh_path
+from datagen.robot_specs.urdf_xml import parse_urdf_xml
 
 SHIPPED = ("mani_skill", "datagen", "composed")  # description schemes whose meshes have hulls
 
@@ -35,7 +37,7 @@ def planner_copy(urdf: Path) -> Path:
     naming the URDF and the mesh when a collision mesh is missing or not readable."""
     urdf = Path(urdf).resolve()
     try:
-        root = _parse(urdf)
+        root = parse_urdf_xml(urdf)
     except ValueError as error:
         raise ConfigError(str(error)) from None
     for link in root.iter("link"):
@@ -50,13 +52,13 @@ def planner_copy(urdf: Path) -> Path:
     note = f"<!-- the planner's copy of {urdf.name}, by datagen.robot_specs.planner_copy -->\n"
     text = '<?xml version="1.0"?>\n' + note + ET.tostring(root, encoding="unicode") + "\n"
     digest = hashlib.sha256(text.encode("utf-8")).hexdigest()[:16]
-    return _write_once(cache_dir() / f"{urdf.stem}.planner-{digest}.urdf", text)
+    return write_once(cache_dir() / f"{urdf.stem}.planner-{digest}.urdf", text)
 
 
 def _relinked(urdf: Path, filename: str) -> str:
     """A collision mesh's file name in the copy: its planner mesh relative to the cache."""
     try:
-        mesh = _mesh_path(urdf, filename)
+        mesh = mesh_path(urdf, filename)
     except ValueError:
         raise ConfigError(
             f"{urdf}: collision mesh {filename!r}: no folder named after its package above the URDF"
@@ -64,10 +66,10 @@ def _relinked(urdf: Path, filename: str) -> str:
     if not mesh.is_file():
         raise ConfigError(f"{urdf}: collision mesh {filename!r}: no file {mesh}")
     try:
-        planner_mesh = _planner_mesh(mesh)
+        copied = planner_mesh(mesh)
     except (OSError, ValueError, RuntimeError) as error:  # trimesh's and qhull's errors
         reason = str(error).splitlines()[0] if str(error) else type(error).__name__
         raise ConfigError(
             f"{urdf}: collision mesh {filename!r}: not a readable 3-D mesh ({reason})"
         ) from None
-    return os.path.relpath(planner_mesh, cache_dir())
+    return os.path.relpath(copied, cache_dir())

@@ -16,7 +16,8 @@ from pathlib import Path
 
 import numpy as np
 
-from datagen.errors import ConfigError
+from datagen.robot_specs.urdf_values import check_values
+from datagen.robot_specs.urdf_xml import parse_urdf_xml
 
 
 @dataclass(frozen=True)
@@ -94,7 +95,15 @@ class Urdf:
     root: str
 
     def child_joints(self, link: str) -> list[Joint]:
-        return [j for j in self.joints.values() if j.parent == link]
+        return self._children.get(link, [])
+
+    @functools.cached_property
+    def _children(self) -> dict[str, list[Joint]]:
+        """The joints below each link, in file order (one pass: a scan per link was quadratic)."""
+        children: dict[str, list[Joint]] = {}
+        for joint in self.joints.values():
+            children.setdefault(joint.parent, []).append(joint)
+        return children
 
     def link_poses(self, values: dict[str, float] | None = None) -> dict[str, np.ndarray]:
         """(4, 4) every link's frame in the root link's, joints at ``values`` (by name; mimic
@@ -199,13 +208,11 @@ def _attr(element: ET.Element | None, key: str) -> str | None:
 
 @functools.lru_cache(maxsize=16)
 def read_urdf(path: Path) -> Urdf:
-    """The URDF at ``path``; a ConfigError naming the file when it is not one."""
-    try:
-        root = ET.parse(path).getroot()
-    except (OSError, ET.ParseError) as exc:
-        raise ConfigError(f"{path}: not a readable URDF ({exc})") from None
-    if root.tag != "robot":
-        raise ConfigError(f"{path}: expected a <robot> element, got <{root.tag}>")
+    """The URDF at ``path``, read within bounds and checked (every number finite and in range,
+    one tree of links: :mod:`datagen.robot_specs.urdf_values`); a ConfigError naming the file,
+    the element and the value when it is not usable."""
+    root = parse_urdf_xml(path)
+    root_link = check_values(root, path)
     folder = path.parent
     links = {}
     for element in root.findall("link"):
@@ -217,8 +224,4 @@ def read_urdf(path: Path) -> Urdf:
             name, tuple(g for g in visuals if g), tuple(g for g in collisions if g), inertial
         )
     joints = {j.name: j for j in (_joint(e) for e in root.findall("joint"))}
-    children = {j.child for j in joints.values()}
-    roots = [name for name in links if name not in children]
-    if len(roots) != 1:
-        raise ConfigError(f"{path}: expected one root link, got {roots}")
-    return Urdf(root.get("name", path.stem), links, joints, roots[0])
+    return Urdf(root.get("name", path.stem), links, joints, root_link)

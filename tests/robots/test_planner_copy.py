@@ -30,14 +30,16 @@ def _cache(tmp_path, monkeypatch):
     monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path / "cache"))
 
 
-def _user_arm(folder: Path, package: bool = False) -> Path:
-    """The walkthrough's ``my_arm/my_arm.urdf`` without hulls (collision meshes only); with
-    ``package``, at ``franka_description/urdf/`` naming its meshes ``package://``."""
-    shutil.copytree(
-        PANDA_URDF.parent / "franka_description/meshes/collision",
-        folder / "franka_description/meshes/collision",
-        ignore=shutil.ignore_patterns("*.convex.stl"),
-    )
+def _user_arm(folder: Path, package: bool = False, visual: bool = False) -> Path:
+    """The walkthrough's ``my_arm/my_arm.urdf`` without hulls (collision meshes only, and the
+    visual ones with ``visual``: a config's check wants every mesh); with ``package``, at
+    ``franka_description/urdf/`` naming its meshes ``package://``."""
+    for kind in ("collision", "visual") if visual else ("collision",):
+        shutil.copytree(
+            PANDA_URDF.parent / f"franka_description/meshes/{kind}",
+            folder / f"franka_description/meshes/{kind}",
+            ignore=shutil.ignore_patterns("*.convex.stl"),
+        )
     text = PANDA_URDF.read_text()
     if package:
         urdf = folder / "franka_description/urdf/my_arm.urdf"
@@ -148,7 +150,7 @@ def _walkthrough_spec(urdf: Path):
 def test_the_walkthrough_arm_plans_with_the_copy(tmp_path):
     import mplib
 
-    spec = _walkthrough_spec(_user_arm(tmp_path / "my_arm"))
+    spec = _walkthrough_spec(_user_arm(tmp_path / "my_arm", visual=True))
     srdf = str(PANDA_URDF.with_suffix(".srdf"))
     with pytest.raises(ValueError, match=r"Could not load resource .*link0\.stl\.convex\.stl"):
         mplib.Planner(urdf=str(spec.urdf_path()), srdf=srdf, move_group=spec.gripper.tcp_link)

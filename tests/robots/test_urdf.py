@@ -106,3 +106,32 @@ def test_principal_inertia_matches_sapien_for_a_rotated_inertial(tmp_path):
     tensor = theirs @ np.diag(base.inertia) @ theirs.T
     np.testing.assert_allclose(axes @ np.diag(moments) @ axes.T, tensor, atol=1e-7)
     np.testing.assert_allclose(base.cmass_local_pose.p, (0.1, -0.2, 0.05), atol=1e-6)
+
+
+@pytest.mark.parametrize("name", ["panda", "iiwa14", "xarm7", "so100", "koch"])
+def test_every_built_in_description_passes_the_user_urdf_checks(tmp_path, monkeypatch, name):
+    from datagen.robot_specs.urdf_files import check_files
+
+    monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path))  # where the composed ones are written
+    path = ROBOTS[name].load().urdf_path()
+    read_urdf.cache_clear()
+    assert read_urdf(path).links
+    check_files(path)
+
+
+def test_a_chain_of_20000_links_is_read_and_posed_in_linear_time(tmp_path):
+    import time
+
+    links = "".join(f'<link name="l{i}"/>' for i in range(20_001))
+    joints = "".join(
+        f'<joint name="j{i}" type="fixed"><parent link="l{i}"/><child link="l{i + 1}"/>'
+        '<origin xyz="0 0 0.001"/></joint>'
+        for i in range(20_000)
+    )
+    (tmp_path / "long.urdf").write_text(f'<robot name="long">{links}{joints}</robot>')
+    started = time.monotonic()
+    urdf = read_urdf(tmp_path / "long.urdf")
+    poses = urdf.link_poses()
+    assert len(urdf.subtree("l0")) == 20_001
+    assert poses["l20000"][2, 3] == pytest.approx(20.0)
+    assert time.monotonic() - started < 10  # a scan of every joint per link took minutes
