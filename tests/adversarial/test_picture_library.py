@@ -16,6 +16,7 @@ from __future__ import annotations
 import hashlib
 import json
 import os
+import re
 import shutil
 import subprocess
 import sys
@@ -25,6 +26,7 @@ from pathlib import Path
 import cv2
 import numpy as np
 import pytest
+import trimesh
 import yaml
 
 pytestmark = [pytest.mark.adversarial]
@@ -335,11 +337,8 @@ def test_a_build_records_library_and_skipped_files_relative_to_their_folders(
 ):
     """A tiny real build drawing the library's pictures, with a user mesh folder holding a USD
     file that does not parse (its error names the file by its full path and USD's own source
-    files) and a picture folder holding a file that is no picture."""
-    import re
-
-    import trimesh
-
+    files) and a picture folder holding a file that is no picture and a link to /dev/zero
+    (skipped, never read)."""
     assets, pictures = tmp_path / "assets", tmp_path / "pictures"
     (assets / "mug").mkdir(parents=True)
     trimesh.creation.icosphere(subdivisions=1, radius=0.04).export(assets / "mug" / "good.obj")
@@ -347,6 +346,7 @@ def test_a_build_records_library_and_skipped_files_relative_to_their_folders(
     pictures.mkdir()
     cv2.imwrite(str(pictures / "good.png"), picture(3))
     (pictures / "broken.png").write_bytes(b"not a picture\n")
+    (pictures / "zero.png").symlink_to("/dev/zero")
     config = {
         **CHECKED,
         "render": {"width": 64, "height": 48},
@@ -357,23 +357,16 @@ def test_a_build_records_library_and_skipped_files_relative_to_their_folders(
     }
     (tmp_path / "tiny.yaml").write_text(yaml.safe_dump(config))
     out = tmp_path / "out"
-    code, _, err = datagen(
-        site,
-        library,
-        "build",
-        tmp_path / "tiny.yaml",
-        "--out",
-        out,
-        "--workers",
-        "1",
-        "--no-preview",
-    )
+    build = ("build", tmp_path / "tiny.yaml", "--out", out, "--workers", "1", "--no-preview")
+    code, _, err = datagen(site, library, *build)
     assert code == 0, err
     made = json.loads((out / "manifest.json").read_text())
     skipped = made["assets"]["skipped"] + made["pictures"]["materials.textures_dir"]["skipped"]
-    assert {s["path"] for s in skipped} == {"mug/bad.usda", "broken.png"}, skipped
+    assert {s["path"] for s in skipped} == {"mug/bad.usda", "broken.png", "zero.png"}, skipped
     for reason in (s["reason"] for s in skipped):
         assert not re.search(MACHINE_PATH, reason) and "\n" not in reason, reason
     files = made["pictures"]["photos"]["files"]
     assert len(files) == 3 and all(f["path"].startswith(f"{SOURCE}/p") for f in files), files
     assert str(library) not in (out / "manifest.json").read_text()
+    shards = b"".join(p.read_bytes() for p in out.rglob("*.tar"))
+    assert f"{SOURCE}/p".encode() in shards and str(library).encode() not in shards
