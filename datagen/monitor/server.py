@@ -1,24 +1,26 @@
 """The monitor page's web server: the static page of this package (``static/``) and one
 generated ``config.json`` (which broker to connect to, as whom, and which build), on
-127.0.0.1 by default, to requests that pass ``request_checks``. The page itself talks to the
-broker over MQTT-over-WebSockets (docs/monitor.md); this server never touches MQTT.
+127.0.0.1 by default, to requests that pass ``request_checks``, over connections bounded in
+number, threads and time (``connections``). The page itself talks to the broker over
+MQTT-over-WebSockets (docs/monitor.md); this server never touches MQTT.
 """
 
 from __future__ import annotations
 
+import io
 import json
 import logging
 import socket
-import sys
 import threading
 from collections.abc import Iterable
 from dataclasses import asdict, dataclass
-from http.server import BaseHTTPRequestHandler, ThreadingHTTPServer
+from http.server import BaseHTTPRequestHandler
 from importlib.resources import files
 from pathlib import Path
 from urllib.parse import unquote, urlsplit
 
 from datagen.engines.transfer.broker_url import redact
+from datagen.monitor.connections import Connections
 from datagen.monitor.request_checks import (
     WILDCARD_HOSTS,
     RefusedRequest,
@@ -97,8 +99,17 @@ def content_security_policy(config: PageConfig) -> str:
 
 
 class _Handler(BaseHTTPRequestHandler):
-    server: _Server
-    timeout = 30  # s without a byte from the client: the connection is dropped
+    """Answers the one request whose head (request line and headers) ``connections`` read."""
+
+    site: _Site
+
+    def __init__(self, head: bytes, site: _Site, connection: socket.socket, address: tuple):
+        self.head, self.site = head, site
+        super().__init__(connection, address, None)  # type: ignore[arg-type]
+
+    def setup(self) -> None:
+        super().setup()
+        self.rfile = io.BytesIO(self.head)
 
     def do_GET(self) -> None:
         self._answer(with_body=True)
@@ -108,21 +119,21 @@ class _Handler(BaseHTTPRequestHandler):
 
     def _answer(self, with_body: bool) -> None:
         try:
-            check_host(self.headers.get_all("Host") or [], self.server.names)
+            check_host(self.headers.get_all("Host") or [], self.site.names)
             path = requested_path(self.path)
             if path == "/config.json":
                 check_own_fetch(self.headers.get("Sec-Fetch-Site"))
-                body = json.dumps(asdict(self.server.page_config)).encode("utf-8")
+                body = json.dumps(asdict(self.site.page_config)).encode("utf-8")
                 self._send(200, "application/json", body, with_body, {"Cache-Control": "no-store"})
                 return
-            file = self.server.files.get(path)
+            file = self.site.files.get(path)
             if file is None:
                 raise RefusedRequest(404, "no such file")
         except RefusedRequest as refused:
             body = f"{refused.status} {refused.reason}\n".encode()
             self._send(refused.status, "text/plain; charset=utf-8", body, with_body)
             return
-        extra = {"Content-Security-Policy": self.server.policy} if file.suffix == ".html" else {}
+        extra = {"Content-Security-Policy": self.site.policy} if file.suffix == ".html" else {}
         content_type = CONTENT_TYPES.get(file.suffix, "application/octet-stream")
         self._send(200, content_type, file.read_bytes(), with_body, extra)
 
@@ -148,18 +159,17 @@ class _Handler(BaseHTTPRequestHandler):
         pass
 
 
-class _Server(ThreadingHTTPServer):
-    daemon_threads = True
+@dataclass(frozen=True)
+class _Site:
+    """What the server answers with: the page's config, its policy, its files and names."""
 
-    def __init__(self, host: str, port: int, config: PageConfig, public_names: Iterable[str]):
-        self.address_family = socket.AF_INET6 if ":" in host else socket.AF_INET
-        self.page_config, self.policy = config, content_security_policy(config)
-        self.files, self.names = static_files(), server_names(host, public_names)
-        super().__init__((host, port), _Handler)
+    page_config: PageConfig
+    policy: str
+    files: dict[str, Path]
+    names: frozenset[str]
 
-    def handle_error(self, request, client_address) -> None:
-        # one line, never a traceback: a client that hung up, or a request the checks missed
-        log.warning("monitor: a request from %s failed: %r", client_address[0], sys.exc_info()[1])
+    def answer(self, connection: socket.socket, address: tuple, head: bytes) -> None:
+        _Handler(head, self, connection, address)
 
 
 class MonitorServer:
@@ -174,9 +184,13 @@ class MonitorServer:
         port: int = 0,
         public_names: Iterable[str] = (),
     ):
-        self.httpd = _Server(host, port, config, public_names)
-        self.host, self.port = host, self.httpd.server_address[1]
-        self.thread = threading.Thread(target=self.httpd.serve_forever, name="monitor", daemon=True)
+        family = socket.AF_INET6 if ":" in host else socket.AF_INET
+        self.listener = socket.create_server((host, port), family=family)
+        self.host, self.port = host, self.listener.getsockname()[1]
+        names = server_names(host, public_names)
+        site = _Site(config, content_security_policy(config), static_files(), names)
+        self.connections = Connections(self.listener, site.answer)
+        self.thread = threading.Thread(target=self.connections.serve, name="monitor", daemon=True)
 
     @property
     def url(self) -> str:
@@ -191,5 +205,7 @@ class MonitorServer:
         self.close()
 
     def close(self) -> None:
-        self.httpd.shutdown()
-        self.httpd.server_close()
+        if self.thread.is_alive():
+            self.connections.close()
+            self.thread.join()
+        self.listener.close()

@@ -14,6 +14,7 @@ import re
 import secrets
 import signal
 import socket
+import struct
 import subprocess
 import sys
 import threading
@@ -152,6 +153,55 @@ def test_a_monitor_shared_with_the_network_answers_its_names_only():
             assert status == 200 and b"s3cret" in answer, host
         for host in ("evil.example", f"monitor.example.org.evil.example:{port}"):
             assert raw_get(port, "/config.json", host)[0] == 403, host
+
+
+HALF_REQUEST = b"GET / HTTP/1.1\r\nHost: 127.0.0.1\r\n"  # no blank line: it never ends
+MAX_TASKS = 16  # threads of the whole `datagen monitor` process, main thread included
+
+
+def tasks(pid: int) -> int:
+    return len(os.listdir(f"/proc/{pid}/task"))
+
+
+def hang_up_while_answered(port: int) -> None:
+    """A whole request for the largest file, then a reset before a byte of it is read: the
+    server's write fails (ECONNRESET or EPIPE)."""
+    with socket.create_connection(("127.0.0.1", port), timeout=5) as s:
+        s.setsockopt(socket.SOL_SOCKET, socket.SO_LINGER, struct.pack("ii", 1, 0))
+        s.sendall(f"GET /vendor/mqtt.min.js HTTP/1.1\r\nHost: 127.0.0.1:{port}\r\n\r\n".encode())
+
+
+def test_idle_half_requests_hold_no_threads_and_lock_nobody_out(monitor_command):
+    """Issue 38, low 14: 300 connections that each send half a request and wait made 188
+    threads, and clients that hung up wrote BrokenPipeError lines on the terminal."""
+    pid, port = monitor_command.proc.pid, monitor_command.port
+    idle = []
+    for _ in range(300):
+        s = socket.create_connection(("127.0.0.1", port), timeout=5)
+        s.sendall(HALF_REQUEST)
+        idle.append(s)
+    peak, deadline = tasks(pid), time.monotonic() + 2
+    while time.monotonic() < deadline:  # the server takes them in meanwhile
+        peak = max(peak, tasks(pid))
+        time.sleep(0.05)
+    status, answer = monitor_command.get("/")  # a well-behaved client, during all that
+    assert status == 200 and b"<html" in answer.lower()
+    for _ in range(20):
+        hang_up_while_answered(port)
+    assert monitor_command.get("/app.js")[0] == 200
+    peak = max(peak, tasks(pid))
+    assert peak <= MAX_TASKS, f"{peak} threads for 300 idle connections"
+    dropped = 0
+    for s in idle:  # each dropped by the server in bounded time (its read time-out)
+        s.settimeout(30)
+        try:
+            dropped += s.recv(1) == b""
+        except ConnectionResetError:
+            dropped += 1
+        s.close()
+    assert dropped == len(idle)
+    err = monitor_command.stop()
+    assert "Error" not in err and err == "", f"the server wrote to stderr:\n{err[-2000:]}"
 
 
 # --- the build's WebSockets listener ---------------------------------------------------------------
