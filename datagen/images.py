@@ -88,7 +88,10 @@ def decode_image(
         raise ImageInputError(f"{what}: OpenCV cannot decode it ({_first_line(exc)})") from None
     if image is None:
         raise ImageInputError(f"{what}: not a decodable picture (corrupt or cut short)")
-    if image.shape[0] != height or image.shape[1] != width:
+    # a flag other than IMREAD_UNCHANGED turns a JPEG upright by its EXIF orientation
+    turned = flags != cv2.IMREAD_UNCHANGED and not flags & cv2.IMREAD_IGNORE_ORIENTATION
+    sizes = {(height, width), (width, height)} if turned else {(height, width)}
+    if image.shape[:2] not in sizes:
         raise ImageInputError(
             f"{what}: decoded to {image.shape[1]}x{image.shape[0]} pixels where its header "
             f"declares {width}x{height}"

@@ -91,3 +91,19 @@ def test_sources_are_checked_and_a_held_out_source_cannot_be_drawn():
     with pytest.raises(ConfigError, match=r"photos.sources: expected one of \[.*\] \(library source\), got 'flickr'"):  # fmt: skip
         config_from_dict({"photos": {"sources": ["flickr"]}})
     assert not config_from_dict({"photos": {"enabled": False, "sources": []}}).photos.enabled
+
+
+def test_a_photograph_turned_by_its_exif_orientation_is_stored_upright():
+    """A phone's JPEG stores 60x40 pixels and says "turn me 90 degrees" (EXIF orientation 6):
+    OpenCV's colour decoding turns it, and the bounded decoder accepts the turned size."""
+    import io
+
+    import numpy as np
+    from PIL import Image
+
+    exif = Image.Exif()
+    exif[0x0112] = 6
+    buffer = io.BytesIO()
+    Image.fromarray(np.zeros((40, 60, 3), np.uint8)).save(buffer, "JPEG", exif=exif.tobytes())
+    _, width, height = installer._stored_picture(buffer.getvalue(), "turned.jpg")
+    assert (width, height) == (40, 60)
