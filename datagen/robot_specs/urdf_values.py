@@ -11,9 +11,11 @@ and safety numbers, mass (>= 0), inertia (with a positive mass, a positive-defin
 SAPIEN asserts in every sample; the triangle inequality of its principal moments is not
 checked: PhysX needs positive moments only), primitive sizes and mesh scales (> 0), colours
 (0..1). A mass of 0 marks a link without mass properties (SAPIEN ignores such an inertial and
-derives them from the collision shapes; 7 of the 61 URDFs mani-skill ships have one). The tree: joints of URDF's types between links of the file,
-one root link, every link reached from it once. A problem is one ConfigError line naming the
-file, the link or joint, its tags and the value.
+derives them from the collision shapes; 7 of the 61 URDFs mani-skill ships have one).
+
+The tree: unique names, joints of URDF's types between links of the file (a mimic naming a
+joint of it), one root link, every link below it and none the child of two joints. A problem is
+one ConfigError line naming the file, the link or joint, its tags and the value.
 """
 
 from __future__ import annotations
@@ -146,8 +148,12 @@ def _vector(element: ET.Element | None, key: str, default: tuple[float, ...]) ->
     return np.asarray(default if text is None else [float(v) for v in text.split()], float)
 
 
-def _check_joint(joint: ET.Element, path: Path) -> None:
-    name, kind = owner_name(joint), joint.get("type")
+def _check_joint(joint: ET.Element, joint_names: set[str], path: Path) -> None:
+    name, kind, mimic = owner_name(joint), joint.get("type"), joint.find("mimic")
+    if mimic is not None and mimic.get("joint") not in joint_names:
+        raise ConfigError(
+            f"{path}: {name} <mimic> joint: expected a joint of the file, got {mimic.get('joint')!r}"
+        )
     if kind not in JOINT_TYPES:
         raise ConfigError(f"{path}: {name} type: expected one of {list(JOINT_TYPES)}, got {kind!r}")
     axis = _vector(joint.find("axis"), "xyz", (1.0, 0.0, 0.0))
@@ -194,32 +200,41 @@ def _unique(names: list[str], what: str, path: Path) -> None:
 def check_tree(root: ET.Element, path: Path) -> str:
     """The root link's name, when the joints join the links into one tree (module docstring)."""
     links = [e.get("name", "") for e in root.findall("link")]
-    joints, known = root.findall("joint"), set(links)
+    joints = root.findall("joint")
     _unique(links, "link", path)
     _unique([j.get("name", "") for j in joints], "joint", path)
-    parent_of: dict[str, str] = {}
-    children: dict[str, list[str]] = {name: [] for name in links}
-    for joint in joints:
-        _check_joint(joint, path)
-        ends = [_end(joint, role, known, path) for role in ("parent", "child")]
-        if ends[1] in parent_of:
-            raise ConfigError(
-                f"{path}: link {ends[1]!r}: the child of two joints ({parent_of[ends[1]]!r} and "
-                f"{joint.get('name', '')!r}); expected a tree"
-            )
-        parent_of[ends[1]] = joint.get("name", "")
-        children[ends[0]].append(ends[1])
-    roots = [name for name in links if name not in parent_of]
+    children = _children(joints, set(links), path)
+    below = {child for names in children.values() for child in names}
+    roots = [name for name in links if name not in below]
     if len(roots) != 1:
         raise ConfigError(f"{path}: expected one root link, got {roots[:10]}")
     reached, stack = set(), [roots[0]]
     while stack:
         reached.add(stack[-1])
-        stack.extend(children[stack.pop()])
+        stack.extend(children.get(stack.pop(), []))
     if len(reached) != len(links):
         cut_off = sorted(set(links) - reached)[:10]
         raise ConfigError(f"{path}: links {cut_off} are not below the root link {roots[0]!r}")
     return roots[0]
+
+
+def _children(joints: list[ET.Element], links: set[str], path: Path) -> dict[str, list[str]]:
+    """The child links of each link, each joint checked; a link may have one parent only."""
+    names = {j.get("name", "") for j in joints}
+    parent_joint: dict[str, str] = {}
+    children: dict[str, list[str]] = {}
+    for joint in joints:
+        _check_joint(joint, names, path)
+        parent, child = (_end(joint, role, links, path) for role in ("parent", "child"))
+        if child in parent_joint:
+            raise ConfigError(
+                f"{path}: link {_shown(child)}: the child of two joints "
+                f"({_shown(parent_joint[child])} and {_shown(joint.get('name', ''))}); "
+                "expected a tree"
+            )
+        parent_joint[child] = joint.get("name", "")
+        children.setdefault(parent, []).append(child)
+    return children
 
 
 def _end(joint: ET.Element, role: str, links: set[str], path: Path) -> str:

@@ -106,6 +106,7 @@ NUMBERS = [  # (element, attribute, value, what the line names besides the value
     (f"{JOINT1}/dynamics", "damping", "nan", "joint 'panda_joint1' <dynamics> damping"),
     (f"{JOINT1}/safety_controller", "k_position", "inf", "joint 'panda_joint1' <safety_contr"),
     (".//joint[@name='panda_finger_joint2']/mimic", "multiplier", "nan", "<mimic> multiplier"),
+    (".//joint[@name='panda_finger_joint2']/mimic", "joint", "nowhere", "<mimic> joint"),
     (MASS, "value", "-1", "link 'panda_link1' <inertial> <mass> value"),
     (MASS, "value", "-inf", "link 'panda_link1' <inertial> <mass> value"),
     (MASS, "value", "1e6", "link 'panda_link1' <inertial> <mass> value"),
