@@ -5,7 +5,8 @@ worker killed while reading a shared queue would leave its lock held and stall t
 Messages to the worker: a :class:`~datagen.pipeline.production.Task`, or ``None`` to finish. From
 the worker: ``("heartbeat", None)`` every ``HEARTBEAT_S`` from a thread of its own, from the
 moment it starts (the coordinator kills a worker silent for ``build.worker_timeout_s``),
-``("ready", None)`` once its start-up (the renderer's warm-up, the broker connection) is over,
+``("ready", None)`` once its start-up (``warm_up``: the renderer, the scene family's imports,
+its first frame; the broker connection) is over,
 ``("started", {"index", "attempt", "failures"})`` as each attempt at a sample begins (one that
 runs past ``build.sample_timeout_s`` gets the worker killed), ``("published", index)`` once the
 broker has the sample, ``("retried", {"index", "attempt", "failures"})`` before that when the
@@ -30,12 +31,12 @@ from multiprocessing.connection import Connection
 from typing import Any
 
 from datagen.config import config_from_dict
-from datagen.engines.sim.render import keep_renderer_alive
 from datagen.engines.sim.stage_clock import take
 from datagen.engines.transfer.publisher import SamplePublisher, SampleTooLarge
 from datagen.engines.transfer.run_binding import RunBinding, client_id
 from datagen.pipeline.live_preview import PreviewFeed, sample_outcome
 from datagen.pipeline.production import SampleFailed, Task, produce_with_policy
+from datagen.pipeline.warm_up import warm_up
 from datagen.records import WorkerEventKind, WorkerPayload
 
 log = logging.getLogger(__name__)
@@ -115,7 +116,7 @@ def worker_main(
     task = None
     try:
         config = config_from_dict(config_dict)
-        keep_renderer_alive()  # its warm-up (~3.5 s on lavapipe) is start-up, not a sample's
+        warm_up(config)  # start-up, not the first sample's time (build.sample_timeout_s)
         with SamplePublisher(
             broker_url,
             build_id,

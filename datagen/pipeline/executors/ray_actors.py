@@ -33,16 +33,16 @@ class SceneWorker:
 
     def __init__(self, worker_id: int, spec: WorkerSpec):
         from datagen.config import config_from_dict
-        from datagen.engines.sim.render import keep_renderer_alive
         from datagen.engines.transfer.publisher import SamplePublisher
         from datagen.engines.transfer.run_binding import client_id
+        from datagen.pipeline.warm_up import warm_up
 
         logging.basicConfig(
             level=os.environ.get("DATAGEN_LOG_LEVEL", "WARNING"),
             format=f"[ray worker {worker_id}] %(levelname)s %(message)s",
         )
         self.config = config_from_dict(spec.config)
-        keep_renderer_alive()  # start-up, not the first sample's time (build.sample_timeout_s)
+        warm_up(self.config)  # start-up, not the first sample's time (build.sample_timeout_s)
         self.publisher = SamplePublisher(
             spec.broker_url,
             spec.build_id,

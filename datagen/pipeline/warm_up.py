@@ -1,0 +1,50 @@
+"""A worker's warm-up, before it reports ``ready``: what its first sample would otherwise pay
+once is paid at start-up (under the start-up grace, docs/liveness.md), so that
+``build.sample_timeout_s`` measures one sample alone. Measured on lavapipe, at rest:
+
+- the renderer: one tiny scene held for the life of the process (``keep_renderer_alive``):
+  datagen's cameras, their pipelines and the machine's cached BRDF table;
+- the family's modules: its ``produce`` imported, with everything it imports (a grasp
+  tabletop's first sample: 0.4 s of imports);
+- a family from a plug-in: one frame of SAPIEN's own camera (``scene.add_camera``, as the
+  docs/extending.md example renders), since SAPIEN computes its BRDF table on the first such
+  frame of a process: 3-4 s at rest and 9 s on a loaded 2-core machine, once the first sample
+  of ``example_blocks``. datagen's own families render only through
+  ``datagen.engines.sim.cameras``, which hands every camera the cached table.
+
+Nothing drawn here reaches a sample: a sample's bytes are a function of (seed, index) alone.
+"""
+
+from __future__ import annotations
+
+import logging
+
+import sapien
+
+from datagen.config import BuildConfig
+from datagen.engines.sim.render import keep_renderer_alive
+from datagen.registries import FAMILIES, resolve
+
+log = logging.getLogger(__name__)
+BUILT_IN = "datagen."  # the module prefix of datagen's own families
+
+
+def warm_up(config: BuildConfig) -> None:
+    """Readies this process to make samples of ``config``'s family."""
+    keep_renderer_alive()
+    family = FAMILIES[config.scene]
+    try:
+        resolve(family.produce)
+    except Exception as exc:  # the first sample raises it again, under build.on_sample_error
+        log.debug("warm-up: %s cannot be imported: %r", family.produce, exc)
+        return
+    if not family.produce.startswith(BUILT_IN):
+        _first_frame_of_a_sapien_camera()
+
+
+def _first_frame_of_a_sapien_camera() -> None:
+    scene = sapien.Scene()
+    camera = scene.add_camera("warm-up", 8, 8, 1.0, 0.01, 10.0)
+    scene.update_render()
+    camera.take_picture()
+    camera.get_picture("Color")  # waits for the frame: an exit while it renders crashes
