@@ -15,6 +15,8 @@ from datagen.records import SampleMetadata
 
 KEY_DIGITS = 9
 _PART_NAME = re.compile(r"^[a-z0-9_]+(\.[a-z0-9_]+)*$")
+BUILD_ID_RULE = "1-64 of [A-Za-z0-9_.-], the first a letter or digit"
+_BUILD_ID = re.compile(r"[A-Za-z0-9][A-Za-z0-9_.-]{0,63}")
 
 
 def sample_key(index: int) -> str:
@@ -22,6 +24,12 @@ def sample_key(index: int) -> str:
     if index < 0 or index >= 10**KEY_DIGITS:
         raise ValueError(f"sample index {index} out of range [0, {10**KEY_DIGITS})")
     return f"{index:0{KEY_DIGITS}d}"
+
+
+def valid_build_id(build_id: object) -> bool:
+    """Build ids go into topics, client ids and manifests, and from a manifest into exported
+    YAML, Markdown and BibTeX: no ``/``, ``+``, ``#``, spaces or line breaks (``BUILD_ID_RULE``)."""
+    return isinstance(build_id, str) and _BUILD_ID.fullmatch(build_id) is not None
 
 
 def valid_part_name(name: str) -> bool:

@@ -27,6 +27,7 @@ from datagen.dataset.flow_png import decode_flow_image
 from datagen.dataset.integrity import verify_dataset
 from datagen.dataset.manifest import DatasetError, read_manifest
 from datagen.dataset.trajectory import decode_trajectory
+from datagen.images import ImageInputError, decode_image
 from datagen.records import SampleMetadata
 from datagen.safe_json import JsonInputError, loads_bounded
 from datagen.shards import member_key, open_regular, read_members
@@ -179,18 +180,11 @@ def _decoder_pool() -> ThreadPoolExecutor | None:
     return _pool[1]
 
 
-MAX_IMAGE_PIXELS = 2**26  # 4x the largest render (render.width, render.height <= 4096)
-_PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"
-
-
 def _decode_png(name: str, data: bytes) -> np.ndarray:
-    if data[:8] == _PNG_SIGNATURE and data[12:16] == b"IHDR":  # its size, before decoding
-        width, height = int.from_bytes(data[16:20], "big"), int.from_bytes(data[20:24], "big")
-        if width * height > MAX_IMAGE_PIXELS:
-            raise DatasetError(f"part {name!r} is a PNG of {width}x{height} pixels, too large")
-    image = cv2.imdecode(np.frombuffer(data, np.uint8), cv2.IMREAD_UNCHANGED)
-    if image is None:
-        raise DatasetError(f"part {name!r} is not a decodable image")
+    try:
+        image = decode_image(data, what=f"part {name!r}")
+    except ImageInputError as exc:
+        raise DatasetError(str(exc)) from None
     if name in _COLOUR_PARTS and image.ndim == 3:
         code = cv2.COLOR_BGRA2RGB if image.shape[2] == 4 else cv2.COLOR_BGR2RGB
         image = cv2.cvtColor(image, code)

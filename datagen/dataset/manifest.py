@@ -5,11 +5,13 @@ says what is wrong, naming the path."""
 from __future__ import annotations
 
 import re
+import unicodedata
 from pathlib import Path
 from typing import Any, cast
 
 from datagen.records import Manifest
 from datagen.safe_json import JsonInputError, loads_bounded
+from datagen.sample import BUILD_ID_RULE, valid_build_id
 from datagen.shards import (
     DATASET_FORMAT,
     DATASET_FORMAT_NAME,
@@ -21,7 +23,10 @@ from datagen.shards import (
 _FORMAT = re.compile(rf"^{re.escape(DATASET_FORMAT_NAME)}/(\d{{1,9}})$")
 # 10^6 samples' digests take 89 MB (docs/dataset-format.md); a manifest beyond is not datagen's
 MAX_MANIFEST_BYTES = 2**30
-__all__ = ["DatasetError", "format_problem", "read_manifest"]
+MAX_TEXT_CHARS = 1000  # a class name, a version, a date: far fewer
+# control characters and line or paragraph separators: what could end a line of YAML or Markdown
+_NOT_TEXT = ("Cc", "Cs", "Zl", "Zp")
+__all__ = ["DatasetError", "fields_problem", "format_problem", "read_manifest"]
 
 
 def read_manifest(root: str | Path) -> Manifest:
@@ -58,7 +63,55 @@ def read_manifest(root: str | Path) -> Manifest:
     samples = manifest.get("samples")
     if samples is not None and (type(samples) is not int or samples < 0):
         raise DatasetError(f"{path}: 'samples' is {repr(samples)[:60]}, expected a count")
+    if problem := fields_problem(manifest):
+        raise DatasetError(f"{path}: {problem}; not a manifest datagen writes")
     return cast(Manifest, manifest)  # the keys a reader uses, checked above
+
+
+def fields_problem(manifest: dict[str, Any]) -> str | None:
+    """What is wrong with the manifest's fields that readers and exports write out as text
+    (build id, scene, seed, classes, versions, ...), or None; a field may be absent."""
+    checks = (
+        ("build_id", valid_build_id, f"a build id ({BUILD_ID_RULE})"),
+        ("scene", _scene_name, "a scene family's name (a Python identifier)"),
+        ("seed", lambda v: type(v) is int, "a whole number"),
+        ("num_samples", lambda v: type(v) is int and v >= 0, "a count"),
+        ("created_utc", _text, "a line of text"),
+        ("datagen_version", _text, "a line of text"),
+        ("classes", lambda v: isinstance(v, list) and all(map(_text, v)), "a list of class names"),
+        ("versions", _texts, "an object of names and versions"),
+        (
+            "exports",
+            lambda v: _objects(v) and all(map(_objects, v.values())),
+            "an object of records",
+        ),
+        *((name, _objects, "an object") for name in ("config", "campaign")),
+    )
+    for name, valid, expected in checks:
+        if name in manifest and not valid(manifest[name]):
+            return f"{name!r} is {repr(manifest[name])[:60]}, expected {expected}"
+    return None
+
+
+def _text(value: Any) -> bool:
+    """A string of at most ``MAX_TEXT_CHARS`` without control characters or line breaks."""
+    return (
+        isinstance(value, str)
+        and len(value) <= MAX_TEXT_CHARS
+        and not any(unicodedata.category(c) in _NOT_TEXT for c in value)
+    )
+
+
+def _texts(value: Any) -> bool:
+    return _objects(value) and all(_text(k) and _text(v) for k, v in value.items())
+
+
+def _scene_name(value: Any) -> bool:
+    return isinstance(value, str) and value.isidentifier() and len(value) <= 64
+
+
+def _objects(value: Any) -> bool:
+    return isinstance(value, dict)
 
 
 def format_problem(dataset_format: Any) -> str | None:

@@ -16,7 +16,6 @@ distractors do.
 from __future__ import annotations
 
 import functools
-import json
 from pathlib import Path
 from typing import Any
 
@@ -25,9 +24,18 @@ import numpy as np
 
 from datagen.dataset.assets import check_asset_paths
 from datagen.dataset.loader import decode_parts
+from datagen.dataset.values import pose_matrix
 from datagen.dataset.views import LabelledView, labelled_views
 from datagen.exports.bop_models import ModelSet, dump_json, silhouette
+from datagen.exports.checks import (
+    lens_distortion,
+    sample_metadata,
+    strict_json,
+    view_camera,
+    view_name,
+)
 from datagen.exports.files import inside, written
+from datagen.images import decode_image
 from datagen.records import ExportedDataset, Manifest, SampleProgress
 
 SPLIT = "train_pbr"  # BOP's name for synthetic training scenes (bop_toolkit's split_type "pbr")
@@ -74,14 +82,14 @@ def _view_images(raw: dict[str, bytes], view: LabelledView) -> tuple[np.ndarray,
     p, camera = view.prefix, view.camera
     item = decode_parts({"depth.png": raw[f"{p}depth.png"], "seg.png": raw[f"{p}seg.png"]})
     depth, seg = item["depth"], item["seg"]
-    K = np.asarray(camera["intrinsics"], float)
-    rgb = cv2.imdecode(np.frombuffer(raw[f"{p}rgb.png"], np.uint8), cv2.IMREAD_COLOR)
-    if rgb is None or rgb.shape[:2] != seg.shape:
+    K = view_camera(view)[0]
+    rgb = decode_image(raw[f"{p}rgb.png"], what=f"part {p}rgb.png", flags=cv2.IMREAD_COLOR)
+    if rgb.shape[:2] != seg.shape:
         raise ValueError(f"part {p}rgb.png is not a {seg.shape[1]}x{seg.shape[0]} image")
     if "distortion" not in camera:
         return rgb, raw[f"{p}depth.png"], depth, seg, K
-    pinhole = np.asarray(camera["render_intrinsics"], float)
-    maps = _undistort_maps(tuple(K.ravel()), tuple(camera["distortion"]), tuple(pinhole.ravel()), seg.shape[1], seg.shape[0])  # fmt: skip
+    pinhole = view_camera(view, "render_intrinsics")[0]
+    maps = _undistort_maps(tuple(K.ravel()), lens_distortion(view), tuple(pinhole.ravel()), seg.shape[1], seg.shape[0])  # fmt: skip
     rgb = cv2.remap(rgb, *maps, cv2.INTER_LINEAR, borderMode=cv2.BORDER_CONSTANT)
     depth = cv2.remap(depth, *maps, cv2.INTER_NEAREST, borderMode=cv2.BORDER_CONSTANT)
     seg = cv2.remap(seg, *maps, cv2.INTER_NEAREST, borderMode=cv2.BORDER_CONSTANT)
@@ -90,11 +98,12 @@ def _view_images(raw: dict[str, bytes], view: LabelledView) -> tuple[np.ndarray,
 
 def _object_to_camera(obj: dict[str, Any], view: LabelledView) -> np.ndarray:
     """The view's ``pose_camera`` of the object, else world pose seen through the extrinsics."""
+    where = f"{view_name(view)}: instance {obj['instance_id']!r}"
     for seen in view.record.get("objects", []):
         if seen.get("instance_id") == obj["instance_id"] and "pose_camera" in seen:
-            return np.asarray(seen["pose_camera"]["matrix"], float)
-    E = np.asarray(view.camera["extrinsics_world_to_camera"], float)
-    return E @ np.asarray(obj["pose_world"]["matrix"], float)
+            return pose_matrix(seen["pose_camera"]["matrix"], f"{where} pose_camera.matrix")
+    E = view_camera(view)[1]
+    return E @ pose_matrix(obj["pose_world"]["matrix"], f"{where} pose_world.matrix")
 
 
 def _export_view(
@@ -110,7 +119,7 @@ def _export_view(
         path.write_bytes(depth_image)  # as stored: a pinhole view
     else:
         _png(path, depth_image)
-    E = np.asarray(view.camera["extrinsics_world_to_camera"], float)
+    E = view_camera(view)[1]
     camera = {
         "cam_K": K.ravel().tolist(), "depth_scale": 1.0,
         "cam_R_w2c": E[:3, :3].ravel().tolist(), "cam_t_w2c": (E[:3, 3] * 1000).tolist(),
@@ -165,7 +174,7 @@ def export(
     models = ModelSet(out / "models")
     first_camera = None
     for i in range(len(dataset)):
-        meta = dataset.metadata(i)
+        meta = sample_metadata(dataset, i)
         check_asset_paths(meta, manifest, dataset.root)  # users' meshes: the config's folder only
         _export_scene(dataset, i, meta, inside(split, f"{i:06d}"), models)
         if first_camera is None and (views := labelled_views(meta)):
@@ -178,6 +187,6 @@ def export(
         K = np.asarray(first_camera.get("render_intrinsics", first_camera["intrinsics"]), float)
         doc = {"width": first_camera["width"], "height": first_camera["height"], "fx": K[0, 0],
                "fy": K[1, 1], "cx": K[0, 2], "cy": K[1, 2], "depth_scale": 1.0}  # fmt: skip
-        (out / "camera.json").write_text(json.dumps(doc, indent=1))
+        (out / "camera.json").write_text(strict_json(doc, "camera.json", indent=1))
         files.append(out / "camera.json")
     return files

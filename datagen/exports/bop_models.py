@@ -26,6 +26,7 @@ import numpy as np
 from scipy.spatial import ConvexHull, QhullError, cKDTree
 
 from datagen.assets.shapes import build_geometry
+from datagen.exports.checks import finite_json
 from datagen.exports.files import inside
 
 RING_VERTICES = 16  # a ring of fewer vertices is a polygon (an octagonal prism is no cylinder)
@@ -106,7 +107,11 @@ def _diameter(vertices: np.ndarray) -> float:
 
 def dump_json(path: Path, doc: dict[str, Any]) -> None:
     """JSON as bop_toolkit writes it: one line per top-level key."""
-    lines = ",\n".join(f"  {json.dumps(str(k))}: {json.dumps(v)}" for k, v in doc.items())
+    finite_json(doc, path.name)
+    lines = ",\n".join(
+        f"  {json.dumps(str(k), allow_nan=False)}: {json.dumps(v, allow_nan=False)}"
+        for k, v in doc.items()
+    )
     path.write_text("{\n" + lines + "\n}\n" if doc else "{}\n")
 
 
@@ -171,7 +176,9 @@ class ModelSet:
         lo, hi = visual.bounds
         centre = (lo + hi) / 2
         vertices = (np.asarray(visual.vertices) - centre) * 1000.0
-        digest = hashlib.sha256(json.dumps(obj["shape"], sort_keys=True).encode()).hexdigest()
+        digest = hashlib.sha256(
+            json.dumps(obj["shape"], sort_keys=True, allow_nan=False).encode()
+        ).hexdigest()
         obj_id = self.ids.setdefault(digest, len(self.ids) + 1)
         if obj_id not in self.info:
             path = inside(self.folder, f"obj_{obj_id:06d}.ply")

@@ -16,7 +16,6 @@ to the dataset's card.
 from __future__ import annotations
 
 import importlib
-import json
 from pathlib import Path
 from typing import Any
 
@@ -24,6 +23,8 @@ import yaml
 
 from datagen.dataset.loader import ShardDataset, load
 from datagen.dataset.manifest import DatasetError
+from datagen.exports.card_text import code, fenced, text
+from datagen.exports.checks import strict_json
 from datagen.exports.croissant import (
     as_dict,
     as_scalar,
@@ -127,7 +128,9 @@ def _licence_text(manifest: dict[str, Any], described: str) -> str:
         for entry in photos["files"]:
             if isinstance(entry, dict):
                 licences.setdefault(str(entry.get("source")), set()).add(str(entry.get("licence")))
-        shown = "; ".join(f"`{s}` ({', '.join(sorted(v))})" for s, v in sorted(licences.items()))
+        shown = "; ".join(
+            f"{text(s)} ({text(', '.join(sorted(v)))})" for s, v in sorted(licences.items())
+        )
         lines.append(
             f"- pictures of datagen's picture library appear on surfaces and walls: {shown}; "
             "the manifest's `pictures.photos.files` credits each file (docs/photo-library.md);"
@@ -137,9 +140,9 @@ def _licence_text(manifest: dict[str, Any], described: str) -> str:
         lines.append("- the arm is rendered from the user's description (`robot.urdf.file`).")
     elif family and family.world == "tabletop" and isinstance(name, str) and name in ROBOTS:
         licence = ROBOTS[name].load().licence
-        lines.append(f"- the arm `{name}` is rendered from its description ({licence}).")
+        lines.append(f"- the arm {code(name)} is rendered from its description ({licence}).")
     elif described:
-        lines.append(f"- the robot is rendered from `{described}` (its licence applies).")
+        lines.append(f"- the robot is rendered from {code(described)} (its licence applies).")
     return "\n".join(lines)
 
 
@@ -176,14 +179,15 @@ def _statistics(summary: dict[str, Any]) -> list[str]:
         return ["No statistics: no sample's metadata could be summarised."]
     flat = {k: v for k, v in summary.items() if not isinstance(v, dict)}
     lines = ["| statistic | value |", "|---|---|"]
-    lines += [f"| {k.replace('_', ' ')} | {v} |" for k, v in flat.items()]
+    lines += [f"| {text(str(k).replace('_', ' '))} | {text(v)} |" for k, v in flat.items()]
     for name, value in summary.items():
         if isinstance(value, dict) and value:
-            lines += ["", f"**{name.replace('_', ' ')}**", ""]
+            lines += ["", f"**{text(str(name).replace('_', ' '))}**", ""]
             if all(not isinstance(v, dict | list) for v in value.values()):
-                lines += ["| | |", "|---|---|", *(f"| {k} | {v} |" for k, v in value.items())]
+                rows = (f"| {text(k)} | {text(v)} |" for k, v in value.items())
+                lines += ["| | |", "|---|---|", *rows]
             else:
-                lines += ["```yaml", yaml.safe_dump(value, sort_keys=False).rstrip(), "```"]
+                lines += fenced(yaml.safe_dump(value, sort_keys=False).rstrip(), "yaml")
     return lines
 
 
@@ -208,7 +212,7 @@ def _exports_section(root: Path, manifest: dict[str, Any]) -> list[str]:
         path = EXPORTS[name].path
         card = f"[{path}/]({path}/{CARD})" if (root / path).is_dir() else f"`{path}`"
         what = _layout(EXPORTS[name]).split("\n\n")[0].replace("\n", " ")
-        size = as_scalar(record.get("bytes"), 0)
+        size = record.get("bytes") if type(record.get("bytes")) is int else 0
         lines.append(f"| {name} | {card} | {size / 2**20:.1f} MiB | {what} |")
     return lines
 
@@ -221,14 +225,15 @@ def dataset_card(
     version = manifest["versions"].get("datagen", "")
     shards, config, classes = manifest["shards"], manifest["config"], manifest["classes"]
     size = sum(s.get("bytes", 0) for s in shards) / 2**20
+    build_id = manifest["build_id"]
     body = [
-        f"# {scene} dataset (datagen build {manifest['build_id']})",
+        f"# {text(scene)} dataset (datagen build {text(build_id)})",
         "",
-        f"Synthetic data made by datagen {version}"
+        f"Synthetic data made by datagen {text(version)}"
         + (f": {family.summary}" if family else "")
-        + f". {manifest['num_samples']} samples of scene `{scene}`, "
-        f"seed {manifest['seed']}, build id `{manifest['build_id']}`, "
-        f"made {manifest['created_utc']}.",
+        + f". {manifest['num_samples']} samples of scene {code(scene)}, "
+        f"seed {manifest['seed']}, build id {code(build_id)}, "
+        f"made {text(manifest['created_utc'])}.",
         "",
     ]
     if (root / "preview.png").is_file():
@@ -248,7 +253,7 @@ def dataset_card(
         "package, or with Hugging Face `datasets` (the `configs` above read the shards).", "",
         "## Classes", "",
         "The id is the value in `semantic.png` (and COCO's `category_id`).", "",
-        "| id | class |", "|---|---|", *(f"| {i} | {name} |" for i, name in enumerate(classes)),
+        "| id | class |", "|---|---|", *(f"| {i} | {text(name)} |" for i, name in enumerate(classes)),
         "", "## Statistics", "",
         "Computed from the samples' metadata (as `datagen inspect` reports them).", "",
         *_statistics(summary), "",
@@ -257,9 +262,9 @@ def dataset_card(
         "## How it was made", "",
         f"`datagen build CONFIG --out DIR` with this config and seed {manifest['seed']} "
         "makes the same samples again.", "",
-        "```yaml", yaml.safe_dump(config, sort_keys=True).rstrip(), "```", "",
+        *fenced(yaml.safe_dump(config, sort_keys=True).rstrip(), "yaml"), "",
         "| software | version |", "|---|---|",
-        *(f"| {k} | {v} |" for k, v in manifest["versions"].items() if k != "platform"),
+        *(f"| {text(k)} | {text(v)} |" for k, v in manifest["versions"].items() if k != "platform"),
     ]  # fmt: skip
     return "\n".join(body) + "\n"
 
@@ -287,10 +292,13 @@ def write_dataset_card(root: str | Path, summary: dict[str, Any] | None = None) 
     described = _described(_first_metadata(dataset))
     robot = _robot(described, manifest)
     header = front_matter(manifest, parts, robot, [{"split": "train", "path": "shard-*.tar"}])
-    text = _header(header) + dataset_card(root, manifest, parts, described, summary or {})
+    card = _header(header) + dataset_card(root, manifest, parts, described, summary or {})
     description = f"Synthetic {manifest['scene']} data made by datagen (seed {manifest['seed']})"
     doc = dataset_croissant(manifest, parts, _slug(header["pretty_name"]), description, LICENSE)
-    return [_write(root, CARD, text), _write(root, CROISSANT, json.dumps(doc, indent=1))]
+    return [
+        _write(root, CARD, card),
+        _write(root, CROISSANT, strict_json(doc, CROISSANT, indent=1)),
+    ]
 
 
 def write_export_card(folder: Path, fmt: ExportFormat, dataset: ExportedDataset) -> list[Path]:
@@ -311,11 +319,11 @@ def write_export_card(folder: Path, fmt: ExportFormat, dataset: ExportedDataset)
     header["tags"].append(fmt.name)
     layout = _layout(fmt)
     body = [
-        f"# {fmt.name} export of the {manifest['scene']} dataset "
-        f"(datagen build {manifest['build_id']})",
+        f"# {fmt.name} export of the {text(manifest['scene'])} dataset "
+        f"(datagen build {text(manifest['build_id'])})",
         "",
         f"Written by `datagen export DIR --to {fmt.name}` (datagen "
-        f"{manifest['versions'].get('datagen', '')}) from the dataset one folder up: its "
+        f"{text(manifest['versions'].get('datagen', ''))}) from the dataset one folder up: its "
         f"[card](../{CARD}) has the config, seed {manifest['seed']}, classes, statistics and "
         f"licence; its shards are the source of truth.",
         "",
@@ -327,8 +335,11 @@ def write_export_card(folder: Path, fmt: ExportFormat, dataset: ExportedDataset)
     ]
     description = f"The {fmt.name} export of datagen build {manifest['build_id']}"
     doc = export_croissant(folder, manifest, _slug(header["pretty_name"]), description, LICENSE)
-    text = _header(header) + "\n".join(body) + "\n"
-    return [_write(folder, CARD, text), _write(folder, CROISSANT, json.dumps(doc, indent=1))]
+    card = _header(header) + "\n".join(body) + "\n"
+    return [
+        _write(folder, CARD, card),
+        _write(folder, CROISSANT, strict_json(doc, CROISSANT, indent=1)),
+    ]
 
 
 def _layout(fmt: ExportFormat) -> str:
@@ -340,5 +351,5 @@ def _slug(text: str) -> str:
     return "-".join("".join(c if c.isalnum() else " " for c in text).split())
 
 
-def _write(folder: Path, name: str, text: str) -> Path:
-    return replace_file(inside(folder, name), lambda tmp: tmp.write_text(text, encoding="utf-8"))
+def _write(folder: Path, name: str, content: str) -> Path:
+    return replace_file(inside(folder, name), lambda tmp: tmp.write_text(content, encoding="utf-8"))

@@ -11,16 +11,16 @@ values in ``semantic.png``; a grasp scene's robot arm and gripper are annotation
 
 from __future__ import annotations
 
-import json
 from pathlib import Path
 from typing import Any
 
-import cv2
 import numpy as np
 from pycocotools import mask as mask_utils
 
 from datagen.dataset.views import labelled_views, thing_classes
+from datagen.exports.checks import sample_metadata, strict_json, view_boxes, view_camera
 from datagen.exports.files import inside
+from datagen.images import decode_image
 from datagen.records import ExportedDataset, Manifest, SampleProgress
 
 
@@ -43,14 +43,16 @@ def export(
     images: list[dict[str, object]] = []  # COCO's records
     annotations: list[dict[str, object]] = []
     for i in range(len(dataset)):
-        key, meta = dataset.keys[i], dataset.metadata(i)
+        key, meta = dataset.keys[i], sample_metadata(dataset, i)
         views = labelled_views(meta)
         wanted = {f"{v.prefix}{part}" for v in views for part in ("rgb.png", "seg.png")}
         raw = dataset.raw(i, wanted)
         for view in views:
             file_name = f"{key}.{view.prefix}png"
             inside(images_dir, file_name).write_bytes(raw[f"{view.prefix}rgb.png"])  # as stored
-            seg = cv2.imdecode(np.frombuffer(raw[f"{view.prefix}seg.png"], np.uint8), -1)
+            seg = decode_image(raw[f"{view.prefix}seg.png"], what=f"part {view.prefix}seg.png")
+            view_camera(view)  # checked; written as stored
+            boxes = view_boxes(view, (seg.shape[1], seg.shape[0]))
             image_id = len(images) + 1
             images.append({
                 "id": image_id, "file_name": file_name, "width": int(seg.shape[1]),
@@ -58,9 +60,8 @@ def export(
                 "intrinsics": view.camera["intrinsics"],
                 "extrinsics_world_to_camera": view.camera["extrinsics_world_to_camera"],
             })  # fmt: skip
-            for inst in view.instances:
+            for inst, (x0, y0, x1, y1) in zip(view.instances, boxes, strict=True):
                 mask = seg == inst["instance_id"]
-                x0, y0, x1, y1 = inst["bbox_xyxy"]
                 annotation = {
                     "id": len(annotations) + 1, "image_id": image_id,
                     "category_id": categories[inst["class"]], "iscrowd": 0,
@@ -87,5 +88,5 @@ def export(
         ],
     }
     path = out / "annotations.json"
-    path.write_text(json.dumps(doc, separators=(",", ":")))
+    path.write_text(strict_json(doc, "annotations.json", separators=(",", ":")))
     return [path, images_dir]

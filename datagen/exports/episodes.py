@@ -38,6 +38,7 @@ import numpy as np
 from datagen.dataset.loader import DatasetError, decode_parts
 from datagen.dataset.trajectory import decode_trajectory
 from datagen.dataset.views import labelled_views
+from datagen.exports.checks import finite_in_float32, finite_rate, sample_metadata
 from datagen.records import ExportedDataset, Manifest
 from datagen.registries import FAMILIES
 
@@ -84,6 +85,14 @@ class Episode:
         done[-1] = True
         return done
 
+    def features(self) -> list[tuple[str, np.ndarray, list[str] | None]]:
+        """(LeRobot's feature name, (T, ...) values, column names) of its numbers per frame."""
+        return [
+            ("observation.state", self.state, self.state_names),
+            ("action", self.action, self.action_names),
+            *((f"observation.{k}", v, self.extra_names.get(k)) for k, v in self.extras.items()),
+        ]
+
     def parts(self) -> set[str]:
         """Every image part the episode's frames refer to."""
         return {p for names in (*self.cameras.values(), *self.depth.values()) for p in names}
@@ -111,8 +120,18 @@ def episodes(dataset: ExportedDataset, manifest: Manifest) -> Iterator[tuple[int
 
 
 def episodes_of(dataset: ExportedDataset, manifest: Manifest, i: int) -> list[Episode]:
-    """The episodes sample ``i`` holds: none, one, or one per drone of an aerial episode."""
-    meta = dataset.metadata(i)
+    """The episodes sample ``i`` holds: none, one, or one per drone of an aerial episode; each
+    checked to hold finite float32 values at a rate (BadSample naming the feature otherwise)."""
+    found = _episodes_of(dataset, manifest, i)
+    for episode in found:
+        finite_rate(episode.fps, "its episode's frame rate")
+        for feature, values, names in episode.features():
+            finite_in_float32(values, feature, names)
+    return found
+
+
+def _episodes_of(dataset: ExportedDataset, manifest: Manifest, i: int) -> list[Episode]:
+    meta = sample_metadata(dataset, i)
     if meta.get("format") == "datagen.nav_episode/1":
         return [_navigation(meta, float(manifest["config"]["navigation"]["frame_rate_hz"]))]
     if meta.get("format") == "datagen.nav_fleet/1":

@@ -29,6 +29,7 @@ import numpy as np
 from datagen.dataset.loader import decode_parts
 from datagen.dataset.trajectory import decode_trajectory
 from datagen.dataset.views import LabelledView, is_sequence, labelled_views, sequences
+from datagen.exports.checks import checked_metadata
 from datagen.exports.files import FailureRecordingFile
 from datagen.outcomes import grasp_outcome, sample_outcome
 from datagen.records import ExportedDataset, Manifest, SampleProgress
@@ -132,7 +133,7 @@ def _trajectory(group: h5py.Group, raw: dict[str, bytes]) -> None:
     ``frames/wrist_rgb``), one image per ``frame_time``."""
     arrays = decode_trajectory(raw["trajectory.npz"])
     traj = group.create_group("trajectory")
-    traj.attrs["names"] = json.dumps(arrays.pop("names"), separators=(",", ":"))
+    traj.attrs["names"] = json.dumps(arrays.pop("names"), separators=(",", ":"), allow_nan=False)
     for name, values in arrays.items():
         traj.create_dataset(name, data=values, compression="gzip", compression_opts=1)
     for field, infix in (("rgb", ""), ("wrist_rgb", "wrist.")):
@@ -171,13 +172,13 @@ def _write(target, dataset: ExportedDataset, manifest: Manifest, on_progress) ->
     with h5py.File(target, "w") as f:
         f.attrs["format"] = FORMAT
         f.attrs["scene"] = manifest.get("scene", "")
-        f.attrs["classes"] = json.dumps(manifest.get("classes", []))
-        f.attrs["config"] = json.dumps(manifest.get("config", {}))
+        f.attrs["classes"] = json.dumps(manifest.get("classes", []), allow_nan=False)
+        f.attrs["config"] = json.dumps(manifest.get("config", {}), allow_nan=False)
         for i in range(len(dataset)):
             key, raw = dataset.keys[i], dataset.raw(i)
-            meta = decode_parts({"json": raw["json"]})["meta"]
+            meta = checked_metadata(decode_parts({"json": raw["json"]})["meta"])
             group = f.create_group(f"samples/{key}")
-            group.attrs["meta"] = json.dumps(meta, separators=(",", ":"))
+            group.attrs["meta"] = json.dumps(meta, separators=(",", ":"), allow_nan=False)
             views = labelled_views(meta)
             if is_sequence(views):
                 by_camera = sequences(views)

@@ -12,6 +12,7 @@ encoded as they are decoded. The mapping and its reasons: docs/export-lerobot.md
 
 from __future__ import annotations
 
+import contextlib
 from pathlib import Path
 from typing import Any
 
@@ -41,19 +42,24 @@ def export(
     out.mkdir()
     writer: _Writer | None = None
     total = len(dataset)
-    for i in range(total):
-        for episode in episodes_of(dataset, manifest, i):
-            raw = dataset.raw(i, episode.parts())
-            writer = writer or _Writer(out, manifest, episode, raw)
-            writer.add(episode, raw)
-        if on_progress:
-            on_progress(i + 1, total)
-    if writer is None:
-        raise DatasetError(
-            f"cannot export 'lerobot': none of the {total} samples holds an episode (a grasp "
-            f"attempt that found no candidate holds none)"
-        )
-    return writer.finish()
+    try:
+        for i in range(total):
+            for episode in episodes_of(dataset, manifest, i):
+                raw = dataset.raw(i, episode.parts())
+                writer = writer or _Writer(out, manifest, episode, raw)
+                writer.add(episode, raw)
+            if on_progress:
+                on_progress(i + 1, total)
+        if writer is None:
+            raise DatasetError(
+                f"cannot export 'lerobot': none of the {total} samples holds an episode (a grasp "
+                f"attempt that found no candidate holds none)"
+            )
+        return writer.finish()
+    except BaseException:
+        if writer is not None:
+            writer.abort()
+        raise
 
 
 def _fps(episode: Episode) -> int:
@@ -236,6 +242,14 @@ class _Writer:
         table = table.append_column("meta/episodes/file_index", pa.array([file] * n, pa.int64()))
         files.write(table)
         self.rows = []
+
+    def abort(self) -> None:
+        """Every file left open by a failure closed now, before the runner removes the folder."""
+        for video in self.videos.values():
+            video.abort()
+        for files in (self.data, self.episode_files):
+            with contextlib.suppress(Exception):  # the failure itself is what is reported
+                files.close()
 
     def finish(self) -> list[Path]:
         self._flush_rows()

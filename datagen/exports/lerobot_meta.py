@@ -13,6 +13,7 @@ import numpy as np
 import pyarrow as pa
 import pyarrow.parquet as pq
 
+from datagen.exports.checks import strict_json
 from datagen.exports.files import inside
 from datagen.exports.lerobot_video import next_file
 
@@ -57,7 +58,9 @@ def data_schema(features: dict[str, dict]) -> pa.Schema:
             kind = pa.list_(kind, ft["shape"][0])
         fields.append(pa.field(key, kind))
     hf = {k: _hf_feature(ft) for k, ft in features.items() if ft["dtype"] != "video"}
-    return pa.schema(fields, metadata={"huggingface": json.dumps({"info": {"features": hf}})})
+    return pa.schema(
+        fields, metadata={"huggingface": json.dumps({"info": {"features": hf}}, allow_nan=False)}
+    )
 
 
 def column(values: np.ndarray, kind: pa.DataType) -> pa.Array:
@@ -226,7 +229,7 @@ def write_tasks(out: Path, tasks: dict[str, int]) -> Path:
     }
     schema = pa.schema(
         [("task_index", pa.int64()), ("__index_level_0__", pa.string())],
-        metadata={"pandas": json.dumps(pandas_meta)},
+        metadata={"pandas": json.dumps(pandas_meta, allow_nan=False)},
     )
     table = pa.table([list(tasks.values()), list(tasks)], schema=schema)
     path = inside(out, "meta", "tasks.parquet")
@@ -237,7 +240,7 @@ def write_tasks(out: Path, tasks: dict[str, int]) -> Path:
 
 def write_json(path: Path, data: dict) -> Path:
     path.parent.mkdir(parents=True, exist_ok=True)
-    path.write_text(json.dumps(data, indent=4, ensure_ascii=False) + "\n")
+    path.write_text(strict_json(data, path.name, indent=4, ensure_ascii=False) + "\n")
     return path
 
 

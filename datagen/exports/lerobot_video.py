@@ -10,6 +10,7 @@ number goes up, as LeRobot's own writer does.
 
 from __future__ import annotations
 
+import contextlib
 import itertools
 from collections.abc import Iterable
 from fractions import Fraction
@@ -127,3 +128,12 @@ class VideoFiles:
     def close(self) -> list[Path]:
         self._close()
         return self.written
+
+    def abort(self) -> None:
+        """Closes the open file after a failure, whatever its state, ignoring what that raises:
+        left open, PyAV's finaliser would write its trailer later, once the export's folder is
+        removed, and print a traceback after the export's one-line error."""
+        container, self.container, self.stream = self.container, None, None
+        if container is not None:
+            with contextlib.suppress(Exception):  # the failure itself (a full disk) is reported
+                container.close()

@@ -8,6 +8,7 @@ from pathlib import Path
 
 from datagen.dataset.pointcloud import sample_point_cloud, write_ply
 from datagen.dataset.views import is_sequence, labelled_views
+from datagen.exports.checks import sample_metadata
 from datagen.exports.files import inside
 from datagen.records import ExportedDataset, Manifest, SampleProgress
 
@@ -23,7 +24,7 @@ def export(
     out.mkdir(parents=True)
     files = []
     for i in range(len(dataset)):
-        meta = dataset.metadata(i)
+        meta = sample_metadata(dataset, i)
         stride = SEQUENCE_STRIDE if is_sequence(labelled_views(meta)) else 1
         path = inside(out, f"{dataset.keys[i]}.ply")
         write_ply(path, sample_point_cloud(dataset.raw(i), meta, stride=stride))

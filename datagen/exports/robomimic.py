@@ -21,6 +21,7 @@ import numpy as np
 
 from datagen.dataset.loader import decode_parts
 from datagen.dataset.views import labelled_views
+from datagen.exports.checks import positive_metres, sample_metadata
 from datagen.exports.episodes import Episode, episodes, episodes_of, frames_of
 from datagen.exports.files import FailureRecordingFile
 from datagen.exports.splits import is_valid
@@ -103,14 +104,14 @@ def _write(f: h5py.File, dataset, manifest, scale, first, on_progress) -> None:
             names["valid" if is_valid(episode.key) else "train"].append(name)
             total += episode.length
             if "action_names" not in data.attrs:
-                data.attrs["action_names"] = json.dumps(episode.action_names)
+                data.attrs["action_names"] = json.dumps(episode.action_names, allow_nan=False)
         if on_progress:
             on_progress(i + 1, len(dataset))
     data.attrs["total"] = total
-    data.attrs["env_args"] = json.dumps(_env_args(dataset, manifest, first))
+    data.attrs["env_args"] = json.dumps(_env_args(dataset, manifest, first), allow_nan=False)
     data.attrs["action_min"] = low
     data.attrs["action_max"] = high
-    data.attrs["classes"] = json.dumps(manifest.get("classes", []))
+    data.attrs["classes"] = json.dumps(manifest.get("classes", []), allow_nan=False)
     for split, demos in names.items():
         f.create_dataset(f"mask/{split}", data=np.array(demos, dtype="S"))
 
@@ -173,11 +174,13 @@ def _images(episode: Episode, raw: dict[str, bytes], far_m: float) -> dict[str, 
 
 
 def _demo(group: h5py.Group, dataset, i: int, episode: Episode, scale) -> None:
-    meta = dataset.metadata(i)
+    meta = sample_metadata(dataset, i)
     views = labelled_views(meta)
     wanted = episode.parts() | {f"{v.prefix}{n}.png" for v in views for n in _PERCEPTION}
     raw = dataset.raw(i, wanted & set(dataset.part_names(i)))
-    far_m = float(views[0].camera.get("far", 0.0)) if views else 0.0
+    far_m = 0.0
+    if episode.depth:  # depth is stored as a fraction of the camera's far plane
+        far_m = positive_metres(views[0].camera.get("far") if views else None, "its camera's far")
     obs, states, state_names = _low_dim(episode)
     for name, values in (obs | _images(episode, raw, far_m)).items():
         _put(group, f"obs/{name}", values)
@@ -190,8 +193,8 @@ def _demo(group: h5py.Group, dataset, i: int, episode: Episode, scale) -> None:
     group.attrs["datagen_key"] = episode.key
     group.attrs["success"] = episode.success
     group.attrs["fps"] = episode.fps
-    group.attrs["state_names"] = json.dumps(state_names)
-    group.attrs["ep_meta"] = json.dumps({"lang": episode.task})
+    group.attrs["state_names"] = json.dumps(state_names, allow_nan=False)
+    group.attrs["ep_meta"] = json.dumps({"lang": episode.task}, allow_nan=False)
     if episode.depth:
         group.attrs["depth_far_m"] = far_m
     _perception(group.create_group("perception"), episode, views, raw)
@@ -207,7 +210,9 @@ def _perception(group: h5py.Group, episode: Episode, views, raw: dict[str, bytes
         for kind in ("seg", "semantic"):
             stack = np.stack([_decode(raw, v.prefix, kind) for v in kept])
             _put(group, kind, stack)
-        group.attrs["instances"] = json.dumps([v.instances for v in kept], separators=(",", ":"))
+        group.attrs["instances"] = json.dumps(
+            [v.instances for v in kept], separators=(",", ":"), allow_nan=False
+        )
         return
     for view in views:
         sub = group.create_group(view.name or "workspace")
@@ -215,8 +220,8 @@ def _perception(group: h5py.Group, episode: Episode, views, raw: dict[str, bytes
             if f"{view.prefix}{kind}.png" in raw:
                 image = _decode(raw, view.prefix, kind)
                 sub.create_dataset(kind, data=image, compression="gzip", compression_opts=1)
-        sub.attrs["instances"] = json.dumps(view.instances, separators=(",", ":"))
-        sub.attrs["camera"] = json.dumps(view.camera, separators=(",", ":"))
+        sub.attrs["instances"] = json.dumps(view.instances, separators=(",", ":"), allow_nan=False)
+        sub.attrs["camera"] = json.dumps(view.camera, separators=(",", ":"), allow_nan=False)
 
 
 def _decode(raw: dict[str, bytes], prefix: str, kind: str) -> np.ndarray:

@@ -23,10 +23,12 @@ from pathlib import Path
 from typing import NoReturn
 
 from datagen.dataset.manifest import DatasetError, read_manifest
+from datagen.dataset.values import BadSample
 from datagen.errors import BuildError
 from datagen.exports.card import write_export_card
 from datagen.exports.episodes import require_episodes
 from datagen.exports.files import disk_full, fsync_tree, inside
+from datagen.images import ImageInputError
 from datagen.records import ExportedDataset, ExportRecord, Manifest
 from datagen.registries import EXPORTS, FAMILIES, STORE, ExportFormat
 from datagen.shards import fsync_dir, write_manifest
@@ -38,6 +40,8 @@ ExportProgress = Callable[[str, int, int], None]  # (format name, samples done, 
 _CONTENT_ERRORS = (
     KeyError, IndexError, TypeError, AttributeError, ValueError, ArithmeticError, RuntimeError,
 )  # fmt: skip
+# what names the part or the key that is wrong: the user is told it as it is
+_NAMED = (DatasetError, ImageInputError, BadSample)
 
 
 def _size(path: Path) -> int:
@@ -159,9 +163,9 @@ def _fail(
             f"disk full: the {fmt.name} export of {root} needs more space than is free "
             f"(writing {where}); nothing of it was kept"
         ) from None
-    if isinstance(exc, DatasetError) and not str(exc).startswith(str(root)):  # a part's
+    if isinstance(exc, _NAMED) and not str(exc).startswith(str(root)):  # says what is wrong
         raise DatasetError(f"{root}: {sample}{fmt.name} export: {exc}") from None
-    if isinstance(exc, _CONTENT_ERRORS) and not isinstance(exc, DatasetError):
+    if isinstance(exc, _CONTENT_ERRORS) and not isinstance(exc, _NAMED):
         log.info("export %s of %s failed", fmt.name, root, exc_info=exc)
         raise DatasetError(
             f"{root}: the dataset's content is not what datagen writes ({sample}{fmt.name} "

@@ -7,6 +7,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
+from datagen.exports.checks import sample_metadata
 from datagen.records import ExportedDataset, Manifest, SampleProgress
 
 
@@ -26,7 +27,7 @@ def export(
     files = []
     for i in range(len(dataset)):
         path = inside(out, f"{dataset.keys[i]}.usda")
-        meta = dataset.metadata(i)
+        meta = sample_metadata(dataset, i)
         check_asset_paths(meta, manifest, dataset.root)  # users' files: the config's folders only
         # textured looks' tiles go to out/textures/; validated from the file, where they resolve
         stage = scene_stage(meta, out)  # type: ignore[arg-type]  # usd_stage: not typed yet

@@ -89,12 +89,12 @@ def _camera(stage, name: str, camera: dict[str, Any]) -> None:
     usd_camera.CreateVerticalApertureOffsetAttr((h / 2 - float(K[1, 2])) * APERTURE_PER_PIXEL)
     usd_camera.CreateClippingRangeAttr(Gf.Vec2f(camera["near"], camera["far"]))
     prim = usd_camera.GetPrim()
-    prim.SetCustomDataByKey("datagen:intrinsics", json.dumps(camera["intrinsics"]))
-    prim.SetCustomDataByKey("datagen:extrinsics_world_to_camera", json.dumps(camera["extrinsics_world_to_camera"]))  # fmt: skip
+    prim.SetCustomDataByKey("datagen:intrinsics", json.dumps(camera["intrinsics"], allow_nan=False))
+    prim.SetCustomDataByKey("datagen:extrinsics_world_to_camera", json.dumps(camera["extrinsics_world_to_camera"], allow_nan=False))  # fmt: skip
     prim.SetCustomDataByKey("datagen:resolution", Gf.Vec2i(w, h))
     for key in ("distortion", "distortion_model", "render_intrinsics"):
         if key in camera:
-            prim.SetCustomDataByKey(f"datagen:{key}", json.dumps(camera[key]))
+            prim.SetCustomDataByKey(f"datagen:{key}", json.dumps(camera[key], allow_nan=False))
 
 
 def _box_mesh(half, centre) -> trimesh.Trimesh:
@@ -158,7 +158,7 @@ def scene_stage(meta: dict[str, Any], out_dir: str | Path | None = None) -> Usd.
     world.GetPrim().SetCustomDataByKey("datagen:key", key)
     world.GetPrim().SetCustomDataByKey("datagen:seed", int(meta["seed"]))
     world.GetPrim().SetCustomDataByKey("datagen:scene", meta["scene"])
-    world.GetPrim().SetCustomDataByKey("datagen:randomisation", json.dumps(meta["randomisation"], sort_keys=True))  # fmt: skip
+    world.GetPrim().SetCustomDataByKey("datagen:randomisation", json.dumps(meta["randomisation"], sort_keys=True, allow_nan=False))  # fmt: skip
     materials = meta["randomisation"]["materials"]
     robot = meta["robot"]
     ws = Workspace(float(robot.get("workspace_scale", 1.0)), float(robot.get("object_scale", 1.0)))
@@ -173,7 +173,9 @@ def scene_stage(meta: dict[str, Any], out_dir: str | Path | None = None) -> Usd.
         prim = xform.GetPrim()
         for field in ("class", "instance_id", "mass", "friction", "restitution", "density"):
             prim.SetCustomDataByKey(f"datagen:{field}", obj[field])
-        prim.SetCustomDataByKey("datagen:shape", json.dumps(obj["shape"], sort_keys=True))
+        prim.SetCustomDataByKey(
+            "datagen:shape", json.dumps(obj["shape"], sort_keys=True, allow_nan=False)
+        )
     if "background" in meta["randomisation"]:
         _background(stage, key, meta["randomisation"]["background"], out_dir)
     _distractors(stage, key, meta["randomisation"].get("distractors", []), out_dir)
@@ -186,7 +188,7 @@ def scene_stage(meta: dict[str, Any], out_dir: str | Path | None = None) -> Usd.
         for part in ("camera_effects", "depth_sensor"):  # values that make those images again
             if part in view:
                 prim = stage.GetPrimAtPath(f"/World/Cameras/{name}")
-                prim.SetCustomDataByKey(f"datagen:{part}", json.dumps(view[part]))
+                prim.SetCustomDataByKey(f"datagen:{part}", json.dumps(view[part], allow_nan=False))
     return stage
 
 
@@ -229,4 +231,6 @@ def _distractors(stage, key: str, distractors: list[dict[str, Any]], out_dir: Pa
         visual = build_geometry(spec["shape"]).visual
         usd_looks.mesh(stage, f"{path}/visual", visual, look, spec["material"])
         prim.SetCustomDataByKey("datagen:placement", spec["placement"])
-        prim.SetCustomDataByKey("datagen:shape", json.dumps(spec["shape"], sort_keys=True))
+        prim.SetCustomDataByKey(
+            "datagen:shape", json.dumps(spec["shape"], sort_keys=True, allow_nan=False)
+        )

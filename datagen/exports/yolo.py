@@ -13,6 +13,7 @@ normalised to [0, 1] by the image size. Class ids are the countable classes
 
 from __future__ import annotations
 
+import json
 import os
 from pathlib import Path
 
@@ -21,8 +22,10 @@ import numpy as np
 import yaml
 
 from datagen.dataset.views import LabelledView, labelled_views, thing_classes
+from datagen.exports.checks import sample_metadata, view_boxes
 from datagen.exports.files import inside
 from datagen.exports.splits import split_of
+from datagen.images import decode_image
 from datagen.records import ExportedDataset, Manifest, SampleProgress
 
 TASKS = ("detect", "segment")
@@ -45,7 +48,7 @@ def export(
             (tree / "images" / split).mkdir(parents=True)
             (tree / "labels" / split).mkdir(parents=True)
     for i in range(len(dataset)):
-        key, meta = dataset.keys[i], dataset.metadata(i)
+        key, meta = dataset.keys[i], sample_metadata(dataset, i)
         views = labelled_views(meta)
         wanted = {f"{v.prefix}{part}" for v in views for part in ("rgb.png", "seg.png")}
         raw = dataset.raw(i, wanted)
@@ -54,7 +57,7 @@ def export(
             image = inside(trees["detect"] / "images" / split, f"{key}.{view.prefix}png")
             image.write_bytes(raw[f"{view.prefix}rgb.png"])  # as stored
             _link(image, inside(trees["segment"] / "images" / split, image.name))
-            seg = cv2.imdecode(np.frombuffer(raw[f"{view.prefix}seg.png"], np.uint8), -1)
+            seg = decode_image(raw[f"{view.prefix}seg.png"], what=f"part {view.prefix}seg.png")
             boxes, polygons = _labels(view, seg, ids)
             label = f"{key}.{view.prefix}txt"
             inside(trees["detect"] / "labels" / split, label).write_text(boxes)
@@ -92,15 +95,20 @@ def _data_yaml(
     on an empty validation folder."""
     val = "images/val" if has_val else "images/train"
     doc = {"path": str(final), "train": "images/train", "val": val, "names": names}
+    scene, build = (_quoted(manifest.get(k, "")) for k in ("scene", "build_id"))
     header = (
-        f"# datagen {tree.name} dataset of scene {manifest.get('scene', '')!r}, build "
-        f"{manifest.get('build_id', '')}: docs/export-yolo.md\n"
+        f"# datagen {tree.name} dataset of scene {scene}, build {build}: docs/export-yolo.md\n"
         "# moved elsewhere? set path to this folder, or delete it (ultralytics then uses the "
         "folder of this file)\n"
     )
     if not has_val:
         header += "# no sample fell in the validation split (images/val is empty): val = train\n"
     (tree / "data.yaml").write_text(header + yaml.safe_dump(doc, sort_keys=False))
+
+
+def _quoted(value: object) -> str:
+    """``value`` as a JSON string, ASCII: in a YAML comment it cannot end the line."""
+    return json.dumps(str(value))
 
 
 def _number(value: float) -> str:
@@ -111,9 +119,10 @@ def _labels(view: LabelledView, seg: np.ndarray, ids: dict[str, int]) -> tuple[s
     """The view's detect and segment label files' text."""
     height, width = seg.shape[:2]
     boxes, polygons = [], []
-    for inst in view.instances:
-        cls = ids[inst["class"]]
-        x0, y0, x1, y1 = inst["bbox_xyxy"]  # inclusive pixel indices
+    for inst, (x0, y0, x1, y1) in zip(
+        view.instances, view_boxes(view, (width, height)), strict=True
+    ):
+        cls = ids[inst["class"]]  # the box: inclusive pixel indices
         box = ((x0 + x1 + 1) / 2 / width, (y0 + y1 + 1) / 2 / height)
         size = ((x1 - x0 + 1) / width, (y1 - y0 + 1) / height)
         boxes.append(" ".join([str(cls), *map(_number, (*box, *size))]))

@@ -25,6 +25,7 @@ from datagen.dataset.views import labelled_views
 from datagen.engines.transfer.connection import MqttConnectError, MqttConnection
 from datagen.engines.transfer.run_binding import client_id
 from datagen.engines.transfer.topics import topics
+from datagen.images import decode_image
 from datagen.pipeline.live_status import live_enabled
 from datagen.records import SampleOutcome
 from datagen.sample import Sample
@@ -48,7 +49,7 @@ def thumbnail(sample: Sample, width: int = PREVIEW_WIDTH) -> np.ndarray | None:
     Drawn at thumbnail size (the images are scaled down first): ~10 ms of CPU for 640x480, mostly
     decoding the PNGs."""
     wanted = {"rgb.png": "rgb", "seg.png": "seg", "map.png": "map"}
-    item = {field: _decoded(sample.parts[name]) for name, field in wanted.items() if name in sample.parts}  # fmt: skip
+    item = {field: _decoded(sample.parts[name], name) for name, field in wanted.items() if name in sample.parts}  # fmt: skip
     meta = sample.metadata if "json" in sample.parts else None
     # cv2.imdecode gives the stored RGB PNGs in BGR order, which is what cv2.imencode expects
     if "map" in item:
@@ -71,11 +72,10 @@ def thumbnail(sample: Sample, width: int = PREVIEW_WIDTH) -> np.ndarray | None:
     return image
 
 
-def _decoded(png: bytes) -> np.ndarray:
-    """In this thread (the loader's pool would compete with the other workers for the cores)."""
-    image = cv2.imdecode(np.frombuffer(png, np.uint8), cv2.IMREAD_UNCHANGED)
-    if image is None:
-        raise ValueError("not a decodable PNG")
+def _decoded(png: bytes, name: str) -> np.ndarray:
+    """In this thread (the loader's pool would compete with the other workers for the cores),
+    bounded as every picture datagen reads (``ImageInputError``, a ValueError, naming the part)."""
+    image = decode_image(png, what=f"part {name}")
     return image[..., :3] if image.ndim == 3 else image
 
 

@@ -19,17 +19,21 @@ import cv2
 import numpy as np
 
 from datagen.dataset.loader import DatasetError, ShardDataset
+
+# the rules for stored values, one set for the tools and the exports; the tools import them here
+from datagen.dataset.values import MAX_PIXEL as MAX_PIXEL
+from datagen.dataset.values import BadSample as BadSample
+from datagen.dataset.values import finite_matrix as finite_matrix
+from datagen.dataset.values import intrinsics as intrinsics
+from datagen.dataset.values import pixel_box as pixel_box
+from datagen.dataset.values import pixels as pixels
+from datagen.dataset.values import shown
 from datagen.records import SampleMetadata
 from datagen.safe_json import JsonInputError, loads_bounded
 
 log = logging.getLogger(__name__)
 T = TypeVar("T")
-MAX_PIXEL = 100_000  # pixels from the image origin: a box or point farther is not drawn
 MAX_METADATA_BYTES = 64 * 2**20  # a sample's JSON part; datagen's are under 1 MiB
-
-
-class BadSample(ValueError):
-    """A sample's stored content cannot be drawn or summarised; the text names the field."""
 
 
 # what reading, drawing or summarising one sample raises when its content is not datagen's
@@ -119,61 +123,6 @@ def no_sample_left(root: Any, skipped: list[tuple[str, str]], doing: str) -> Dat
     )
 
 
-def _shown(value: Any) -> str:
-    text = repr(value)
-    return text if len(text) <= 80 else text[:77] + "..."
-
-
-def finite_matrix(value: Any, shape: tuple[int, int], where: str) -> np.ndarray:
-    """``value`` as a float array of ``shape`` with only finite entries, else BadSample."""
-    try:
-        array = np.asarray(value, dtype=float)
-    except (TypeError, ValueError):
-        array = np.empty(0)
-    if array.shape != shape or not np.isfinite(array).all():
-        raise BadSample(
-            f"{where}: expected a {shape[0]}x{shape[1]} matrix of finite numbers, "
-            f"got {_shown(value)}"
-        )
-    return array
-
-
-def intrinsics(camera: Mapping[str, Any], where: str) -> np.ndarray:
-    """A camera record's 3x3 intrinsics: finite, positive focal lengths, last row (0, 0, 1)."""
-    K = finite_matrix(camera["intrinsics"], (3, 3), f"{where}.intrinsics")
-    if not (K[0, 0] > 0 and K[1, 1] > 0 and np.array_equal(K[2], [0, 0, 1])):
-        raise BadSample(
-            f"{where}.intrinsics: expected [[fx, s, cx], [0, fy, cy], [0, 0, 1]] with fx, fy > 0, "
-            f"got {_shown(camera['intrinsics'])}"
-        )
-    return K
-
-
-def pixel_box(value: Any, where: str) -> tuple[int, int, int, int]:
-    """A stored (x0, y0, x1, y1) box as whole pixels within ``MAX_PIXEL``, else BadSample."""
-    box = None
-    if isinstance(value, list | tuple) and len(value) == 4:
-        try:
-            box = pixels(np.asarray(value, dtype=float))
-        except (TypeError, ValueError):
-            box = None
-    if box is None:
-        raise BadSample(
-            f"{where}: expected 4 pixel coordinates within +-{MAX_PIXEL}, got {_shown(value)}"
-        )
-    x0, y0, x1, y1 = (int(v) for v in box)
-    return x0, y0, x1, y1
-
-
-def pixels(points: np.ndarray) -> np.ndarray | None:
-    """Image points (..., 2) rounded to whole pixels, or None if one is non-finite or farther
-    than ``MAX_PIXEL`` (OpenCV cannot draw it)."""
-    points = np.asarray(points, dtype=float)
-    if not np.isfinite(points).all() or (np.abs(points) > MAX_PIXEL).any():
-        return None
-    return np.rint(points).astype(int)
-
-
 def check_plottable(value: Any, where: str) -> None:
     """BadSample unless every number in ``value`` (nested dicts and lists of a summary or a plot's
     data) is finite and every mapping key is a string, so that samples sort and plot together."""
@@ -187,8 +136,8 @@ def check_plottable(value: Any, where: str) -> None:
                 raise BadSample(f"{where}: a value is {item}, expected a finite number")
         elif isinstance(item, Mapping):
             if not all(isinstance(k, str) for k in item):
-                shown = _shown([k for k in item if not isinstance(k, str)])
-                raise BadSample(f"{where}: names {shown}, expected text")
+                names = shown([k for k in item if not isinstance(k, str)])
+                raise BadSample(f"{where}: names {names}, expected text")
             stack.extend(item.values())
         elif isinstance(item, list | tuple):
             stack.extend(item)

@@ -18,20 +18,13 @@ For people watching (``datagen monitor``), plain, unsigned, under ``datagen/<bui
 
 from __future__ import annotations
 
-import re
 from dataclasses import dataclass
 from typing import Any
 
-from datagen.sample import KEY_DIGITS, sample_key
+from datagen.sample import KEY_DIGITS, sample_key, valid_build_id
 
-_BUILD_ID = re.compile(r"^[A-Za-z0-9][A-Za-z0-9_.-]{0,63}$")
 WRITER_STATES = ("ready", "sealed", "prepared", "finalized", "error", "stopped", "lost")
 DEFAULT_FINALIZE_TIMEOUT_S = 300.0
-
-
-def valid_build_id(build_id: str) -> bool:
-    """Build ids go into topics and client ids: no ``/``, ``+``, ``#`` or spaces."""
-    return bool(_BUILD_ID.match(build_id))
 
 
 @dataclass(frozen=True)
