@@ -1,14 +1,16 @@
 """JSON that comes from outside (the network, a dataset on disk, a journal) decoded with bounds.
 
 ``json.loads`` alone accepts 100k-deep nesting (``RecursionError`` here or later, in whatever
-walks the value), ``NaN``/``Infinity``, escaped lone surrogates (``"\\ud800"``, which fail later
-when the string is encoded) and any size. ``loads_bounded`` refuses each of these with a
+walks the value), ``NaN``/``Infinity``, numbers beyond a float's range (``1e999`` becomes inf),
+escaped lone surrogates (``"\\ud800"``, which fail later when the string is encoded) and any
+size. ``loads_bounded`` refuses each of these with a
 ``JsonInputError`` that names what was being read, so a caller catches one exception type.
 """
 
 from __future__ import annotations
 
 import json
+import math
 import re
 from typing import Any
 
@@ -18,6 +20,8 @@ MAX_DOCUMENT_BYTES = 16 * 2**20  # default size bound; callers pass tighter ones
 _SURROGATE_ESCAPE = re.compile(r"\\u[dD][89a-fA-F]")
 _STRING = re.compile(r'"(?:[^"\\]|\\.)*"')
 _NOT_BRACKET = re.compile(r"[^\[\]{}]+")
+# only a number with an exponent of three digits or more can overflow a float to inf
+_BIG_EXPONENT = re.compile(r"[0-9][eE][+-]?[0-9]{3}")
 
 
 class JsonInputError(ValueError):
@@ -31,6 +35,17 @@ class JsonSyntaxError(JsonInputError):
 
 def _refuse_constant(name: str) -> Any:
     raise ValueError(f"{name} is not JSON")
+
+
+class _BeyondFloat(ValueError):
+    pass
+
+
+def _finite_float(text: str) -> float:
+    value = float(text)
+    if math.isinf(value):
+        raise _BeyondFloat(text[:40])
+    return value
 
 
 def loads_bounded(
@@ -48,9 +63,14 @@ def loads_bounded(
     try:
         text = data if isinstance(data, str) else bytes(data).decode("utf-8")
         text.encode("utf-8")  # a str may hold a lone surrogate itself
-        value = json.loads(text, parse_constant=_refuse_constant)
+        # a number like 1e999 parses to inf: checked only where one may be (parse_float per
+        # number costs 2x on a sample's metadata)
+        parse_float = _finite_float if _BIG_EXPONENT.search(text) else None
+        value = json.loads(text, parse_constant=_refuse_constant, parse_float=parse_float)
     except RecursionError:
         raise JsonInputError(f"{what}: JSON nested deeper than {max_depth} levels") from None
+    except _BeyondFloat as e:
+        raise JsonInputError(f"{what}: the number {e} is beyond a float's range") from None
     except (ValueError, TypeError) as e:  # UnicodeDecodeError and JSONDecodeError included
         raise JsonSyntaxError(f"{what}: not valid JSON ({_short(e)})") from None
     # walking the value costs 2-4x json.loads on a sample's metadata: look at the text instead,

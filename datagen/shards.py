@@ -40,8 +40,8 @@ MANIFEST = "manifest.json"
 DATASET_FORMAT_NAME = "datagen.dataset"
 DATASET_FORMAT_VERSION = 1  # the newest ``dataset_format`` this code reads and writes
 DATASET_FORMAT = f"{DATASET_FORMAT_NAME}/{DATASET_FORMAT_VERSION}"  # manifest.json's
-_WRITER_ID = re.compile(r"^[A-Za-z0-9_-]{1,32}$")
-SHARD_RE = re.compile(r"^shard-(?P<writer>[A-Za-z0-9_-]+)-(?P<n>\d{6})\.tar$")
+_WRITER_ID = re.compile(r"^[A-Za-z0-9_-]{1,32}\Z")
+SHARD_RE = re.compile(r"^shard-(?P<writer>[A-Za-z0-9_-]+)-(?P<n>\d{6})\.tar\Z")
 
 
 class DatasetError(ValueError):

@@ -9,6 +9,7 @@ from datagen.safe_json import JsonInputError, JsonSyntaxError, check_value, load
 
 
 def test_ordinary_json_loads_as_json_does():
+    assert loads_bounded("[1e308, -1E-400, 12e100]", what="t") == [1e308, -0.0, 12e100]
     text = '{"a": [1, 2.5, "é", null, true], "b": {"c": "\\u00e9"}}'
     assert loads_bounded(text.encode(), what="t") == {
         "a": [1, 2.5, "é", None, True],
@@ -25,6 +26,8 @@ def test_ordinary_json_loads_as_json_does():
         (b'{"a": "\\ud800"}', "lone surrogate"),
         (b'{"\\udfff": 1}', "lone surrogate"),  # in a key too
         (b'{"pad": "' + b"x" * 300_000 + b'"}', "bytes of JSON, more than the 300000 allowed"),
+        (b'{"pose": [1e999, 0]}', "the number 1e999 is beyond a float's range"),  # inf otherwise
+        (b"[-2.5E+400]", "the number -2.5E\\+400 is beyond a float's range"),
     ],
 )
 def test_json_beyond_a_bound_is_refused_naming_what(data, says):
