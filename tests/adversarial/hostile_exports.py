@@ -135,15 +135,6 @@ def real_cli(*argv: object, memory: int | None = None) -> tuple[int, str, str]:
     return done.returncode, done.stdout, done.stderr
 
 
-def refused(result: tuple[int, str, str], *fragments: str) -> None:
-    """Exit status 2 and one line on stderr holding ``fragments``, no traceback."""
-    code, _, err = result
-    assert code == 2, err
-    assert len(err.strip().splitlines()) == 1 and "Traceback" not in err, err
-    for fragment in fragments:
-        assert fragment in err, err
-
-
 def png_bomb(width: int, height: int, depth: int = 1) -> bytes:
     """A valid greyscale PNG of zeros declaring ``width`` x ``height`` pixels: 1-bit 32000x32000
     is 124 KB and decodes to 1 GB."""

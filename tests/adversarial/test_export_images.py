@@ -17,8 +17,8 @@ from adversarial.hostile_exports import (
     grasp_source,
     png_bomb,
     real_cli,
-    refused,
 )
+from adversarial.refusals import refused
 from datagen.dataset.loader import DatasetError, load
 
 pytestmark = [pytest.mark.adversarial, pytest.mark.sim]

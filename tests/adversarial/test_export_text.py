@@ -30,9 +30,9 @@ from adversarial.hostile_exports import (
     grasp_source,
     link_targets,
     navigation_source,
-    refused,
     rendered,
 )
+from adversarial.refusals import refused
 from datagen.dataset.loader import DatasetError, load
 
 pytestmark = [pytest.mark.adversarial, pytest.mark.sim]

@@ -26,8 +26,8 @@ from adversarial.hostile_exports import (
     grasp_source,
     navigation_source,
     real_cli,
-    refused,
 )
+from adversarial.refusals import refused
 
 pytestmark = [pytest.mark.adversarial, pytest.mark.sim]
 NAV_KEY = "000000000"

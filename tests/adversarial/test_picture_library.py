@@ -29,6 +29,8 @@ import pytest
 import trimesh
 import yaml
 
+from adversarial.refusals import refused
+
 pytestmark = [pytest.mark.adversarial]
 REPO = Path(__file__).resolve().parents[2]
 SOURCE = "attack-pictures"
@@ -126,15 +128,6 @@ def installed(site, tmp_path_factory) -> Path:
 def library(installed, tmp_path) -> Path:
     """A copy of the installed library, for one test to attack."""
     return Path(shutil.copytree(installed, tmp_path / "library", symlinks=True))
-
-
-def refused(result: tuple[int, str, str], *fragments: str) -> None:
-    """Exit status 2 and one line on stderr holding ``fragments``, no traceback."""
-    code, _, err = result
-    assert code == 2, err
-    assert len(err.strip().splitlines()) == 1 and "Traceback" not in err, err
-    for fragment in fragments:
-        assert fragment in err, err
 
 
 def check(site: Path, library: Path, tmp_path: Path) -> tuple[int, str, str]:

@@ -37,21 +37,13 @@ from adversarial.grasp_dataset import (
     with_json,
     write_grasp_dataset,
 )
+from adversarial.refusals import refused
 from datagen.shards import write_manifest
 
 pytestmark = [pytest.mark.adversarial, pytest.mark.sim]
 KEY = "000000000"
 PRECIOUS = b"precious: not datagen's to write\n"
 PNG = b"\x89PNG\r\n\x1a\n"
-
-
-def refused(result: tuple[int, str, str], *fragments: str) -> None:
-    """Exit status 2 and one line on stderr holding ``fragments``, no traceback."""
-    code, _, err = result
-    assert code == 2, err
-    assert len(err.strip().splitlines()) == 1 and "Traceback" not in err, err
-    for fragment in fragments:
-        assert fragment in err, err
 
 
 @pytest.fixture(scope="module")
