@@ -5,9 +5,13 @@ A dataset's distribution is its shards (``cr:FileObject``, tar, with the manifes
 inside them, one ``cr:FileSet`` per kind of part (``rgb.png``, ``json``, ``wrist.depth.png``,
 ``f<k>.rgb.png``, ...: a frame number in a part name is a wildcard); each kind is a
 ``cr:RecordSet`` of one record per file: the sample key (from the file's name), the name and the
-content. An export folder's distribution is its files: the top-level ones (with sha256)
-and one ``cr:FileSet`` per folder and file type; a set of images is also a record set of file
-name and content (mlcroissant reads JSON, YAML or Parquet files as tables, not as content).
+content (decoded for images and text; not for binary parts, nor for optical flow, whose 16-bit
+colour PNG mlcroissant's image decoder, PIL, would cut to 8 bits). mlcroissant extracts a shard
+before reading it, and tries zip before tar: a shard never ends near a zip's signature
+(``datagen.sinks.tar_end``). An export folder's distribution is its files: the top-level ones
+(with sha256) and one ``cr:FileSet`` per folder and file type; a set of images is also a record
+set of file name and content (mlcroissant reads JSON, YAML or Parquet files as tables, not as
+content).
 """
 
 from __future__ import annotations
@@ -143,6 +147,8 @@ def bibtex(value: str) -> str:
 
 
 def _media(name: str) -> tuple[str, str | None]:
+    if name.split(".")[-2:] == ["flow", "png"]:  # 16-bit colour: PIL (mlcroissant) reads 8 bits
+        return MEDIA["png"][0], None
     return MEDIA.get(name.rsplit(".", 1)[-1].lower(), BINARY)
 
 

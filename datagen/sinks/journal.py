@@ -35,6 +35,7 @@ from datagen.shards import (
 )
 from datagen.sinks.journal_lines import check_within_shards, journal_entries
 from datagen.sinks.shard_rewrite import remove_keys
+from datagen.sinks.tar_end import end_of_archive, zip_clear_padding
 
 log = logging.getLogger(__name__)
 
@@ -111,9 +112,8 @@ def _terminate(path: Path, offset: int) -> None:
     with open(path, "r+b") as f:
         f.truncate(offset)
         f.seek(offset)
-        end = offset + 2 * tarfile.BLOCKSIZE
-        pad = (-end) % tarfile.RECORDSIZE
-        f.write(tarfile.NUL * (2 * tarfile.BLOCKSIZE + pad))
+        f.write(end_of_archive(offset))
+        f.write(zip_clear_padding(f))  # as ShardWriter ends a shard (datagen.sinks.tar_end)
         f.flush()
         os.fsync(f.fileno())
 

@@ -5,10 +5,10 @@ crash recovery (samples not the bytes journalled, ``datagen.sinks.journal``) and
 from __future__ import annotations
 
 import os
-import tarfile
 from pathlib import Path
 
 from datagen.shards import ShardInfo, fsync_dir, member_key, read_shard, scan_members
+from datagen.sinks.tar_end import end_of_archive, zip_clear_padding
 
 
 def remove_keys(path: Path, keys: set[str]) -> ShardInfo | None:
@@ -22,7 +22,7 @@ def remove_keys(path: Path, keys: set[str]) -> ShardInfo | None:
         fsync_dir(out)
         return None
     tmp = out / f".{path.name}.rewrite"
-    with open(path, "rb") as src, open(tmp, "wb") as dst:
+    with open(path, "rb") as src, open(tmp, "w+b") as dst:
         for m in kept:
             src.seek(m.offset)
             left = m.end - m.offset
@@ -32,8 +32,8 @@ def remove_keys(path: Path, keys: set[str]) -> ShardInfo | None:
                     raise OSError(f"{path.name}: shorter than its headers say")
                 dst.write(chunk)
                 left -= len(chunk)
-        end = dst.tell() + 2 * tarfile.BLOCKSIZE
-        dst.write(tarfile.NUL * (2 * tarfile.BLOCKSIZE + (-end) % tarfile.RECORDSIZE))
+        dst.write(end_of_archive(dst.tell()))
+        dst.write(zip_clear_padding(dst))  # leaves the position at the end
         dst.flush()
         os.fsync(dst.fileno())
     info = read_shard(tmp).info(path.name)  # read back: the digests are of what is on disk

@@ -24,6 +24,7 @@ from datagen.sample import Sample
 from datagen.shards import ShardInfo, fsync_dir, sample_sha256, shard_name, valid_writer_id
 from datagen.sinks.journal import journal_entry, open_journal
 from datagen.sinks.shard_rewrite import remove_keys as remove_keys  # where callers look for it
+from datagen.sinks.tar_end import zip_clear_padding
 
 
 class _HashingFile:
@@ -71,6 +72,9 @@ class _OpenShard:
 
     def close(self) -> ShardInfo:
         self.tar.close()  # end-of-archive blocks and record padding
+        self.file.f.flush()
+        with open(self.path, "rb") as written:
+            self.file.write(zip_clear_padding(written))  # never taken for a zip (tar_end)
         self.sync()
         size = self.file.f.tell()
         self.file.f.close()
