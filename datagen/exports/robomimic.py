@@ -27,7 +27,10 @@ from datagen.exports.files import FailureRecordingFile
 from datagen.exports.splits import is_valid
 from datagen.records import ExportedDataset, Manifest, SampleProgress
 
-ENV_TYPE = 2  # robomimic's EnvType.GYM_TYPE: no robomimic type is a datagen scene (rollouts off)
+# robomimic's EnvType.GYM_TYPE (robosuite 1, gym 2, iGibson MOMART 3): no robomimic type is a
+# datagen scene, and robosuite's would have robomimic's playback scripts reset a robosuite MuJoCo
+# simulator from ``states``, which datagen's are not (docs/export-robomimic.md; rollouts off)
+ENV_TYPE = 2
 IMAGE_KEYS = {"workspace": "agentview_image", "wrist": "robot0_eye_in_hand_image"}
 _PERCEPTION = ("rgb", "depth", "seg", "semantic")
 
@@ -78,14 +81,16 @@ def normalise(action: np.ndarray, low: np.ndarray, high: np.ndarray) -> np.ndarr
 def _env_args(dataset: ExportedDataset, manifest: Manifest, first: int | None) -> dict[str, Any]:
     robot = dataset.metadata(first).get("robot", {}) if first is not None else {}
     scene = manifest.get("scene", "")
-    return {
+    version = manifest.get("versions", {}).get("datagen", "")
+    return {  # robomimic reads env_name, type and env_kwargs (EnvUtils.get_env_type: "type")
         "env_name": f"datagen/{scene}",
-        "env_type": ENV_TYPE,
+        "type": ENV_TYPE,
+        "env_version": version,
         "env_kwargs": {
             "scene": scene,
             "robot": {"name": robot.get("name", ""), "description": robot.get("description", "")},
             "seed": manifest.get("seed"),
-            "datagen_version": manifest.get("versions", {}).get("datagen", ""),
+            "datagen_version": version,
             "build_id": manifest.get("build_id", ""),
             "config": manifest.get("config", {}),
         },

@@ -1,11 +1,13 @@
 """The robomimic export (docs/export-robomimic.md), written by the real command line from a filmed
-grasp campaign and from navigation episodes, read back with h5py alone and checked against the
-dataset's own records (``datagen.load``)."""
+grasp campaign and from navigation episodes, read back with h5py and checked against the
+dataset's own records (``datagen.load``), then read by robomimic 0.3.0 itself in the readers'
+environment (``robomimic_reader.py``: its FileUtils, EnvUtils and SequenceDataset)."""
 
 from __future__ import annotations
 
 import hashlib
 import json
+import subprocess
 from pathlib import Path
 
 import h5py
@@ -17,6 +19,8 @@ import datagen
 
 pytestmark = pytest.mark.sim
 REPO = Path(__file__).resolve().parents[2]
+READER = Path(__file__).with_name("robomimic_reader.py")
+SEQ = 4  # robomimic_reader.py's sequence length
 
 
 def _export(source: Path, tmp_path: Path) -> h5py.File:
@@ -37,7 +41,8 @@ def _check_common(f: h5py.File, items: dict[str, dict], manifest: dict) -> dict[
     assert sorted(data) == [f"demo_{k}" for k in range(len(data))]
     assert data.attrs["total"] == sum(d.attrs["num_samples"] for d in demos.values())
     env = json.loads(data.attrs["env_args"])
-    assert env["env_name"] == f"datagen/{manifest['scene']}" and env["env_type"] == 2
+    assert env["env_name"] == f"datagen/{manifest['scene']}" and env["type"] == 2
+    assert env["env_version"] == manifest["versions"]["datagen"]
     assert env["env_kwargs"]["config"] == manifest["config"]
     assert env["env_kwargs"]["scene"] == manifest["scene"]
     assert env["env_kwargs"]["seed"] == manifest["seed"]
@@ -67,17 +72,52 @@ def _check_common(f: h5py.File, items: dict[str, dict], manifest: dict) -> dict[
     return demos
 
 
+def _read_by_robomimic(readers_python: Path, f: h5py.File, tmp: Path) -> None:
+    """robomimic's own reading of the export: the environment's type by EnvUtils (robomimic's
+    GYM_TYPE, not robosuite's), the shapes it trains with, and sequences of SequenceDataset over
+    the train mask equal to the file's obs, actions, rewards and dones (padded past a demo's end
+    by repeating its last frame)."""
+    out = tmp / "robomimic-read"
+    out.mkdir()
+    command = [str(readers_python), str(READER), f.filename, str(out)]
+    env = {"PATH": "/usr/bin:/bin", "HOME": str(tmp)}
+    done = subprocess.run(command, capture_output=True, text=True, timeout=600, env=env)
+    assert done.returncode == 0, done.stderr[-3000:]
+    read = json.loads(done.stdout.strip().splitlines()[-1])
+    data = f["data"]
+    assert read["env_meta"] == json.loads(data.attrs["env_args"])
+    assert read["env_type"] == 2 and read["gym"] and not read["robosuite"]
+    train = sorted((n.decode() for n in f["mask/train"][:]), key=lambda n: int(n[5:]))
+    assert read["demos"] == train and read["ac_dim"] == data.attrs["action_min"].shape[0]
+    lengths = [int(data[d].attrs["num_samples"]) for d in train]
+    assert read["length"] == sum(lengths) and read["use_images"]
+    for key, shape in read["shapes"].items():
+        stored = data[train[0]]["obs"][key].shape[1:]
+        assert shape == ([stored[2], *stored[:2]] if len(stored) == 3 else list(stored)), key
+    starts = np.cumsum([0, *lengths])
+    for index in read["picks"]:
+        k = int(np.searchsorted(starts, index, side="right")) - 1
+        demo = data[train[k]]
+        rows = np.minimum(np.arange(index - starts[k], index - starts[k] + SEQ), lengths[k] - 1)
+        got = np.load(out / f"{index}.npz")
+        for name in ("actions", "rewards", "dones"):
+            assert np.array_equal(got[name], demo[name][:][rows]), name
+        for key in read["shapes"]:
+            assert np.array_equal(got[f"obs/{key}"], demo["obs"][key][:][rows]), key
+
+
 def _unscaled(demo: h5py.Group, data: h5py.Group) -> np.ndarray:
     low, high = data.attrs["action_min"], data.attrs["action_max"]
     return (demo["actions"][:].astype(np.float64) + 1) / 2 * (high - low) + low
 
 
-def test_robomimic_export_of_a_filmed_campaign(campaign_dataset, tmp_path):
+def test_robomimic_export_of_a_filmed_campaign(campaign_dataset, readers_python, tmp_path):
     f = _export(campaign_dataset, tmp_path)
     dataset = datagen.load(tmp_path / campaign_dataset.name)
     items = {item["key"]: item for item in dataset}
     manifest = json.loads((tmp_path / campaign_dataset.name / "manifest.json").read_text())
     demos = _check_common(f, items, manifest)
+    _read_by_robomimic(readers_python, f, tmp_path)
     assert sorted(demos) == sorted(k for k, it in items.items() if "trajectory" in it)
     for key, demo in demos.items():
         item, traj = items[key], items[key]["trajectory"]
@@ -113,12 +153,13 @@ def test_robomimic_export_of_a_filmed_campaign(campaign_dataset, tmp_path):
     exec(compile(code.replace("datasets/grasps", root), "export-robomimic.md", "exec"), {})
 
 
-def test_robomimic_export_of_navigation_episodes(navigation_dataset, tmp_path):
+def test_robomimic_export_of_navigation_episodes(navigation_dataset, readers_python, tmp_path):
     f = _export(navigation_dataset, tmp_path)
     dataset = datagen.load(tmp_path / navigation_dataset.name)
     items = {item["key"]: item for item in dataset}
     manifest = json.loads((tmp_path / navigation_dataset.name / "manifest.json").read_text())
     demos = _check_common(f, items, manifest)
+    _read_by_robomimic(readers_python, f, tmp_path)
     assert sorted(demos) == sorted(items)
     fps = manifest["config"]["navigation"]["frame_rate_hz"]
     for key, demo in demos.items():
@@ -135,8 +176,8 @@ def test_robomimic_export_of_navigation_episodes(navigation_dataset, tmp_path):
         depth_mm = obs["head_depth"][:, :, :, 0] * far * 1000
         assert np.abs(depth_mm - np.stack([fr["depth"] for fr in frames])).max() < 0.01
         assert obs["head_depth"][:].min() >= 0 and obs["head_depth"][:].max() <= 1
-        commands = np.array([r["command"] for r in records])
-        assert np.abs(_unscaled(demo, f["data"]) - commands).max() < 1e-6
+        actions = np.array([np.ravel(r["action"]) for r in records])  # to the next frame
+        assert np.abs(_unscaled(demo, f["data"]) - actions).max() < 1e-6
         for kind in ("seg", "semantic"):
             stack = np.stack([fr[kind] for fr in frames])
             assert np.array_equal(demo[f"perception/{kind}"][:], stack)
