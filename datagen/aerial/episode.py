@@ -17,7 +17,7 @@ import numpy as np
 
 from datagen.aerial.fleet import Agent, FleetError, plan_fleet
 from datagen.aerial.planning import FlightLimits
-from datagen.aerial.quadrotor import QuadrotorShape, bounding_radius
+from datagen.aerial.quadrotor import QuadrotorShape, bounding_radius, camera_reach
 from datagen.aerial.volumes import Volume, VolumeParams, make_volume, voxelise
 from datagen.config.aerial import AerialConfig
 from datagen.navigation.geodesic import lower_bound_grid, shortest_length
@@ -70,7 +70,9 @@ def plan_aerial_episode(cfg: AerialConfig, seed: int, index: int, retry: int = 0
         shapes = [
             QuadrotorShape(round(float(sizes.uniform(*cfg.span)), 4)) for _ in range(cfg.drones)
         ]
-        limits = [flight_limits(cfg, bounding_radius(s)) for s in shapes]
+        # a stereo pair's right camera may reach beyond the drone's parts: planned with it
+        radii = [max(bounding_radius(s), camera_reach(s, cfg.stereo_baseline)) for s in shapes]
+        limits = [flight_limits(cfg, radius) for radius in radii]
         layout = make_layout(
             cfg.family, sample_rng(seed, index, "nav_layout" + suffix, retry), resolve(LAYOUTS[cfg.family].params)()
         )  # fmt: skip
@@ -93,13 +95,14 @@ def plan_aerial_episode(cfg: AerialConfig, seed: int, index: int, retry: int = 0
     )
 
 
-def path_lower_bound(volume: Volume, agent: Agent, limits: FlightLimits, tolerance: float) -> float:
-    """Metres no collision-free flight from the agent's start to within ``tolerance`` of its goal
-    can be shorter than: its horizontal part cannot beat the shortest path round the solids that
-    fill a whole column from floor to ceiling (a flyer passes every other one above, below or
-    through it), computed as for ground robots (:mod:`datagen.navigation.geodesic`) with the
-    drone's radius, and its vertical part cannot beat the height difference; a curve is at least
-    as long as sqrt(horizontal² + vertical²) of those."""
+def path_lower_bound(volume: Volume, agent: Agent, limits: FlightLimits) -> float:
+    """Metres no collision-free flight from the agent's start to its goal (the centre, where the
+    expert flies: SPL's shortest path as Habitat's, to the goal's position) can be shorter than:
+    its horizontal part cannot beat the shortest path round the solids that fill a whole column
+    from floor to ceiling (a flyer passes every other one above, below or through it), computed
+    as for ground robots (:mod:`datagen.navigation.geodesic`) with the drone's radius, and its
+    vertical part cannot beat the height difference; a curve is at least as long as
+    sqrt(horizontal² + vertical²) of those."""
     r = volume.resolution
     inner = voxelise([_shrunk(s.box, r) for s in volume.solids], volume.shape, r)
     # (ny, nx): columns solid from the floor to the last whole voxel under the ceiling (the
@@ -109,7 +112,7 @@ def path_lower_bound(volume: Volume, agent: Agent, limits: FlightLimits, toleran
     occupied = lower_bound_grid(walls, r, limits.radius, step)
     horizontal = shortest_length(occupied, r, tuple(agent.start[:2]), tuple(agent.goal[:2]))
     vertical = abs(agent.goal[2] - agent.start[2])
-    return max(math.hypot(horizontal, vertical) - tolerance, 0.0)
+    return math.hypot(horizontal, vertical)
 
 
 def _shrunk(box, resolution: float):

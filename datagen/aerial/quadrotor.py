@@ -105,3 +105,17 @@ def camera_mounts(
         "forward": np.array([0.5 * s + 0.005, y, -0.04 * s + z]),
         "down": np.array([0.0, 0.0, -0.06 * s - 0.005]),
     }
+
+
+def right_camera(forward: np.ndarray, baseline: float) -> np.ndarray:
+    """Where a stereo pair's right camera sits in the body frame: ``baseline`` metres to the
+    right of the forward camera at ``forward`` (along -y: a tilt about y keeps the axes
+    parallel)."""
+    return np.asarray(forward, float) - np.array([0.0, baseline, 0.0])
+
+
+def camera_reach(shape: QuadrotorShape, baseline: float) -> float:
+    """Metres from the centre of mass to the farthest place a camera may sit: the forward mount
+    shifted as far as its randomisation goes, and a right camera ``baseline`` beside it."""
+    mounts = [camera_mounts(shape, (y, z))["forward"] for y in (-1.0, 1.0) for z in (-1.0, 1.0)]
+    return float(max(np.linalg.norm(right_camera(m, baseline)) for m in mounts))

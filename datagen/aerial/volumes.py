@@ -12,7 +12,8 @@ A flyer-only solid that would split the free space, inflated by the drone's clea
 tried elsewhere, then dropped, as floor-plan clutter is.
 
 Voxel grid: ``occupancy[k, i, j]`` is the voxel of side ``resolution`` spanning
-z in [k r, (k+1) r), y in [i r, (i+1) r), x in [j r, (j+1) r); True when a solid overlaps it.
+z in [k r, (k+1) r), y in [i r, (i+1) r), x in [j r, (j+1) r); True when a solid touches it
+(a face on a voxel boundary marks both voxels: every point of a solid is in an occupied voxel).
 Outside the grid (beyond the plan, below the floor, above the ceiling) counts as occupied.
 """
 
@@ -83,12 +84,15 @@ class Volume:
 
 
 def voxelise(boxes: list[Box], shape: tuple[int, int, int], resolution: float) -> np.ndarray:
-    """Occupancy (nz, ny, nx): a voxel is occupied when a box overlaps its interior."""
+    """Occupancy (nz, ny, nx), conservative: a voxel is occupied when a box touches it (the
+    closed box and the closed voxel share a point), so every point of a solid, its faces
+    included, lies in an occupied voxel; a face on a voxel boundary marks the voxels on both
+    sides."""
     grid = np.zeros(shape, bool)
     r = resolution
     for x0, y0, z0, x1, y1, z1 in boxes:
-        lo = [math.floor(v / r + 1e-9) for v in (z0, y0, x0)]
-        hi = [math.ceil(v / r - 1e-9) for v in (z1, y1, x1)]
+        lo = [math.ceil(v / r - 1e-9) - 1 for v in (z0, y0, x0)]
+        hi = [math.floor(v / r + 1e-9) + 1 for v in (z1, y1, x1)]
         lo = [min(max(v, 0), n) for v, n in zip(lo, shape, strict=True)]
         hi = [min(max(v, 0), n) for v, n in zip(hi, shape, strict=True)]
         grid[lo[0] : hi[0], lo[1] : hi[1], lo[2] : hi[2]] = True

@@ -7,9 +7,38 @@ from dataclasses import dataclass, field
 
 from datagen.config.sections import _range
 
+# EuRoC's ADIS16448 (its Kalibr imu.yaml): the noise model's defaults
+EUROC_IMU = {
+    "accelerometer_noise_density": 2.0e-3,  # m/s²/√Hz
+    "accelerometer_random_walk": 3.0e-3,  # m/s³/√Hz
+    "gyroscope_noise_density": 1.6968e-4,  # rad/s/√Hz
+    "gyroscope_random_walk": 1.9393e-5,  # rad/s²/√Hz
+}
+MAX_STEREO_BASELINE = 0.5  # metres
+
 # degrees above the horizon a forward camera's view may reach: beyond, a drone sees its own
 # rotors (datagen/aerial/quadrotor.py places its camera pod for this; tested at 4:3)
 MAX_CAMERA_TOP_DEG = 45.0
+
+
+@dataclass(frozen=True)
+class ImuNoiseConfig:
+    """White noise and a bias random walk per axis, in Kalibr's names and units (continuous-time
+    densities; datagen.aerial.imu turns them into per-sample values)."""
+
+    enabled: bool = False  # noisy readings beside the ideal ones
+    accelerometer_noise_density: float = field(
+        default=EUROC_IMU["accelerometer_noise_density"], metadata=_range(0.0, 1.0, "m/s²/√Hz")
+    )
+    accelerometer_random_walk: float = field(
+        default=EUROC_IMU["accelerometer_random_walk"], metadata=_range(0.0, 1.0, "m/s³/√Hz")
+    )
+    gyroscope_noise_density: float = field(
+        default=EUROC_IMU["gyroscope_noise_density"], metadata=_range(0.0, 1.0, "rad/s/√Hz")
+    )
+    gyroscope_random_walk: float = field(
+        default=EUROC_IMU["gyroscope_random_walk"], metadata=_range(0.0, 1.0, "rad/s²/√Hz")
+    )
 
 
 @dataclass(frozen=True)
@@ -67,3 +96,10 @@ class AerialConfig:
         default=(60.0, 90.0), metadata=_range(10.0, 150.0, "downward camera, degrees")
     )
     optical_flow: bool = True  # flow to the next frame per camera (KITTI 16-bit PNG)
+    stereo_baseline: float = field(
+        default=0.0,
+        metadata=_range(0.0, MAX_STEREO_BASELINE, "metres to a right camera; 0 = none"),
+    )
+    # the IMU stream (datagen.aerial.imu)
+    imu_hz: float = field(default=200.0, metadata=_range(10.0, 2000.0, "IMU samples per second"))
+    imu_noise: ImuNoiseConfig = field(default_factory=ImuNoiseConfig)

@@ -1,9 +1,11 @@
-"""Decoding the episode-level parts of an aerial sample: camera pose files and the voxel grid
-(the images go through :func:`datagen.dataset.loader.decode_parts`)."""
+"""Decoding the episode-level parts of an aerial sample: camera pose files, the voxel grid and the
+drones' IMU streams (the images go through :func:`datagen.dataset.loader.decode_parts`)."""
 
 from __future__ import annotations
 
 import io
+import zipfile
+from typing import Any
 
 import numpy as np
 
@@ -36,3 +38,42 @@ def voxel_grid(data: bytes) -> tuple[np.ndarray, float]:
             return bits.reshape(shape).astype(bool), float(npz["resolution"])
     except (OSError, KeyError, ValueError) as exc:
         raise DatasetError(f"part 'occupancy.npz': not a datagen voxel grid ({exc})") from None
+
+
+IMU_READINGS = ("time_s", "accelerometer", "gyroscope")  # in every imu.d<k>.npz
+
+
+def imu_stream(data: bytes, name: str) -> dict[str, np.ndarray]:
+    """The arrays of a drone's ``imu.d<k>.npz`` (:mod:`datagen.aerial.imu`, docs/aerial.md)."""
+    try:
+        with np.load(io.BytesIO(data), allow_pickle=False) as npz:
+            arrays = {key: npz[key] for key in npz.files}
+    except (OSError, ValueError, zipfile.BadZipFile) as exc:
+        raise DatasetError(f"part {name!r}: not a datagen IMU stream ({exc})") from None
+    missing = [key for key in IMU_READINGS if key not in arrays]
+    if missing:
+        raise DatasetError(f"part {name!r}: not a datagen IMU stream (no {', '.join(missing)})")
+    return arrays
+
+
+TRAJECTORY_ARRAYS = ("take_off_s", "piece_times_s", "position_coefficients", "yaw_coefficients")
+
+
+def imu_for_frame(
+    episodes: Any, i: int, meta: Any, camera: str, k: int
+) -> dict[str, np.ndarray] | None:
+    """The IMU samples of ``camera``'s drone in episode ``i`` (metadata ``meta``) since the
+    previous frame: times in (t_(k-1), t_k], frame 0's up to t_0, each per-sample array of its
+    ``imu.d<k>.npz`` sliced alike; None where the episode has no such part. ``episodes``: a
+    :class:`datagen.dataset.loader.ShardDataset`."""
+    records = meta["frames"]
+    drone = meta["cameras"][camera]["drone"]
+    name = f"imu.d{drone}.npz"
+    if name not in episodes.part_names(i):
+        return None
+    arrays = imu_stream(episodes.raw(i, {name})[name], name)
+    time = arrays["time_s"]
+    end = float(records[k]["time_s"]) + 5e-7  # frame times are stored to 6 decimals
+    start = float(records[k - 1]["time_s"]) + 5e-7 if k else -np.inf
+    keep = (time > start) & (time <= end)
+    return {key: a[keep] for key, a in arrays.items() if key not in TRAJECTORY_ARRAYS}

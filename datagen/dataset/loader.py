@@ -22,7 +22,7 @@ from typing import Any, cast
 import cv2
 import numpy as np
 
-from datagen.dataset.episode_parts import pose_lines, voxel_grid
+from datagen.dataset.episode_parts import imu_for_frame, imu_stream, pose_lines, voxel_grid
 from datagen.dataset.flow_png import decode_flow_image
 from datagen.dataset.integrity import verify_dataset
 from datagen.dataset.manifest import DatasetError, read_manifest
@@ -48,7 +48,8 @@ _KINDS = "rgb|rgb_clean|depth|depth_sensor|seg|semantic"
 _FRAME_PART = re.compile(rf"^f(\d{{4}})\.({_KINDS})\.png$")
 # a frame of one of several cameras (aerial episodes): f0003.d0.rgb.png, f0003.d1_down.flow.png
 _CAMERA_FRAME_PART = re.compile(rf"^f(\d{{4}})\.([A-Za-z][\w-]*)\.({_KINDS}|flow)\.png$")
-_POSES_PART = re.compile(r"^poses\.([A-Za-z][\w-]*)\.txt$")
+_POSES_PART = re.compile(r"^(poses|poses_ned)\.([A-Za-z][\w-]*)\.txt$")
+_IMU_PART = re.compile(r"^imu\.(d\d+)\.npz$")
 # another camera of a sample: wrist.rgb.png, view1.depth.png, post.seg.png, ...
 _CAMERA_PART = re.compile(rf"^([A-Za-z][\w-]*)\.({_KINDS})\.png$")
 # a grasp attempt's film: frame3.rgb.png (workspace camera), frame3.wrist.rgb.png
@@ -69,7 +70,8 @@ def decode_parts(parts: dict[str, bytes]) -> dict[str, Any]:
     name -> rgb, depth, seg, semantic and, but for the last frame, ``flow`` (H, W, 2) float32
     pixels with ``flow_valid``) and ``meta``; ``map`` and ``side`` (RGB pictures),
     ``occupancy`` (bool voxels (nz, ny, nx), True = occupied) with ``occupancy_resolution``
-    (metres), and ``poses`` (camera name -> (T, 7) tx ty tz qx qy qz qw). A recorded grasp attempt gets ``trajectory``: the arrays of its
+    (metres), ``poses`` and ``poses_ned`` (camera name -> (T, 7) tx ty tz qx qy qz qw, conventions
+    in ``meta["poses_convention"]``), ``imu`` (``d<k>`` -> drone k's IMU stream). A recorded grasp attempt gets ``trajectory``: the arrays of its
     ``trajectory.npz`` and its ``names`` (``datagen.dataset.trajectory``), with ``frames`` (a list
     in time order of dicts with ``time``, ``rgb`` and, if filmed, ``wrist_rgb``) when it was
     filmed. The PNGs of one call are decoded on a small thread pool (OpenCV releases the GIL)."""
@@ -100,7 +102,9 @@ def decode_parts(parts: dict[str, bytes]) -> dict[str, Any]:
             )
             jobs.append((into, _IMAGES.get(kind, "flow"), kind, data))
         elif match := _POSES_PART.match(name):
-            item.setdefault("poses", {})[match[1]] = pose_lines(data, name)
+            item.setdefault(match[1], {})[match[2]] = pose_lines(data, name)
+        elif match := _IMU_PART.match(name):
+            item.setdefault("imu", {})[match[1]] = imu_stream(data, name)
         elif name == "occupancy.npz":
             item["occupancy"], item["occupancy_resolution"] = voxel_grid(data)
         elif match := _CAMERA_PART.match(name):
@@ -307,7 +311,8 @@ class FrameDataset:
     Item: rgb, depth, seg, semantic (aerial: ``flow`` and ``flow_valid`` but on the last frame),
     ``meta`` (the frame's record: poses, commands or agent states, goal, ...), ``camera`` (the
     camera's record, its extrinsics at this frame), ``episode`` (its key), ``frame`` (its
-    number), ``view`` (the camera's name; "" for navigation) and ``key``
+    number), ``view`` (the camera's name; "" for navigation), aerial ``imu`` (its drone's samples
+    since the previous frame, :func:`~datagen.dataset.episode_parts.imu_for_frame`) and ``key``
     (``<episode>/f<frame>`` or ``<episode>/f<frame>.<camera>``). Only the frame's own images are
     read and decoded."""
 
@@ -349,6 +354,7 @@ class FrameDataset:
                 flow = decode_parts({f"f0000.{view}.flow.png": raw[prefix + "flow.png"]})
                 item |= {n: flow["frames"][0]["cameras"][view][n] for n in ("flow", "flow_valid")}
             camera = meta["cameras"][view] | record["cameras"][view]
+            item["imu"] = imu_for_frame(self.episodes, i, meta, view, k)
         else:
             camera = meta["camera"]
         key = f"{self.episodes.keys[i]}/f{k:04d}" + (f".{view}" if view else "")

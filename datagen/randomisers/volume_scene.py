@@ -1,7 +1,8 @@
 """Randomised appearance of an aerial episode: materials of the floor, walls, ceiling and each kind
 of obstacle, the drones' colours, the lighting over the volume, and each drone's cameras (forward
-tilt and field of view, the downward camera's field of view). The volume and the flights are drawn
-by :mod:`datagen.aerial.episode` from streams of their own.
+tilt and field of view, the downward camera's field of view; a stereo pair's right camera has the
+forward one's values, ``aerial.stereo_baseline`` to its right: nothing of its own is drawn). The
+volume and the flights are drawn by :mod:`datagen.aerial.episode` from streams of their own.
 
 Streams: ``aerial_materials``, ``aerial_textures``, ``nav_lighting`` (as a ground episode's),
 ``aerial_cameras``.
@@ -31,13 +32,6 @@ _DRONE_VALUE = {"body": (0.3, 1.0), "arms": (0.05, 0.35), "motors": (0.2, 0.5),
 
 def _u(rng: np.random.Generator, bounds: tuple[float, float]) -> float:
     return round(float(rng.uniform(*bounds)), 6)
-
-
-def _cameras(rng: np.random.Generator, cfg) -> dict[str, Any]:
-    forward = {"fovy_deg": _u(rng, cfg.camera_fovy_deg), "pitch_deg": _u(rng, cfg.camera_pitch_deg),
-               # the mount on the pod's face, left and up, fractions of quadrotor.MOUNT_SHIFT
-               "shift": [_u(rng, (-1.0, 1.0)), _u(rng, (-1.0, 1.0))]}  # fmt: skip
-    return {"forward": forward, "down": {"fovy_deg": _u(rng, cfg.down_fovy_deg)}}
 
 
 def _cameras(rng: np.random.Generator, cfg) -> dict[str, Any]:

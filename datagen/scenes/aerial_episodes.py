@@ -6,7 +6,9 @@ Parts, per frame k (``fKKKK``) and camera (``d<drone>`` forward, ``d<drone>_down
 ``fKKKK.<camera>.rgb.png depth.png seg.png semantic.png`` and, but for the last frame,
 ``fKKKK.<camera>.flow.png`` (optical flow to frame k+1, KITTI 16-bit encoding); per episode
 ``occupancy.npz`` (the voxel grid), ``map.png`` (top-down), ``side.png`` (side view),
-``poses.<camera>.txt`` (TartanAir-style camera poses) and ``json`` (docs/aerial.md).
+``poses.<camera>.txt`` (OpenCV camera axes, world z up) and ``poses_ned.<camera>.txt``
+(TartanAir's NED) camera poses, ``imu.d<k>.npz`` (drone k's IMU stream and trajectory,
+:mod:`datagen.aerial.imu`) and ``json`` (docs/aerial.md).
 """
 
 from __future__ import annotations
@@ -24,17 +26,20 @@ from datagen.aerial.episode import (
     plan_aerial_episode,
 )
 from datagen.aerial.flatness import quaternion_xyzw
+from datagen.aerial.imu import IMU_PART, IMU_STREAM, imu_arrays, imu_metadata, npz_bytes
 from datagen.aerial.pictures import side_view, top_down
 from datagen.aerial.volumes import box_distance
 from datagen.config import BuildConfig
 from datagen.dataset.flow_png import encode_kitti
 from datagen.engines.sim.encode import (
+    NED_POSE_CONVENTION,
     POSE_CONVENTION,
     View,
     encode_view,
     metadata_bytes,
     png_bytes,
     pose_file,
+    pose_file_ned,
 )
 from datagen.engines.sim.optical_flow import flow_to_next
 from datagen.engines.sim.render import DEPTH_SCALE, Frame, capture, keep_renderer_alive
@@ -42,6 +47,7 @@ from datagen.outcomes import agents_outcome, spl
 from datagen.randomisers.volume_scene import sample_aerial_scene
 from datagen.sample import Sample, sample_key
 from datagen.scenes.navigation_episodes import rounded, things_in_view
+from datagen.seeding import sample_rng
 from datagen.worlds.volume import AERIAL_CLASSES, AerialScene, build_aerial_scene
 
 AERIAL_FORMAT = "datagen.aerial_episode/1"
@@ -73,6 +79,14 @@ def _agent_record(episode: AerialEpisode, k: int, states, index: int, boxes: np.
         "obstacle_gap": round(gap, 6), "collision": gap < 0.0,
         "arrived": bool(np.linalg.norm(agent.goal - p) <= tolerance),
     }  # fmt: skip
+
+
+def _stereo(camera: str, baseline: float) -> dict[str, Any]:
+    """A right camera's pair: its left camera and the baseline (metres, along the left camera's
+    x axis)."""
+    if not camera.endswith("_right"):
+        return {}
+    return {"stereo": {"left": camera.removesuffix("_right"), "baseline_m": baseline}}
 
 
 def render_frames(
@@ -150,10 +164,15 @@ def produce(config: BuildConfig, seed: int, index: int, attempt: int = 0) -> Sam
     parts["occupancy.npz"] = buffer.getvalue()
     for name, extrinsics in poses.items():
         parts[f"poses.{name}.txt"] = pose_file(extrinsics)
+        parts[f"poses_ned.{name}.txt"] = pose_file_ned(extrinsics)
+    for k, agent in enumerate(episode.agents):
+        rng = sample_rng(seed, index, IMU_STREAM.format(k=k), attempt)
+        arrays = imu_arrays(agent, cfg.imu_hz, episode.duration, cfg.imu_noise, rng)
+        parts[IMU_PART.format(k=k)] = npz_bytes(arrays)
     agents = []
     for k, (agent, limits) in enumerate(zip(episode.agents, episode.limits, strict=True)):
         flown = flown_length(agent)
-        shortest = path_lower_bound(volume, agent, limits, cfg.goal_tolerance)
+        shortest = path_lower_bound(volume, agent, limits)
         success = bool(
             frames[-1]["agents"][k]["arrived"]
             and not any(r["agents"][k]["collision"] for r in frames)
@@ -187,9 +206,11 @@ def produce(config: BuildConfig, seed: int, index: int, attempt: int = 0) -> Sam
         "cameras": {name: {"width": r.width, "height": r.height, "fovy_deg": round(math.degrees(cam.fovy), 6),
                            "near": r.near, "far": r.far, "intrinsics": rounded(cam.get_intrinsic_matrix()),
                            "camera_in_body": rounded(scene.camera_in_body[name], 7), "convention": "opencv",
-                           "depth_scale": DEPTH_SCALE, "drone": int(name[1:].split("_")[0])}
+                           "depth_scale": DEPTH_SCALE, "drone": int(name[1:].split("_")[0]),
+                           **_stereo(name, cfg.stereo_baseline)}
                     for name, cam in scene.cameras.items()},
-        "poses_convention": POSE_CONVENTION,
+        "poses_convention": {"poses.<camera>.txt": POSE_CONVENTION, "poses_ned.<camera>.txt": NED_POSE_CONVENTION},
+        "imu": imu_metadata(cfg.imu_hz, cfg.imu_noise),
         "frames": frames,
         "randomisation": values,
     }  # fmt: skip

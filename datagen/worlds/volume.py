@@ -4,8 +4,9 @@ quadrotor per drone carrying a forward camera (and optionally one looking down).
 World frame as the volume's: z up, metres, the floor plan's origin; the floor top is z = 0.
 Drones are drawn only (no physics): each frame puts every drone at its pose on its trajectory.
 Camera mounts in the body frame (x forward, y left, z up): the forward camera at the pod's front,
-tilted up by its sampled pitch; the downward camera under the body, turned 90 degrees nose-down,
-so its image's up points along the body's x.
+tilted up by its sampled pitch; with ``aerial.stereo_baseline``, a right camera that far to its
+right (along the body's -y), tilted and zoomed alike (a rectified pair); the downward camera under
+the body, turned 90 degrees nose-down, so its image's up points along the body's x.
 """
 
 from __future__ import annotations
@@ -18,7 +19,7 @@ import numpy as np
 import sapien
 
 from datagen.aerial.episode import AerialEpisode
-from datagen.aerial.quadrotor import camera_mounts, quadrotor_parts
+from datagen.aerial.quadrotor import camera_mounts, quadrotor_parts, right_camera
 from datagen.config import BuildConfig
 from datagen.engines.sim.cameras import add_camera
 from datagen.worlds.floorplan import Thing
@@ -40,7 +41,7 @@ def aerial_classes(config: BuildConfig) -> tuple[str, ...]:
 class AerialScene:
     scene: sapien.Scene
     drones: list[sapien.Entity]
-    cameras: dict[str, sapien.render.RenderCameraComponent]  # "d0", "d0_down", "d1", ...
+    cameras: dict[str, sapien.render.RenderCameraComponent]  # "d0", "d0_right", "d0_down", ...
     camera_in_body: dict[str, np.ndarray]  # name -> 4x4 camera (OpenCV axes) in its drone's frame
     things: list[Thing]
     instance_lut: np.ndarray  # per_scene_id -> instance id
@@ -129,12 +130,11 @@ def build_aerial_scene(
         things.append(Thing(0, "goal_marker", f"goal_{k}", [marker]))
         cam = values["cameras"][k]
         mounts = camera_mounts(shape, tuple(cam["forward"]["shift"]))
-        rigs = {
-            f"d{k}": (
-                _mount(mounts["forward"], cam["forward"]["pitch_deg"]),
-                cam["forward"]["fovy_deg"],
-            )
-        }
+        forward = cam["forward"]
+        rigs = {f"d{k}": (_mount(mounts["forward"], forward["pitch_deg"]), forward["fovy_deg"])}
+        if config.aerial.stereo_baseline > 0:  # rectified: the same intrinsics, parallel axes
+            right = right_camera(mounts["forward"], config.aerial.stereo_baseline)
+            rigs[f"d{k}_right"] = (_mount(right, forward["pitch_deg"]), forward["fovy_deg"])
         if config.aerial.down_camera:
             rigs[f"d{k}_down"] = (_mount(mounts["down"], -90.0), cam["down"]["fovy_deg"])
         for name, (mount, fovy) in rigs.items():

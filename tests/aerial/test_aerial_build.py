@@ -60,9 +60,20 @@ def test_loads_as_episodes_and_as_frames(aerial_dataset):
         assert sorted(item["poses"]) == sorted(meta["cameras"])
         assert all(len(p) == len(item["frames"]) for p in item["poses"].values())
         assert item["occupancy"].shape == tuple(meta["episode"]["volume"]["shape"])
+        assert sorted(item["poses_ned"]) == sorted(meta["cameras"])
+        assert sorted(item["imu"]) == ["d0", "d1"] and meta["imu"]["rate_hz"] == 200.0
         total += len(item["frames"]) * len(meta["cameras"])
     frames = load_frames(aerial_dataset)
     assert len(frames) == total and len({frames[j]["key"] for j in range(len(frames))}) == total
+    # a frame's IMU samples are its drone's since the previous frame: together, the whole stream
+    first = f"{episodes.keys[0]}/"
+    d1 = [f for f in frames if f["key"].startswith(first) and f["view"] == "d1"]
+    stream = episodes[0]["imu"]["d1"]
+    joined = np.concatenate([f["imu"]["time_s"] for f in d1])
+    np.testing.assert_array_equal(joined, stream["time_s"])
+    np.testing.assert_array_equal(
+        np.concatenate([f["imu"]["gyroscope"] for f in d1]), stream["gyroscope"]
+    )
     last = frames[len(frames) - 1]
     assert last["view"] == "d1_down" and "flow" not in last  # the last frame has no next one
     first = frames[0]

@@ -1,11 +1,14 @@
 """Aerial episodes rendered in SAPIEN: cameras where the drones carry them, depth on the volume's
 surfaces, optical flow that warps a frame onto the next, drones labelled in each other's cameras
-and never in their own, the labels per frame consistent with the trajectories."""
+and never in their own, the labels per frame consistent with the trajectories; a stereo pair
+rectified (a left pixel's point seen on the same row of the right image, its disparity f b / Z);
+the stored IMU streams integrated back to every flight; both pose files the same camera motion."""
 
 from __future__ import annotations
 
 import numpy as np
 import pytest
+from aerial_strapdown import angle_between, integrate
 
 from datagen.aerial.flatness import GRAVITY
 from datagen.aerial.volumes import box_distance
@@ -15,6 +18,7 @@ from datagen.scenes.aerial_episodes import produce
 
 pytestmark = [pytest.mark.sim]
 WIDTH, HEIGHT = 160, 120
+BASELINE = 0.12  # metres
 
 
 def _config(family: str, drones: int, **aerial):
@@ -28,7 +32,9 @@ def _config(family: str, drones: int, **aerial):
                 ids=lambda p: f"{p[0]}-{p[1]}")  # fmt: skip
 def episode(request):
     family, drones, index = request.param
-    config = _config(family, drones, down_camera=family == "maze")
+    # the corridor's drones carry a stereo pair and a noisy IMU
+    extra = {"stereo_baseline": BASELINE, "imu_noise": {"enabled": True}} if drones > 1 else {}
+    config = _config(family, drones, down_camera=family == "maze", **extra)
     sample = produce(config, config.seed, index)
     return config, sample, decode_parts(sample.parts)
 
@@ -156,3 +162,78 @@ def test_per_frame_states_are_consistent(episode):
 def test_the_same_episode_gives_the_same_bytes():
     config = _config("corridor", 1)
     assert produce(config, config.seed, 3).parts == produce(config, config.seed, 3).parts
+
+
+def test_a_stereo_pair_is_rectified_and_fully_annotated(episode):
+    config, _, item = episode
+    meta = item["meta"]
+    pairs = [(n, c["stereo"]["left"]) for n, c in meta["cameras"].items() if "stereo" in c]
+    assert len(pairs) == (len(meta["episode"]["agents"]) if config.aerial.stereo_baseline else 0)
+    for right, left in pairs:
+        assert meta["cameras"][right]["intrinsics"] == meta["cameras"][left]["intrinsics"]
+        assert meta["cameras"][right]["stereo"]["baseline_m"] == BASELINE
+        k = np.asarray(meta["cameras"][left]["intrinsics"])
+        rows_found, depth_errors = 0, []
+        for frame in item["frames"]:
+            e_left = np.asarray(frame["meta"]["cameras"][left]["extrinsics_world_to_camera"])
+            e_right = np.asarray(frame["meta"]["cameras"][right]["extrinsics_world_to_camera"])
+            relative = e_right @ np.linalg.inv(e_left)  # left camera -> right camera
+            np.testing.assert_allclose(relative[:3, :3], np.eye(3), atol=1e-5)  # parallel axes
+            np.testing.assert_allclose(relative[:3, 3], [-BASELINE, 0.0, 0.0], atol=1e-5)
+            depth_l = frame["cameras"][left]["depth"].astype(float) / 1000.0
+            depth_r = frame["cameras"][right]["depth"].astype(float) / 1000.0
+            rows, cols = np.nonzero(depth_l > 0.5)
+            column = cols + 0.5 - k[0, 0] * BASELINE / depth_l[rows, cols]  # same row
+            inside = column >= 0.5
+            found = depth_r[rows[inside], np.floor(column[inside]).astype(int)]
+            rows_found += int(inside.sum())
+            depth_errors.append(np.abs(found - depth_l[rows[inside], cols[inside]]))
+            assert set(frame["cameras"][right]) >= {"rgb", "depth", "seg", "semantic"}
+            assert "things" in frame["meta"]["cameras"][right]
+        errors = np.concatenate(depth_errors)
+        assert rows_found > 0 and np.median(errors) < 0.01  # occlusions and edges aside
+
+
+def test_the_stored_imu_integrates_back_to_every_flight(episode):
+    """tests/aerial/aerial_strapdown.py on each drone's imu.d<k>.npz, from its state at t = 0
+    alone, against the per-frame states of the episode's JSON."""
+    config, _, item = episode
+    meta = item["meta"]
+    assert meta["imu"]["rate_hz"] == config.aerial.imu_hz == 200.0
+    for k, agent in enumerate(meta["episode"]["agents"]):
+        imu = item["imu"][f"d{k}"]
+        indices, positions, _, quaternions = integrate(
+            imu["time_s"],
+            imu["accelerometer"],
+            imu["gyroscope"],
+            imu["position"][0],
+            imu["velocity"][0],
+            imu["quaternion_xyzw"][0],
+        )
+        at = {round(float(t), 6): j for j, t in enumerate(imu["time_s"][indices])}
+        for record in meta["frames"]:
+            if (j := at.get(record["time_s"])) is None:
+                continue
+            state = record["agents"][k]
+            assert np.linalg.norm(positions[j] - state["position"]) < 0.01
+            turn = angle_between(quaternions[j : j + 1], np.asarray([state["quaternion_xyzw"]]))
+            assert np.degrees(turn[0]) < 0.1
+        assert np.linalg.norm(positions[-1] - agent["goal"]) < 0.01
+        assert imu["time_s"][-1] >= agent["take_off_s"] + agent["flight_s"]
+        noisy = "accelerometer_noisy" in imu
+        assert noisy == config.aerial.imu_noise.enabled == (meta["imu"]["noise"] is not None)
+
+
+def test_both_pose_files_give_the_same_camera_motion(episode):
+    """TartanAir's ned2cam (T P T^-1) of the NED file is the OpenCV file's motion."""
+    _, _, item = episode
+    t = np.array([[0, 1, 0, 0], [0, 0, 1, 0], [1, 0, 0, 0], [0, 0, 0, 1]], float)
+    assert sorted(item["poses_ned"]) == sorted(item["poses"])
+    for name in item["poses"]:
+        opencv = [_pose(p[:3], p[3:]) for p in item["poses"][name]]
+        ned = [t @ _pose(p[:3], p[3:]) @ t.T for p in item["poses_ned"][name]]
+        for a, b in zip(range(len(ned)), range(1, len(ned)), strict=False):
+            np.testing.assert_allclose(
+                np.linalg.inv(ned[a]) @ ned[b], np.linalg.inv(opencv[a]) @ opencv[b], atol=1e-5
+            )
+    assert set(item["meta"]["poses_convention"]) == {"poses.<camera>.txt", "poses_ned.<camera>.txt"}

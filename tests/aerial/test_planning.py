@@ -1,6 +1,7 @@
 """Expert flights (datagen/aerial/planning.py, fleet.py, episode.py): collision-free at their
-clearance, smooth, within the limits, never shorter than the episode's lower bound, and the
-drones of one episode never closer than two radii and a margin."""
+clearance, smooth, within the limits, never shorter than the episode's lower bound (to the goal's
+centre: a straight flight has an SPL of 1), and the drones of one episode never closer than two
+radii and a margin."""
 
 from __future__ import annotations
 
@@ -8,9 +9,13 @@ import numpy as np
 import pytest
 
 from datagen.aerial.episode import flown_length, path_lower_bound, plan_aerial_episode
-from datagen.aerial.fleet import closest_approach, separation
-from datagen.aerial.volumes import box_distance
+from datagen.aerial.fleet import Agent, closest_approach, separation
+from datagen.aerial.planning import FlightLimits, plan_flight
+from datagen.aerial.quadrotor import bounding_radius, camera_reach
+from datagen.aerial.volumes import Solid, Volume, box_distance
 from datagen.config import config_from_dict
+from datagen.navigation.grid import Layout
+from datagen.outcomes import spl
 
 DT = 0.005  # seconds: finer than the planner's own checks
 
@@ -62,11 +67,25 @@ def test_flights_are_smooth_and_within_their_limits(episode):
 
 
 def test_no_flight_is_shorter_than_the_lower_bound(episode):
-    cfg, ep = episode
+    _, ep = episode
     for agent, limits in zip(ep.agents, ep.limits, strict=True):
-        bound = path_lower_bound(ep.volume, agent, limits, cfg.goal_tolerance)
-        straight = max(np.linalg.norm(agent.goal - agent.start) - cfg.goal_tolerance, 0.0)
+        bound = path_lower_bound(ep.volume, agent, limits)
+        straight = np.linalg.norm(agent.goal - agent.start)
         assert straight - 1e-6 <= bound <= flown_length(agent)
+
+
+def test_a_straight_expert_flight_scores_an_spl_of_one():
+    """Habitat's SPL: success * l / max(p, l), l the shortest path to the goal the expert flies
+    to (its centre); a straight flight through an empty room is that path."""
+    layout = Layout(np.zeros((60, 80), bool), 0.05, "rooms", walls=[])
+    volume = Volume(layout, 3.0, 0.1, [Solid("ceiling", (0.0, 0.0, 3.0, 4.0, 3.0, 3.1))])
+    limits = FlightLimits(radius=0.25)
+    start, goal = np.array([0.55, 0.65, 0.85]), np.array([3.35, 2.25, 2.05])
+    agent = Agent(start, goal, plan_flight(volume, start, goal, limits), 0.0)
+    assert len(agent.flight.waypoints) == 2  # straight
+    shortest = path_lower_bound(volume, agent, limits)
+    assert shortest == pytest.approx(np.linalg.norm(goal - start), abs=1e-9)
+    assert spl(True, shortest, flown_length(agent)) == 1.0
 
 
 def test_drones_never_come_closer_than_two_radii_and_a_margin(episode):
@@ -83,3 +102,12 @@ def test_the_same_episode_is_drawn_from_the_same_seed_and_index():
     a, b = plan_aerial_episode(cfg, 3, 4), plan_aerial_episode(cfg, 3, 4)
     assert all(np.array_equal(x.flight.waypoints, y.flight.waypoints) and x.take_off == y.take_off
                for x, y in zip(a.agents, b.agents, strict=True))  # fmt: skip
+
+
+def test_a_stereo_pairs_right_camera_is_inside_the_planned_radius():
+    cfg = config_from_dict(
+        {"scene": "aerial", "aerial": {"stereo_baseline": 0.4, "drones": 2}}
+    ).aerial
+    ep = plan_aerial_episode(cfg, 7, 0)
+    for shape, limits in zip(ep.shapes, ep.limits, strict=True):
+        assert limits.radius >= camera_reach(shape, 0.4) > bounding_radius(shape)

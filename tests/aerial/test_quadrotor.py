@@ -10,7 +10,9 @@ from datagen.aerial.quadrotor import (
     QuadrotorShape,
     bounding_radius,
     camera_mounts,
+    camera_reach,
     quadrotor_parts,
+    right_camera,
 )
 from datagen.config import config_from_dict
 from datagen.config.aerial import MAX_CAMERA_TOP_DEG
@@ -46,12 +48,17 @@ def _seen(points: np.ndarray, pitch_deg: float, fovy_deg: float, aspect: float) 
 @pytest.mark.parametrize("span", [0.25, 0.45])
 @pytest.mark.parametrize(("pitch", "fovy"), [(-20, 75), (5, 75), (15, 60), (-60, 75), (0, 90)])
 @pytest.mark.parametrize("shift", [(0.0, 0.0), (1.0, 1.0), (-1.0, 1.0), (1.0, -1.0)])
-def test_the_forward_camera_sees_nothing_of_its_drone_up_to_its_limit(span, pitch, fovy, shift):
+@pytest.mark.parametrize("baseline", [0.0, 0.05, 0.12, 0.25, 0.5])
+def test_the_forward_cameras_see_nothing_of_their_drone_up_to_the_limit(
+    span, pitch, fovy, shift, baseline
+):
     """At 4:3 (the default 640x480), with the view's top at most MAX_CAMERA_TOP_DEG up, the
-    mount anywhere its randomisation puts it."""
+    mount anywhere its randomisation puts it; a stereo pair's right camera (``baseline`` > 0)
+    as well, and its drone is planned with a radius that holds it."""
     assert pitch + fovy / 2 <= MAX_CAMERA_TOP_DEG
     shape = QuadrotorShape(span)
-    eye = camera_mounts(shape, shift)["forward"]
+    eye = right_camera(camera_mounts(shape, shift)["forward"], baseline)
+    assert np.linalg.norm(eye) <= camera_reach(shape, baseline) + 1e-12
     for name, mesh in quadrotor_parts(shape).items():
         seen = _seen(np.asarray(mesh.vertices) - eye, pitch, fovy, 4 / 3)
         assert not seen.any(), (name, pitch, fovy)

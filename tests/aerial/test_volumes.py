@@ -54,10 +54,27 @@ def test_the_same_rng_gives_the_same_volume():
 
 
 def test_voxel_indices_follow_the_documented_frame():
-    # a box over x in [0.2, 0.4), y in [0.5, 0.6), z in [1.0, 1.3) with 0.1 m voxels
-    grid = voxelise([(0.2, 0.5, 1.0, 0.4, 0.6, 1.3)], (20, 10, 10), 0.1)
+    # a box over x in [0.23, 0.37], y in [0.51, 0.59], z in [1.05, 1.25] with 0.1 m voxels
+    grid = voxelise([(0.23, 0.51, 1.05, 0.37, 0.59, 1.25)], (20, 10, 10), 0.1)
     k, i, j = np.nonzero(grid)
     assert sorted(set(k)) == [10, 11, 12] and sorted(set(i)) == [5] and sorted(set(j)) == [2, 3]
+
+
+def test_the_grid_is_conservative():
+    """A voxel a solid touches is occupied: a face on a voxel boundary marks both sides, so every
+    point of the box (faces included) lies in an occupied voxel."""
+    box = (0.2, 0.5, 1.0, 0.4, 0.6, 1.3)
+    grid = voxelise([box], (20, 10, 10), 0.1)
+    k, i, j = np.nonzero(grid)
+    assert sorted(set(k)) == list(range(9, 14)) and sorted(set(i)) == [4, 5, 6]
+    assert sorted(set(j)) == [1, 2, 3, 4]
+    points = np.random.default_rng(0).uniform(box[:3], box[3:], (2000, 3))
+    points[::2, 0] = box[3]  # on faces
+    points[1::4, 2] = box[2]
+    cells = np.floor(
+        points[:, ::-1] / 0.1 + np.random.default_rng(1).choice([-1e-9, 1e-9], (2000, 3))
+    )
+    assert grid[tuple(cells.astype(int).T)].all()
 
 
 def test_box_distance_and_subtraction():

@@ -134,17 +134,48 @@ POSE_CONVENTION = (
     "camera-to-world per frame: tx ty tz qx qy qz qw; world z up (metres, the floor plan's "
     "origin); camera axes OpenCV (x right, y down, z forward)"
 )
+NED_POSE_CONVENTION = (
+    "camera-to-world per frame: tx ty tz qx qy qz qw, TartanAir's pose_left.txt convention: world "
+    "NED (x along the z-up world's x, y = -y, z = -z: down; metres, the floor plan's origin); "
+    "camera axes NED (x forward, y right, z down)"
+)
+# world NED from the z-up world: a half turn about x (x north, y east, z down)
+NED_WORLD = np.diag([1.0, -1.0, -1.0])
+# a NED camera's axes (x forward, y right, z down) in OpenCV's (x right, y down, z forward):
+# TartanAir's evaluation tools turn their poses into OpenCV's with the same matrix
+NED_CAMERA_IN_OPENCV = np.array([[0.0, 1.0, 0.0], [0.0, 0.0, 1.0], [1.0, 0.0, 0.0]])
 
 
-def pose_file(world_to_camera: list[np.ndarray]) -> bytes:
-    """A camera's poses, one line per frame as TartanAir writes them (``POSE_CONVENTION``): the
-    position and the unit quaternion (w >= 0) of each camera-to-world transform."""
+def _pose_lines(camera_to_world: list[np.ndarray]) -> bytes:
+    """One line per 4x4 pose: the position and the unit quaternion (w >= 0)."""
     from scipy.spatial.transform import Rotation
 
     lines = []
+    for pose in camera_to_world:
+        q = Rotation.from_matrix(pose[:3, :3]).as_quat()
+        q = -q if q[3] < 0 else q
+        lines.append(" ".join(f"{v:.7f}" for v in [*pose[:3, 3], *q]))
+    return ("\n".join(lines) + "\n").encode()
+
+
+def pose_file(world_to_camera: list[np.ndarray]) -> bytes:
+    """A camera's poses in TartanAir's line format (``POSE_CONVENTION``: OpenCV camera axes in
+    the z-up world, not TartanAir's NED), one line per frame."""
+    return _pose_lines([np.linalg.inv(e) for e in world_to_camera])
+
+
+def ned_poses(world_to_camera: list[np.ndarray]) -> list[np.ndarray]:
+    """4x4 camera-to-world poses in ``NED_POSE_CONVENTION`` of OpenCV world-to-camera ones."""
+    poses = []
     for extrinsics in world_to_camera:
         camera_to_world = np.linalg.inv(extrinsics)
-        q = Rotation.from_matrix(camera_to_world[:3, :3]).as_quat()
-        q = -q if q[3] < 0 else q
-        lines.append(" ".join(f"{v:.7f}" for v in [*camera_to_world[:3, 3], *q]))
-    return ("\n".join(lines) + "\n").encode()
+        pose = np.eye(4)
+        pose[:3, :3] = NED_WORLD @ camera_to_world[:3, :3] @ NED_CAMERA_IN_OPENCV
+        pose[:3, 3] = NED_WORLD @ camera_to_world[:3, 3]
+        poses.append(pose)
+    return poses
+
+
+def pose_file_ned(world_to_camera: list[np.ndarray]) -> bytes:
+    """A camera's poses as TartanAir's own files have them (``NED_POSE_CONVENTION``)."""
+    return _pose_lines(ned_poses(world_to_camera))
