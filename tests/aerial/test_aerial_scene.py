@@ -173,25 +173,28 @@ def test_a_stereo_pair_is_rectified_and_fully_annotated(episode):
         assert meta["cameras"][right]["intrinsics"] == meta["cameras"][left]["intrinsics"]
         assert meta["cameras"][right]["stereo"]["baseline_m"] == BASELINE
         k = np.asarray(meta["cameras"][left]["intrinsics"])
-        rows_found, depth_errors = 0, []
+        depth_errors, colour_errors = [], []
         for frame in item["frames"]:
             e_left = np.asarray(frame["meta"]["cameras"][left]["extrinsics_world_to_camera"])
             e_right = np.asarray(frame["meta"]["cameras"][right]["extrinsics_world_to_camera"])
             relative = e_right @ np.linalg.inv(e_left)  # left camera -> right camera
             np.testing.assert_allclose(relative[:3, :3], np.eye(3), atol=1e-5)  # parallel axes
             np.testing.assert_allclose(relative[:3, 3], [-BASELINE, 0.0, 0.0], atol=1e-5)
-            depth_l = frame["cameras"][left]["depth"].astype(float) / 1000.0
-            depth_r = frame["cameras"][right]["depth"].astype(float) / 1000.0
+            images = frame["cameras"][left], frame["cameras"][right]
+            depth_l = images[0]["depth"].astype(float) / 1000.0
             rows, cols = np.nonzero(depth_l > 0.5)
-            column = cols + 0.5 - k[0, 0] * BASELINE / depth_l[rows, cols]  # same row
-            inside = column >= 0.5
-            found = depth_r[rows[inside], np.floor(column[inside]).astype(int)]
-            rows_found += int(inside.sum())
-            depth_errors.append(np.abs(found - depth_l[rows[inside], cols[inside]]))
-            assert set(frame["cameras"][right]) >= {"rgb", "depth", "seg", "semantic"}
+            column = cols + 0.5 - k[0, 0] * BASELINE / depth_l[rows, cols]  # on the same row
+            keep = column >= 0.5
+            rows, cols, seen = rows[keep], cols[keep], np.floor(column[keep]).astype(int)
+            depth_r = images[1]["depth"][rows, seen].astype(float) / 1000.0
+            depth_errors.append(np.abs(depth_r - depth_l[rows, cols]))
+            colour = images[1]["rgb"][rows, seen].astype(int) - images[0]["rgb"][rows, cols]
+            colour_errors.append(np.abs(colour).max(axis=1))
+            assert set(images[1]) >= {"rgb", "depth", "seg", "semantic"}
             assert "things" in frame["meta"]["cameras"][right]
-        errors = np.concatenate(depth_errors)
-        assert rows_found > 0 and np.median(errors) < 0.01  # occlusions and edges aside
+        # occlusions and edges aside (the right camera on the left side matches about half)
+        assert np.mean(np.concatenate(depth_errors) < 0.01) > 0.85
+        assert np.mean(np.concatenate(colour_errors) <= 10) > 0.85
 
 
 def test_the_stored_imu_integrates_back_to_every_flight(episode):
