@@ -28,6 +28,8 @@ from datagen.config.appearance import (
 from datagen.config.pictures import check_photos, check_pictures, resolve_picture_folders
 from datagen.config.robot import RobotConfig, robot_spec
 from datagen.config.sections import (
+    CAR_VIEW_LIMIT_DEG,
+    FETCH_VIEW_LIMIT_DEG,
     SAMPLE_ERROR_POLICIES,
     SHAPE_FAMILIES,
     BuildPolicyConfig,
@@ -214,6 +216,37 @@ def _check_aerial_camera(config: BuildConfig, source: str) -> None:
         )
 
 
+def _check_navigation(nav: NavigationConfig, source: str) -> None:
+    if nav.robot not in ("fetch", "car"):
+        raise ConfigError(
+            f"{source}: navigation.robot: expected 'fetch' or 'car', got {nav.robot!r}"
+        )
+    steps = nav.control_rate_hz / nav.frame_rate_hz  # control steps per frame
+    if steps < 1 - 1e-9 or abs(steps - round(steps)) > 1e-9:
+        raise ConfigError(
+            f"{source}: navigation.frame_rate_hz: expected control_rate_hz "
+            f"({nav.control_rate_hz:g}) divided by a whole number (frames every whole number of "
+            f"control steps), got {nav.frame_rate_hz:g}"
+        )
+    _check_robot_view(nav, source)
+
+
+def _check_robot_view(nav: NavigationConfig, source: str) -> None:
+    """A robot's camera never sees the robot itself (``CAR_VIEW_LIMIT_DEG``)."""
+    if nav.robot == "car":  # up or down
+        pitch, limit, where = max(map(abs, nav.camera_pitch_deg)), CAR_VIEW_LIMIT_DEG, "off"
+    else:  # down: Fetch's base
+        pitch, limit, where = nav.camera_pitch_deg[1], FETCH_VIEW_LIMIT_DEG, "below"
+    reach = pitch + nav.camera_fovy_deg[1] / 2
+    if reach > limit:
+        raise ConfigError(
+            f"{source}: navigation.camera_pitch_deg: the {nav.robot} camera's view would reach "
+            f"{reach:g} degrees {where} straight ahead (pitch {pitch:g} + half of "
+            f"navigation.camera_fovy_deg {nav.camera_fovy_deg[1]:g}), where it sees the robot "
+            f"itself; expected at most {limit:g}"
+        )
+
+
 def _check_semantics(config: BuildConfig, source: str) -> None:
     family = FAMILIES.check(config.scene, f"{source}: scene")
     objects = config.objects
@@ -238,10 +271,7 @@ def _check_semantics(config: BuildConfig, source: str) -> None:
     if family.world == "tabletop":
         robot_spec(config.robot, source)
     LAYOUTS.check(config.navigation.family, f"{source}: navigation.family")
-    if config.navigation.robot not in ("fetch", "car"):
-        raise ConfigError(
-            f"{source}: navigation.robot: expected 'fetch' or 'car', got {config.navigation.robot!r}"
-        )
+    _check_navigation(config.navigation, source)
     LAYOUTS.check(config.aerial.family, f"{source}: aerial.family")
     _check_aerial_camera(config, source)
     _check_sinks(list(config.output.sinks), family, source)

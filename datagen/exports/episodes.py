@@ -13,9 +13,12 @@ it, per camera. Which samples hold one, and how they map:
   attempt that found no candidate (no ``trajectory.npz``) holds no episode. The final row, taken
   after the hold off the rate's grid, is left out.
 - a navigation episode (scene ``navigation``): its frames at ``navigation.frame_rate_hz``,
-  camera ``head`` with depth; state: x, y (m), yaw (rad); action: the commanded linear (m/s) and
-  angular (rad/s) velocity (Fetch) or steering angle (rad, the car). The final frame, rendered at the goal off the rate's grid, is left
-  out when it is off the grid.
+  camera ``head`` with depth; state: x, y (m), yaw (rad); action: what takes frame t to frame
+  t + 1, the k = control_rate_hz / frame_rate_hz commands of the control steps between them, each
+  held for one control step (``step0.linear_m_s``, ``step0.angular_rad_s``, ``step1...``: (v m/s,
+  w rad/s) for Fetch, (v m/s, steering angle rad) for the car; (0, 0) once the robot stands at its
+  goal), from the stored control-rate trajectory. The final frame, rendered at the goal off the
+  rate's grid, is left out when it is off the grid.
 - a navigation episode of several robots (``navigation.robots`` > 1): one episode per robot (key
   ``<sample>.r<k>``), as a single robot's, its camera ``r<k>`` named ``head``.
 - an aerial episode (scene ``aerial``): one episode per drone (key ``<sample>.d<k>``), its frames
@@ -29,6 +32,7 @@ Anything else (frames-only scenes) holds none: :func:`require_episodes` says so 
 
 from __future__ import annotations
 
+import math
 from collections.abc import Iterator
 from dataclasses import dataclass, field
 from typing import Any
@@ -37,12 +41,14 @@ import numpy as np
 
 from datagen.dataset.loader import DatasetError, decode_parts
 from datagen.dataset.trajectory import decode_trajectory
+from datagen.dataset.values import BadSample, shown
 from datagen.dataset.views import labelled_views
 from datagen.exports.checks import finite_in_float32, finite_rate, sample_metadata
 from datagen.records import ExportedDataset, Manifest
 from datagen.registries import FAMILIES
 
 GRID_TOLERANCE_S = 1e-6  # a frame's time within this of t / fps is on the rate's grid
+MAX_STEPS_PER_FRAME = 10_000  # control steps between two frames: the config's 100 Hz / 0.01 Hz
 
 
 @dataclass
@@ -221,11 +227,57 @@ def _on_grid(records: list[dict[str, Any]], fps: float) -> list[int]:
     ]
 
 
+def held_commands(commands: np.ndarray, first: int, count: int) -> np.ndarray:
+    """(count, 2): the commands of control steps ``first`` .. ``first + count - 1`` of a
+    trajectory, (0, 0) for the steps before its first or after its last (the robot stands)."""
+    steps = np.arange(first, first + count)
+    held = np.zeros((count, 2))
+    inside = (steps >= 0) & (steps < len(commands))
+    held[inside] = commands[steps[inside]]
+    return held
+
+
+def _frame_actions(
+    trajectory: dict[str, Any], records: list[dict[str, Any]], fps: float, delay: float, where: str
+) -> np.ndarray:
+    """(T, 2k) float32: per frame, the k commands that take it to the next frame on the ``fps``
+    grid (the trajectory's commands from the frame's step on, the robot waiting ``delay``
+    seconds at its start first); ``where``: the trajectory's key, for messages."""
+    dt = trajectory.get("dt")
+    per_frame = 1.0 / (fps * dt) if isinstance(dt, int | float) and dt > 0 else math.nan
+    every = round(per_frame) if 1 <= per_frame <= MAX_STEPS_PER_FRAME else 0
+    if not every or abs(every - per_frame) > 1e-6 * every:
+        raise BadSample(
+            f"{where}.dt: frames at {fps:g} Hz fall every "
+            f"{per_frame:g} control steps of {shown(dt)} s; expected a whole number from 1 to "
+            f"{MAX_STEPS_PER_FRAME} (navigation.frame_rate_hz dividing control_rate_hz)"
+        )
+    commands = _commands(trajectory.get("commands"), where)
+    waited = round(delay / dt)
+    return np.stack(
+        [held_commands(commands, int(r["step"]) - waited, every).ravel() for r in records]
+    ).astype(np.float32)
+
+
+def _commands(value: Any, where: str) -> np.ndarray:
+    """(S, 2) float: a stored trajectory's commands."""
+    try:
+        commands = np.asarray(value if value else np.zeros((0, 2)), float)
+    except (TypeError, ValueError):
+        commands = np.zeros(0)
+    if commands.ndim != 2 or commands.shape[1] != 2:
+        raise BadSample(f"{where}.commands: expected (steps, 2) numbers")
+    return commands
+
+
 def _ground(
     meta: dict[str, Any], fps: float, key: str, states: list[dict[str, Any]], success: bool,
-    prefixes: list[str],
+    prefixes: list[str], action: np.ndarray,
 ) -> Episode:  # fmt: skip
-    """A ground robot's episode from its per-frame states and its frames' part prefixes."""
+    """A ground robot's episode from its per-frame states, its frames' part prefixes and the
+    actions that take each frame to the next."""
+    names = list(meta["robot"].get("commands", ["linear_m_s", "angular_rad_s"]))
+    steps = action.shape[1] // len(names)
     return Episode(
         key=key,
         kind="navigation",
@@ -234,9 +286,9 @@ def _ground(
         fps=fps,
         state=np.array([s["pose"] for s in states], np.float32),
         state_names=["x", "y", "yaw"],
-        action=np.array([s["command"] for s in states], np.float32),
-        # (v, w) for Fetch, (v, steering angle) for the car
-        action_names=list(meta["robot"].get("commands", ["linear_m_s", "angular_rad_s"])),
+        action=action,
+        # (v, w) for Fetch, (v, steering angle) for the car, per control step to the next frame
+        action_names=[f"step{j}.{name}" for j in range(steps) for name in names],
         success=success,
         cameras={"head": [f"{p}rgb.png" for p in prefixes]},
         depth={"head": [f"{p}depth.png" for p in prefixes]},
@@ -256,9 +308,12 @@ def _ground(
 def _navigation(meta: dict[str, Any], fps: float) -> Episode:
     views = labelled_views(meta)
     views = [views[n] for n in _on_grid([v.record for v in views], fps)]
+    records = [v.record for v in views]
+    trajectory = meta["episode"]["trajectory"]
+    action = _frame_actions(trajectory, records, fps, 0.0, "episode.trajectory")
     return _ground(
-        meta, fps, meta["key"], [v.record for v in views], bool(meta["episode"]["success"]),
-        [v.prefix for v in views],
+        meta, fps, meta["key"], records, bool(meta["episode"]["success"]),
+        [v.prefix for v in views], action,
     )  # fmt: skip
 
 
@@ -306,7 +361,10 @@ def _aerial(meta: dict[str, Any], fps: float, k: int) -> Episode:
 def _ground_agent(meta: dict[str, Any], fps: float, k: int) -> Episode:
     """Robot ``k`` of a ``datagen.nav_fleet/1`` episode, as a single robot's episode."""
     records = [meta["frames"][n] for n in _on_grid(meta["frames"], fps)]
+    agent, key = meta["episode"]["agents"][k], f"{meta['key']}.r{k}"
+    where = f"episode.agents[{k}].trajectory"
+    action = _frame_actions(agent["trajectory"], records, fps, float(agent["delay_s"]), where)
     return _ground(
-        meta, fps, f"{meta['key']}.r{k}", [r["agents"][k] for r in records],
-        bool(meta["episode"]["agents"][k]["success"]), [f"f{r['frame']:04d}.r{k}." for r in records],
+        meta, fps, key, [r["agents"][k] for r in records], bool(agent["success"]),
+        [f"f{r['frame']:04d}.r{k}." for r in records], action,
     )  # fmt: skip

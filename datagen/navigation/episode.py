@@ -117,14 +117,18 @@ def plan_episode(cfg: NavigationConfig, seed: int, index: int, retry: int = 0) -
 
 
 ROBOTS = ("fetch", "car")
-CAR_WHEELBASE = 1.04  # a car's wheelbase, in footprint radii (its body: 1.6 x 1.0 radii)
+# A car in footprint radii: its body is 1.6 x 1.0, centred on the footprint disk (its half
+# diagonal, 0.94, fits inside); the rear axle is CAR_REAR behind that centre, the front axle
+# CAR_WHEELBASE ahead of the rear one.
+CAR_WHEELBASE, CAR_REAR = 1.04, 0.5
 
 
 def car_params(cfg: NavigationConfig) -> CarParams:
+    r = cfg.robot_radius
     return CarParams(
-        wheelbase=CAR_WHEELBASE * cfg.robot_radius, max_steer=math.radians(cfg.max_steering_deg),
-        lookahead=cfg.lookahead, max_linear=cfg.max_linear, rate_hz=cfg.control_rate_hz,
-        robot_radius=cfg.robot_radius,
+        wheelbase=CAR_WHEELBASE * r, max_steer=math.radians(cfg.max_steering_deg),
+        rear=CAR_REAR * r, lookahead=cfg.lookahead, max_linear=cfg.max_linear,
+        rate_hz=cfg.control_rate_hz, robot_radius=r,
     )  # fmt: skip
 
 

@@ -1,5 +1,7 @@
 """Pure-pursuit path following for a differential-drive (unicycle) robot, simulated kinematically
-at a fixed control rate. No dynamics, no slip: the simulator later replays or tracks this."""
+at a fixed control rate. No dynamics, no slip: the simulator later replays or tracks this. A
+command (v, w) held for one control step drives an exact arc (:func:`arc`), so the recorded
+commands integrated in closed form give the recorded poses back."""
 
 from __future__ import annotations
 
@@ -40,14 +42,37 @@ class Trajectory:
     dt: float
 
     def to_dict(self) -> dict:
-        r = lambda a: np.round(a, 5).tolist()  # noqa: E731
+        r = lambda a: np.round(a, 6).tolist()  # noqa: E731
         return {"poses": r(self.poses), "commands": r(self.commands),
                 "distance_to_goal": r(self.distance_to_goal), "goal_in_robot": r(self.goal_in_robot),
                 "collision": self.collision.tolist(), "success": self.success, "dt": self.dt}  # fmt: skip
 
 
-def _wrap(a: float) -> float:
+def wrap_angle(a: float) -> float:
+    """``a`` in [-pi, pi) (radians)."""
     return (a + math.pi) % (2 * math.pi) - math.pi
+
+
+def arc(
+    x: float, y: float, heading: float, curvature: float, distance: float
+) -> tuple[float, float, float]:
+    """The point ``distance`` metres along the circle of ``curvature`` (1/m, positive turns
+    left) that leaves (x, y) along ``heading``, and the angle turned on the way (radians)."""
+    turned = curvature * distance
+    half = turned / 2
+    chord = distance * (math.sin(half) / half if abs(half) > 1e-9 else 1.0)  # 2 sin(half) / k
+    return x + chord * math.cos(heading + half), y + chord * math.sin(heading + half), turned
+
+
+def unicycle_step(
+    x: float, y: float, yaw: float, v: float, w: float, dt: float
+) -> tuple[float, float, float]:
+    """The pose after holding (v m/s, w rad/s) for ``dt`` seconds: an exact arc (a turn on the
+    spot when v = 0)."""
+    if abs(v) < 1e-12:
+        return x, y, wrap_angle(yaw + w * dt)
+    x, y, turned = arc(x, y, yaw, w / v, v * dt)
+    return x, y, wrap_angle(yaw + turned)
 
 
 def _progress(
@@ -170,7 +195,7 @@ def follow(
 
     def unicycle(x, y, yaw, target, distance, dt):
         tdist = max(math.hypot(target[0] - x, target[1] - y), 1e-6)
-        alpha = _wrap(math.atan2(target[1] - y, target[0] - x) - yaw)
+        alpha = wrap_angle(math.atan2(target[1] - y, target[0] - x) - yaw)
         if abs(alpha) > p.turn_in_place:
             v, w = 0.0, math.copysign(min(p.max_angular, abs(alpha) / dt), alpha)
         else:
@@ -179,9 +204,7 @@ def follow(
             if abs(w) > p.max_angular:  # keep the curvature, lower the speed
                 v *= p.max_angular / abs(w)
                 w = math.copysign(p.max_angular, w)
-        heading = yaw + 0.5 * w * dt  # midpoint integration of the unicycle
-        pose = (x + v * dt * math.cos(heading), y + v * dt * math.sin(heading), _wrap(yaw + w * dt))
-        return (v, w), pose
+        return (v, w), unicycle_step(x, y, yaw, v, w, dt)
 
     return pursue(
         path_world, start_yaw, p.lookahead, p.max_linear, p.rate_hz, p.goal_tolerance,

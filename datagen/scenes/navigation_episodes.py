@@ -26,6 +26,7 @@ from datagen.engines.sim.encode import (
     pose_file,
 )
 from datagen.engines.sim.render import DEPTH_SCALE, capture, keep_renderer_alive
+from datagen.exports.episodes import held_commands
 from datagen.navigation.episode import Episode, car_params, frame_steps, plan_episode
 from datagen.navigation.grid import Layout, inflate
 from datagen.navigation.map_image import episode_map, occupancy_image
@@ -80,6 +81,7 @@ def render_episode(
 ) -> tuple[dict[str, bytes], list[dict[str, Any]], dict[str, Any]]:
     """Encoded frame parts, per-frame records and the camera record."""
     traj = episode.trajectory
+    every = round(1.0 / (config.navigation.frame_rate_hz * traj.dt))  # control steps per frame
     parts: dict[str, bytes] = {}
     records, extrinsics = [], []
     camera_in_robot = None
@@ -105,6 +107,7 @@ def render_episode(
             "time_s": round(step * traj.dt, 6),
             "pose": rounded([x, y, yaw]),
             "command": rounded(command),
+            "action": rounded(held_commands(traj.commands, step, every)),  # to the next frame
             "goal_in_robot": rounded(traj.goal_in_robot[step]),
             "distance_to_goal": round(float(traj.distance_to_goal[step]), 6),
             # metres between the robot's footprint disk and the nearest wall or obstacle
@@ -182,8 +185,11 @@ def robot_record(config: BuildConfig, scene: NavScene) -> dict[str, Any]:
         params = car_params(nav)
         return {
             "name": "car", "radius": nav.robot_radius, "wheelbase_m": round(params.wheelbase, 6),
+            # the pose is the body's centre (the footprint disk's); the rear axle is behind it
+            "rear_axle_behind_m": round(params.rear, 6),
             "max_steering_deg": nav.max_steering_deg,
-            "min_turning_radius_m": round(params.min_turning_radius, 6),
+            "min_turning_radius_m": round(params.min_turning_radius, 6),  # the rear axle's
+            "min_centre_turning_radius_m": round(params.min_centre_turning_radius, 6),
             "commands": ["linear_m_s", "steering_rad"],
         }  # fmt: skip
     return {

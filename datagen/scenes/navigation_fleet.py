@@ -24,6 +24,7 @@ from datagen.engines.sim.encode import (
     pose_file,
 )
 from datagen.engines.sim.render import capture, keep_renderer_alive
+from datagen.exports.episodes import held_commands
 from datagen.navigation.fleet import FleetEpisode, plan_fleet_episode
 from datagen.navigation.grid import inflate
 from datagen.navigation.map_image import fleet_map, occupancy_image
@@ -45,15 +46,18 @@ from datagen.worlds.floorplan import NAV_CLASSES, build_floorplan_scene
 FLEET_FORMAT = "datagen.nav_fleet/1"
 
 
-def _agent_states(fleet: FleetEpisode, step: int, radius: float) -> list[dict[str, Any]]:
+def _agent_states(
+    fleet: FleetEpisode, step: int, radius: float, every: int
+) -> list[dict[str, Any]]:
+    """Each robot's state at control ``step``; its ``action``: the commands of the ``every``
+    control steps to the next frame."""
     out = []
     layout = fleet.layout
     for agent in fleet.agents:
         traj, row = agent.episode.trajectory, int(agent.step_index(step))
-        moving = agent.delay <= step < agent.arrival
-        command = traj.commands[row] if moving and row < len(traj.commands) else (0.0, 0.0)
+        held = held_commands(traj.commands, step - agent.delay, every)
         out.append({
-            "pose": rounded(traj.poses[row]), "command": rounded(command),
+            "pose": rounded(traj.poses[row]), "command": rounded(held[0]), "action": rounded(held),
             "goal_in_robot": rounded(traj.goal_in_robot[row]),
             "distance_to_goal": round(float(traj.distance_to_goal[row]), 6),
             "obstacle_gap": round(clearance(layout.grid, layout.resolution, *traj.poses[row, :2]) - radius, 6),
@@ -98,7 +102,7 @@ def produce_fleet(config: BuildConfig, seed: int, index: int, attempt: int = 0) 
     frames, mounts, extrinsics = [], {}, {k: [] for k in range(len(scene.cameras))}
     level = config.output.png_level
     for f, step in enumerate(steps):
-        states = _agent_states(fleet, step, nav.robot_radius)
+        states = _agent_states(fleet, step, nav.robot_radius, every)
         for k, state in enumerate(states):
             steer = state["command"][1] if nav.robot == "car" else 0.0
             scene.set_base(*state["pose"], steer, k=k)

@@ -1,11 +1,14 @@
 """A car-like robot with Ackermann steering for navigation scenes: a procedural body, four wheels
 (the front two turn with the steering angle, each by its own Ackermann angle) and a camera on a
-mast. Drawn only: each frame puts it at its pose on the expert trajectory.
+mast at the front of the body. Drawn only: each frame puts it at its pose on the expert trajectory.
 
-Car frame: origin on the floor under the rear axle's centre (the bicycle model's reference
-point), x forward, y left, z up. Sizes in footprint radii r (``navigation.robot_radius``): the
-body is 1.6 r long and 1.0 r wide (its half diagonal, 0.94 r, fits the footprint disk about its
-centre, 0.5 r ahead of the rear axle), the wheelbase ``CAR_WHEELBASE`` r.
+Car frame: origin on the floor under the body's centre (the centre of its footprint disk and the
+pose of ``datagen.navigation.ackermann``), x forward, y left, z up. Sizes in footprint radii r
+(``navigation.robot_radius``): the body is 1.6 r long and 1.0 r wide (its half diagonal, 0.94 r,
+fits the footprint disk), the rear axle ``CAR_REAR`` r behind the centre, the wheelbase
+``CAR_WHEELBASE`` r. The camera looks out from the front of the mast's pod, ahead of every part
+of the car: a view that stays within 90 degrees of straight ahead (``|pitch| + fovy / 2 <= 90``,
+which the config checks) never sees the car itself.
 """
 
 from __future__ import annotations
@@ -17,11 +20,14 @@ import numpy as np
 import sapien
 import trimesh
 
-from datagen.navigation.episode import CAR_WHEELBASE
+from datagen.navigation.episode import CAR_REAR, CAR_WHEELBASE
 from datagen.worlds.surfaces import render_material, render_shape
 
 WHEEL_RADIUS, WHEEL_WIDTH = 0.18, 0.12  # footprint radii
-CAMERA_AHEAD, CAMERA_HEIGHT = 0.75, 0.9  # the mast's camera, footprint radii from the rear axle
+BODY_LENGTH, BODY_WIDTH = 1.6, 1.0  # footprint radii
+POD = (0.12, 0.16, 0.1)  # the camera's pod: length, width, height (footprint radii)
+POD_AHEAD = BODY_LENGTH / 2 - POD[0] / 2  # its centre: its front flush with the body's front
+CAMERA_AHEAD, CAMERA_HEIGHT = BODY_LENGTH / 2 + 0.005, 0.9  # footprint radii from the centre
 
 
 @dataclass
@@ -33,6 +39,11 @@ class CarBody:
     @property
     def wheelbase(self) -> float:
         return CAR_WHEELBASE * self.radius
+
+    @property
+    def rear(self) -> float:
+        """Metres from the rear axle forward to the body's centre."""
+        return CAR_REAR * self.radius
 
     @property
     def entities(self) -> list[sapien.Entity]:
@@ -48,10 +59,8 @@ class CarBody:
         for k, wheel in enumerate(self.wheels):
             front, side = k >= 2, 1.0 if k % 2 == 0 else -1.0
             angle = _ackermann(steer, self.wheelbase, side * half_track) if front else 0.0
-            local = sapien.Pose(
-                [self.wheelbase if front else 0.0, side * half_track, WHEEL_RADIUS * r],
-                _yaw_quat(angle),
-            )
+            ahead = (self.wheelbase if front else 0.0) - self.rear  # metres from the centre
+            local = sapien.Pose([ahead, side * half_track, WHEEL_RADIUS * r], _yaw_quat(angle))
             wheel.set_pose(base * local)
 
 
@@ -76,15 +85,15 @@ def build_car(scene: sapien.Scene, radius: float, materials: dict) -> CarBody:
     r = radius
     body = sapien.render.RenderBodyComponent()
     clearance, height = 0.12 * r, 0.35 * r
-    hull = trimesh.creation.box(extents=[1.6 * r, 1.0 * r, height])
-    hull.apply_translation([0.5 * r, 0.0, clearance + height / 2])
+    hull = trimesh.creation.box(extents=[BODY_LENGTH * r, BODY_WIDTH * r, height])
+    hull.apply_translation([0.0, 0.0, clearance + height / 2])
     body.attach(_shape(hull, materials["body"]))
     mast = trimesh.creation.box(
         extents=[0.08 * r, 0.08 * r, CAMERA_HEIGHT * r - clearance - height]
     )
-    mast.apply_translation([CAMERA_AHEAD * r, 0.0, (CAMERA_HEIGHT * r + clearance + height) / 2])
-    pod = trimesh.creation.box(extents=[0.12 * r, 0.16 * r, 0.1 * r])
-    pod.apply_translation([CAMERA_AHEAD * r, 0.0, CAMERA_HEIGHT * r])
+    mast.apply_translation([POD_AHEAD * r, 0.0, (CAMERA_HEIGHT * r + clearance + height) / 2])
+    pod = trimesh.creation.box(extents=[v * r for v in POD])
+    pod.apply_translation([POD_AHEAD * r, 0.0, CAMERA_HEIGHT * r])
     body.attach(_shape(trimesh.util.concatenate([mast, pod]), materials["mast"]))
     chassis = sapien.Entity()
     chassis.name = "car"
@@ -111,5 +120,5 @@ def build_car(scene: sapien.Scene, radius: float, materials: dict) -> CarBody:
 def camera_pose(radius: float, pitch_down_deg: float) -> sapien.Pose:
     """SAPIEN camera frame (x forward, y left, z up) on the chassis: the pod's front, tilted down."""
     angle = math.radians(pitch_down_deg)  # a positive turn about y points x down
-    position = np.array([CAMERA_AHEAD + 0.065, 0.0, CAMERA_HEIGHT]) * radius
+    position = np.array([CAMERA_AHEAD, 0.0, CAMERA_HEIGHT]) * radius
     return sapien.Pose(position.tolist(), [math.cos(angle / 2), 0.0, math.sin(angle / 2), 0.0])
