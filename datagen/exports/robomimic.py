@@ -24,6 +24,7 @@ from datagen.dataset.views import labelled_views
 from datagen.exports.checks import positive_metres, sample_metadata
 from datagen.exports.episodes import Episode, episodes, episodes_of, frames_of
 from datagen.exports.files import FailureRecordingFile
+from datagen.exports.left_out import LeftOut
 from datagen.exports.splits import is_valid
 from datagen.records import ExportedDataset, Manifest, SampleProgress
 
@@ -101,18 +102,23 @@ def _write(f: h5py.File, dataset, manifest, scale, first, on_progress) -> None:
     data = f.create_group("data")
     low, high = scale
     names = {"train": [], "valid": []}
-    total = 0
+    total, left = 0, LeftOut()
     for i in range(len(dataset)):
-        for episode in episodes_of(dataset, manifest, i):
+        written = {"json", "trajectory.npz"}  # the metadata and trajectory the demos come from
+        held = episodes_of(dataset, manifest, i)
+        for episode in held:
             name = f"demo_{len(names['train']) + len(names['valid'])}"
-            _demo(data.create_group(name), dataset, i, episode, scale)
+            written |= _demo(data.create_group(name), dataset, i, episode, scale)
             names["valid" if is_valid(episode.key) else "train"].append(name)
             total += episode.length
             if "action_names" not in data.attrs:
                 data.attrs["action_names"] = json.dumps(episode.action_names, allow_nan=False)
+        if held:  # a sample holding none is left out whole (docs/exports.md)
+            left.add(dataset.part_names(i), written)
         if on_progress:
             on_progress(i + 1, len(dataset))
     data.attrs["total"] = total
+    data.attrs["left_out"] = json.dumps(left.kinds())
     data.attrs["env_args"] = json.dumps(_env_args(dataset, manifest, first), allow_nan=False)
     data.attrs["action_min"] = low
     data.attrs["action_max"] = high
@@ -178,7 +184,8 @@ def _images(episode: Episode, raw: dict[str, bytes], far_m: float) -> dict[str, 
     return obs
 
 
-def _demo(group: h5py.Group, dataset, i: int, episode: Episode, scale) -> None:
+def _demo(group: h5py.Group, dataset, i: int, episode: Episode, scale) -> set[str]:
+    """One demo; returns the sample's parts it holds."""
     meta = sample_metadata(dataset, i)
     views = labelled_views(meta)
     wanted = episode.parts() | {f"{v.prefix}{n}.png" for v in views for n in _PERCEPTION}
@@ -202,12 +209,13 @@ def _demo(group: h5py.Group, dataset, i: int, episode: Episode, scale) -> None:
     group.attrs["ep_meta"] = json.dumps({"lang": episode.task}, allow_nan=False)
     if episode.depth:
         group.attrs["depth_far_m"] = far_m
-    _perception(group.create_group("perception"), episode, views, raw)
+    return episode.parts() | _perception(group.create_group("perception"), episode, views, raw)
 
 
-def _perception(group: h5py.Group, episode: Episode, views, raw: dict[str, bytes]) -> None:
+def _perception(group: h5py.Group, episode: Episode, views, raw: dict[str, bytes]) -> set[str]:
     """Grasp attempts: each labelled camera view of the sample (before the grasp) under its
-    camera's name; navigation: the frames' seg and semantic stacked like the episode's frames."""
+    camera's name; navigation: the frames' seg and semantic stacked like the episode's frames.
+    Returns the parts written."""
     if episode.kind in ("navigation", "aerial"):  # a sequence: its first camera's frames
         by_prefix = {v.prefix: v for v in views}
         frames = next(iter(episode.cameras.values()))  # the one camera's PNG part per frame
@@ -218,15 +226,18 @@ def _perception(group: h5py.Group, episode: Episode, views, raw: dict[str, bytes
         group.attrs["instances"] = json.dumps(
             [v.instances for v in kept], separators=(",", ":"), allow_nan=False
         )
-        return
+        return {f"{v.prefix}{kind}.png" for v in kept for kind in ("seg", "semantic")}
+    written = set()
     for view in views:
         sub = group.create_group(view.name or "workspace")
         for kind in _PERCEPTION:
             if f"{view.prefix}{kind}.png" in raw:
                 image = _decode(raw, view.prefix, kind)
                 sub.create_dataset(kind, data=image, compression="gzip", compression_opts=1)
+                written.add(f"{view.prefix}{kind}.png")
         sub.attrs["instances"] = json.dumps(view.instances, separators=(",", ":"), allow_nan=False)
         sub.attrs["camera"] = json.dumps(view.camera, separators=(",", ":"), allow_nan=False)
+    return written
 
 
 def _decode(raw: dict[str, bytes], prefix: str, kind: str) -> np.ndarray:

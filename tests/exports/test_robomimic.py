@@ -119,6 +119,8 @@ def test_robomimic_export_of_a_filmed_campaign(campaign_dataset, readers_python,
     demos = _check_common(f, items, manifest)
     _read_by_robomimic(readers_python, f, tmp_path)
     assert sorted(demos) == sorted(k for k, it in items.items() if "trajectory" in it)
+    # the sensor model's depth is the one part kind no demo holds, and the file says so
+    assert json.loads(f["data"].attrs["left_out"]) == ["depth_sensor.png", "wrist.depth_sensor.png"]
     for key, demo in demos.items():
         item, traj = items[key], items[key]["trajectory"]
         rows = np.searchsorted(traj["step"], traj["frame_step"])  # the filmed rows
@@ -161,6 +163,7 @@ def test_robomimic_export_of_navigation_episodes(navigation_dataset, readers_pyt
     demos = _check_common(f, items, manifest)
     _read_by_robomimic(readers_python, f, tmp_path)
     assert sorted(demos) == sorted(items)
+    assert json.loads(f["data"].attrs["left_out"]) == ["map.png", "occupancy.png", "poses.head.txt"]
     fps = manifest["config"]["navigation"]["frame_rate_hz"]
     for key, demo in demos.items():
         frames = [fr for fr in items[key]["frames"] if abs(fr["meta"]["time_s"] * fps - round(fr["meta"]["time_s"] * fps)) < 1e-6]  # fmt: skip
