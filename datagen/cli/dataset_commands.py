@@ -14,6 +14,8 @@ from datagen.registries import EXPORTS, choices
 
 log = logging.getLogger(__name__)
 MAX_PREVIEW = 256  # samples in a preview grid
+LEROBOT_ROBOTS = ("koch_follower", "so100_follower")  # datagen.exports.lerobot_robots.ARMS
+LEROBOT_UNITS = ("degrees", "range_m100_100")  # datagen.exports.lerobot_robots.UNITS
 
 
 def add_parsers(commands) -> None:
@@ -45,6 +47,17 @@ def add_parsers(commands) -> None:
         help=f"comma-separated formats: {','.join(EXPORTS)}",
     )
     export.add_argument("--force", action="store_true", help="redo exports already done")
+    export.add_argument(
+        "--lerobot-robot",
+        choices=LEROBOT_ROBOTS,
+        help="lerobot: write states and actions with this lerobot arm's motor names, order and "
+        "units (a so100 or koch campaign; docs/export-lerobot.md)",
+    )
+    export.add_argument(
+        "--lerobot-units",
+        choices=LEROBOT_UNITS,
+        help="with --lerobot-robot: its body joints' lerobot mode (default: the arm's own)",
+    )
 
     preview = commands.add_parser(
         "preview", help="draw annotated samples of a dataset into a PNG grid"
@@ -163,8 +176,11 @@ def run_export(args: argparse.Namespace) -> int:
         if done >= total:
             bar.close()
 
+    options = _export_options(args)
     try:
-        done = run_exports(args.dataset, args.to, force=args.force, on_progress=progress)
+        done = run_exports(
+            args.dataset, args.to, force=args.force, on_progress=progress, options=options
+        )
     finally:
         for bar in bars.values():
             bar.close()
@@ -174,6 +190,18 @@ def run_export(args: argparse.Namespace) -> int:
         print(f"datagen: {name}: {path} ({record['bytes'] / 2**20:.1f} MiB)")
     write_card(Path(args.dataset))  # lists the exports
     return 0
+
+
+def _export_options(args: argparse.Namespace) -> dict[str, dict[str, str]]:
+    """The formats' options from their flags; UserInputError if a flag's format is not in --to."""
+    if args.lerobot_units and not args.lerobot_robot:
+        raise UserInputError("--lerobot-units needs --lerobot-robot")
+    if not args.lerobot_robot:
+        return {}
+    if "lerobot" not in args.to:
+        raise UserInputError("--lerobot-robot applies to the lerobot export: add lerobot to --to")
+    units = {"units": args.lerobot_units} if args.lerobot_units else {}
+    return {"lerobot": {"robot": args.lerobot_robot, **units}}
 
 
 MAX_SKIP_LINES = 20  # skipped samples named one per line; the rest are counted

@@ -24,6 +24,14 @@ from datagen.dataset.manifest import DatasetError
 from datagen.exports import lerobot_meta as meta
 from datagen.exports.episodes import Episode, episodes_of, frames_of
 from datagen.exports.files import inside
+from datagen.exports.left_out import LeftOut
+from datagen.exports.lerobot_robots import (
+    UNITS,
+    LeRobotArm,
+    calibration,
+    in_lerobot_units,
+    lerobot_arm,
+)
 from datagen.exports.lerobot_video import VideoFiles, video_info
 from datagen.records import ExportedDataset, Manifest, SampleProgress
 
@@ -38,16 +46,27 @@ def export(
     manifest: Manifest,
     out: Path,
     on_progress: SampleProgress | None = None,
+    robot: str | None = None,
+    units: str | None = None,
 ) -> list[Path]:
+    """Writes ``out``; ``robot``: a lerobot arm (``lerobot_robots.ARMS``) whose motor names,
+    order and units the states and actions take, in ``units`` (its default if None)."""
     out.mkdir()
     writer: _Writer | None = None
     total = len(dataset)
     try:
         for i in range(total):
-            for episode in episodes_of(dataset, manifest, i):
+            held = episodes_of(dataset, manifest, i)
+            for episode in held:
                 raw = dataset.raw(i, episode.parts())
-                writer = writer or _Writer(out, manifest, episode, raw)
-                writer.add(episode, raw)
+                if writer is None:
+                    arm = _arm(robot, units, manifest, episode)
+                    writer = _Writer(out, manifest, _in_units(episode, arm, units), raw)
+                    writer.robot(arm, units)
+                writer.add(_in_units(episode, writer.arm, writer.units), raw)
+            if writer is not None and held:
+                written = {"json", "trajectory.npz"}.union(*(e.parts() for e in held))
+                writer.left_out.add(dataset.part_names(i), written)
             if on_progress:
                 on_progress(i + 1, total)
         if writer is None:
@@ -60,6 +79,21 @@ def export(
         if writer is not None:
             writer.abort()
         raise
+
+
+def _arm(
+    robot: str | None, units: str | None, manifest: Manifest, episode: Episode
+) -> LeRobotArm | None:
+    if robot is None:
+        return None
+    if units is not None and units not in UNITS:
+        raise DatasetError(f"unknown lerobot units {units!r}; expected one of {list(UNITS)}")
+    name = manifest.get("config", {}).get("robot", {}).get("name")
+    return lerobot_arm(robot, name, episode.kind)
+
+
+def _in_units(episode: Episode, arm: LeRobotArm | None, units: str | None) -> Episode:
+    return in_lerobot_units(episode, arm, units or arm.units) if arm else episode
 
 
 def _fps(episode: Episode) -> int:
@@ -138,6 +172,15 @@ class _Writer:
         self.rows: list[dict[str, Any]] = []
         self.stats: dict[str, dict[str, np.ndarray]] = {}
         self.episodes = self.frames = 0
+        self.left_out = LeftOut()  # kinds of the exported samples' parts written nowhere
+        self.arm: LeRobotArm | None = None
+        self.units: str | None = None
+
+    def robot(self, arm: LeRobotArm | None, units: str | None) -> None:
+        """Writes the states and actions as lerobot's ``arm`` records them (None: datagen's)."""
+        self.arm, self.units = arm, (units or arm.units) if arm else None
+        if arm:
+            self.robot_type = arm.robot_type
 
     def _check(self, episode: Episode) -> None:
         """Every episode must fill the first one's features."""
@@ -262,5 +305,12 @@ class _Writer:
         info = meta.info(
             self.features, self.fps, self.robot_type, self.episodes, self.frames, len(self.tasks)
         )
+        info["datagen"] = {"left_out": self.left_out.kinds()}
+        if self.arm and self.units:
+            info["datagen"] |= {
+                "lerobot_robot": self.arm.name,
+                "units": self.units,
+                "calibration": calibration(self.arm, self.units),
+            }
         written.append(meta.write_json(inside(self.out, "meta", "info.json"), info))
         return written

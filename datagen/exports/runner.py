@@ -14,13 +14,14 @@ not what datagen writes a DatasetError naming it.
 
 from __future__ import annotations
 
+import functools
 import logging
 import os
 import shutil
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from pathlib import Path
-from typing import NoReturn
+from typing import Any, NoReturn
 
 from datagen.dataset.manifest import DatasetError, read_manifest
 from datagen.dataset.values import BadSample
@@ -80,10 +81,12 @@ def run_exports(
     sinks,
     force: bool = False,
     on_progress: ExportProgress | None = None,
+    options: Mapping[str, Mapping[str, Any]] | None = None,
 ) -> dict[str, ExportRecord]:
     """Exports each of ``sinks`` (other than the webdataset store) not yet recorded in the
     manifest or no longer there, or every one with ``force``; returns the manifest's
-    ``exports`` record."""
+    ``exports`` record. ``options``: format -> keyword arguments of its export function
+    (``{"lerobot": {"robot": "so100_follower"}}``); a format given options is written again."""
     from datagen.dataset.loader import load
 
     unknown = [s for s in sinks if s != STORE and s not in EXPORTS]
@@ -96,20 +99,24 @@ def run_exports(
     recorded = manifest.get("exports", {})
     done = dict(recorded) if isinstance(recorded, dict) else {}
     missing = {s for s in done if s in EXPORTS and not os.path.lexists(root / EXPORTS[s].path)}
-    todo = [EXPORTS[s] for s in sinks if s in EXPORTS and (force or s not in done or s in missing)]
+    options = options or {}
+    redo = {s for s in sinks if force or s not in done or s in missing or options.get(s)}
+    todo = [EXPORTS[s] for s in sinks if s in EXPORTS and s in redo]
     if not todo:
         return done
     for fmt in todo:  # refuse before writing anything
         check_world(fmt, manifest, root)
     dataset = load(root)
     for fmt in todo:
-        done[fmt.name] = _export(root, fmt, dataset, manifest, done, on_progress)
+        export = functools.partial(fmt.load(), **options.get(fmt.name, {}))
+        done[fmt.name] = _export(root, fmt, export, dataset, manifest, done, on_progress)
     return done
 
 
 def _export(
     root: Path,
     fmt: ExportFormat,
+    export: Callable[..., object],
     dataset: ExportedDataset,
     manifest: Manifest,
     done: dict[str, ExportRecord],
@@ -128,7 +135,7 @@ def _export(
             on_progress(fmt.name, count, total)
 
     try:
-        fmt.load()(dataset, manifest, tmp, on_progress=progress)
+        export(dataset, manifest, tmp, on_progress=progress)
         write_export_card(tmp, fmt, dataset)  # README.md + croissant.json in its folder
         fsync_tree(tmp)
     except BaseException as exc:

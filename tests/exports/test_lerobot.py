@@ -200,6 +200,10 @@ def test_aerial_export_is_read_by_lerobot_one_episode_per_drone(
     read, out = _read(readers_python, tmp_path)
     assert read["features"]["observation.depth.down"] == [72, 96]
     assert read["episodes"] == 4  # two episodes of two drones
+    info = json.loads((root / "lerobot" / "meta" / "info.json").read_text())
+    left_out = info["datagen"]["left_out"]  # what the export says it leaves out
+    assert {"f<k>.d0.flow.png", "f<k>.d0.seg.png", "map.png", "occupancy.npz"} <= set(left_out)
+    assert not {"f<k>.d0.rgb.png", "f<k>.d0_down.depth.png", "json"} & set(left_out)
     # a downward view is a textured floor filling the frame: yuv420p's halved colour loses more
     _check(read, out, root, robot_type="quadrotor", psnr_bound=AERIAL_PSNR_BOUND_DB)
 
