@@ -174,6 +174,14 @@ def _header(doc: dict[str, Any]) -> str:
     return "---\n" + yaml.safe_dump(doc, sort_keys=False, allow_unicode=True) + "---\n"
 
 
+# a statistic whose name alone would mislead -> what it counts
+STATISTIC_LABELS = {
+    "visible_fraction_histogram": "visible fraction histogram, targets and distractors "
+    "together: objects per bin of the fraction of each object the workspace camera sees (an "
+    "object it does not see counts in the first bin)",
+}
+
+
 def _statistics(summary: dict[str, Any]) -> list[str]:
     if not summary:
         return ["No statistics: no sample's metadata could be summarised."]
@@ -182,7 +190,8 @@ def _statistics(summary: dict[str, Any]) -> list[str]:
     lines += [f"| {text(str(k).replace('_', ' '))} | {text(v)} |" for k, v in flat.items()]
     for name, value in summary.items():
         if isinstance(value, dict) and value:
-            lines += ["", f"**{text(str(name).replace('_', ' '))}**", ""]
+            label = STATISTIC_LABELS.get(name, str(name).replace("_", " "))
+            lines += ["", f"**{text(label)}**", ""]
             if all(not isinstance(v, dict | list) for v in value.values()):
                 rows = (f"| {text(k)} | {text(v)} |" for k, v in value.items())
                 lines += ["| | |", "|---|---|", *rows]
