@@ -28,11 +28,9 @@ _FRAME = re.compile(r"^(frame|f)\d+$")
 
 def _records(readers_python: Path, dataset: Path, cache: Path) -> dict:
     cache.mkdir()
-    done = subprocess.run(
-        [str(readers_python), str(READER), str(dataset / "croissant.json"), str(FIRST)],
-        capture_output=True, text=True, timeout=600, check=False,
-        env={"CROISSANT_CACHE": str(cache), "PATH": "/usr/bin:/bin", "HOME": str(cache)},
-    )  # fmt: skip
+    command = [str(readers_python), str(READER), str(dataset / "croissant.json"), str(FIRST)]
+    env = {"CROISSANT_CACHE": str(cache), "PATH": "/usr/bin:/bin", "HOME": str(cache)}
+    done = subprocess.run(command, capture_output=True, text=True, timeout=600, env=env)
     assert done.returncode == 0, done.stderr[-3000:]
     return json.loads(done.stdout.strip().splitlines()[-1])
 
