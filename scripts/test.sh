@@ -4,7 +4,7 @@
 set -euo pipefail
 ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 bash "$ROOT/scripts/install.sh"
-# the readers the export tests load datagen's exports with (lerobot 0.4.4, mlcroissant), in an
+# the readers the export tests load datagen's exports with (lerobot 0.4.4, mlcroissant, robomimic), in an
 # environment of their own (.venv-readers): made once (minutes), then checked; in the background
 # while the checks and the pure tests run, which do not use it
 READERS_LOG="$(mktemp)"

@@ -288,7 +288,7 @@ def frames_dataset(tmp_path_factory) -> Path:
 @pytest.fixture(scope="session")
 def readers_python() -> Path:
     """The interpreter of the separate environment (``.venv-readers``, made by
-    scripts/readers_env.sh, which the test command runs) with lerobot 0.4.4 and mlcroissant, the
+    scripts/readers_env.sh, which the test command runs) with lerobot 0.4.4, mlcroissant and robomimic, the
     readers the export tests load datagen's exports with."""
     python = REPO / ".venv-readers" / "bin" / "python"
     if not python.exists():
