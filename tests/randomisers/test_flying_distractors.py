@@ -168,9 +168,23 @@ def _photo_library(root) -> None:
     data = cv2.imencode(".jpg", picture)[1].tobytes()
     (root / "mine").mkdir(parents=True)
     (root / "mine" / "halves.jpg").write_bytes(data)
-    entry = {"path": "mine/halves.jpg", "source": "mine", "kind": "photo", "width": 64,
-             "height": 48, "sha256": hashlib.sha256(data).hexdigest()}  # fmt: skip
-    manifest = {"version": 1, "sources": {"mine": {"kind": "photo", "files": 1}}, "files": [entry]}
+    digest = hashlib.sha256(data).hexdigest()
+    entry = {
+        "path": "mine/halves.jpg",
+        "source": "mine",
+        "kind": "photo",
+        "width": 64,
+        "height": 48,
+        "sha256": digest,
+        "original_sha256": digest,
+        "package": "mine==1.0",
+        "member": "halves.jpg",
+        "licence": "CC0-1.0",
+        "copyright": "datagen's tests",
+        "url": "",
+    }
+    source = {"package": "mine==1.0", "registry": "pip", "kind": "photo", "url": "", "files": 1}
+    manifest = {"version": 1, "sources": {"mine": source}, "files": [entry]}
     (root / "manifest.json").write_text(json.dumps(manifest))
 
 
