@@ -13,7 +13,8 @@ from typing import Any
 
 import numpy as np
 
-FAILURE_MODES = ("missed", "slipped", "collision", "unreachable", "no_candidate")
+# "disturbed": an object moved faster than the hand could push it (datagen.grasping.disturbance)
+FAILURE_MODES = ("missed", "slipped", "collision", "unreachable", "no_candidate", "disturbed")
 
 
 @dataclass(frozen=True)
@@ -52,6 +53,8 @@ class GraspOutcome:
     lift_height: float  # metres the target's centre rose between grasp and the end of the hold
     gripper_width: float  # metres between the fingers at the end of the hold
     details: dict[str, Any] = field(default_factory=dict)
+    # the grasp as executed (datagen.grasping.executed), for attempt.grasp: not in to_json
+    executed: dict[str, Any] | None = None
 
     def to_json(self) -> dict[str, Any]:
         return {

@@ -5,7 +5,9 @@ along -approach), move straight to the grasp pose while watching contacts, close
 with force-limited drives, lift straight up in world z, hold, then label the attempt. The robot
 follows each planned trajectory one point per physics step through its joint drives, with
 gravity compensation as in ManiSkill. Never raises for a bad candidate: planning failures are
-labelled "unreachable".
+labelled "unreachable". An attempt in which an object moved faster than the hand could push it
+is labelled "disturbed" (:mod:`datagen.grasping.disturbance`); the grasp frame at closure is
+kept beside the planned one (:mod:`datagen.grasping.executed`).
 """
 
 from __future__ import annotations
@@ -17,10 +19,15 @@ import numpy as np
 import sapien
 
 from datagen.grasping import GraspCandidate, GraspOutcome
+from datagen.grasping.disturbance import DisturbanceWatch
+from datagen.grasping.executed import executed_grasp
 from datagen.grasping.gripper_geometry import gripper_geometry
 from datagen.grasping.planner import make_planner, plan_straight, plan_transit, remove_obstacles
 from datagen.grasping.recording import Recorder, StepState
+from datagen.robot_specs import RobotSpec
 from datagen.worlds.tabletop import GraspScene
+
+RigidBody = sapien.physx.PhysxRigidDynamicComponent
 
 
 @dataclass(frozen=True)
@@ -67,19 +74,30 @@ class _Runner:
         self.geometry, self.jaw = gripper_geometry(spec), spec.gripper.jaw
         self.closed = float(self.geometry.widths[0])  # metres between the pads, fully closed
         self.target = next(o.entity for o in scene.objects if o.instance_id == target_id)
-        self.steps = 0
+        self.steps, self.phase = 0, ""
+        bodies = [
+            (o.instance_id, o.entity.find_component_by_type(RigidBody)) for o in scene.objects
+        ]
+        self.watch = DisturbanceWatch(self.robot, bodies, self.dt)
+        self._set_up(spec, links)
+        self.arm_target = self.robot.get_qpos()[self.arm_index].astype(float)
+        self.finger_target = float(self.robot.get_qpos()[self.finger_index[0]])
+
+    def _set_up(self, spec: RobotSpec, links: dict[str, Any]) -> None:
+        """The drives, armature and gripper friction the attempt runs with."""
         for joint in self.arm:
-            joint.set_drive_property(*params.arm_drive)
+            joint.set_drive_property(*self.params.arm_drive)
         for joint in self.fingers:
-            joint.set_drive_property(*(spec.gripper.drive or params.gripper_drive))
+            joint.set_drive_property(*(spec.gripper.drive or self.params.gripper_drive))
+        if spec.armature:
+            for joint in self.arm + self.fingers:
+                joint.set_armature([spec.armature])
         if spec.gripper.friction is not None:  # set here: the scene settled with the default
             friction = spec.gripper.friction
             material = sapien.physx.PhysxMaterial(friction, friction, 0.0)
             for name in spec.gripper.links:
                 for shape in links[name].get_collision_shapes():
                     shape.set_physical_material(material)
-        self.arm_target = self.robot.get_qpos()[self.arm_index].astype(float)
-        self.finger_target = float(self.robot.get_qpos()[self.finger_index[0]])
 
     def step(self, arm: np.ndarray, arm_vel: np.ndarray | None = None) -> float:
         """One physics step; returns the largest robot vs non-target contact impulse."""
@@ -95,6 +113,7 @@ class _Runner:
         )
         self.scene.step()
         self.steps += 1
+        self.watch.observe(self.steps, self.phase)
         self.arm_target = np.asarray(arm, float)
         self.impulse = self.collision_impulse()
         return self.impulse
@@ -119,6 +138,7 @@ class _Runner:
         )
 
     def begin_phase(self, name: str) -> None:
+        self.phase = name
         if self.recorder is not None:
             self.recorder.begin_phase(name, self.steps)
 
@@ -203,6 +223,7 @@ def execute_grasp(
     records it step by step (phases: ``datagen.dataset.trajectory.PHASES``)."""
     run = _Runner(scene, target_instance_id, params, recorder)
     details: dict[str, Any] = {"params": asdict(params)}
+    executed: dict[str, Any] | None = None  # set once the fingers have closed
     if scene.spec.gripper.drive is not None:  # the robot's own, in place of the default
         details["params"]["gripper_drive"] = list(scene.spec.gripper.drive)
 
@@ -210,7 +231,12 @@ def execute_grasp(
         run.finish()
         details["steps"] = run.steps
         details["simulated_time"] = round(run.steps * run.dt, 6)
-        return GraspOutcome(success, mode, round(rise, 6), round(run.width(), 6), details)
+        details["disturbance"] = run.watch.to_json()
+        if run.watch.disturbed:  # the label the attempt would have had, kept beside
+            details["disturbance"]["label"] = {"success": success, "failure_mode": mode}
+            success, mode = False, "disturbed"
+        width = round(run.width(), 6)
+        return GraspOutcome(success, mode, round(rise, 6), width, details, executed)
 
     max_width = run.geometry.max_width
     width = max_width if params.open_fully else min(max_width, candidate.width + params.open_margin)
@@ -249,6 +275,13 @@ def execute_grasp(
 
     run.begin_phase("close")
     run.move_fingers(0.0)  # closed
+    executed = executed_grasp(
+        np.asarray(candidate.pose_world, float),
+        run.tcp.entity_pose.to_transformation_matrix(),
+        tcp_in_grasp,
+        run.robot.get_qpos()[run.joint_index],
+        run.steps * run.dt,
+    )
     run.begin_phase("lift")
     start_z = float(run.target.get_pose().p[2])
     held_after_close = run.held() and run.width() > run.closed + params.closed_width

@@ -67,6 +67,18 @@ def make_planner(
     return planner
 
 
+def _static_box(shape: sapien.physx.PhysxCollisionShape) -> tuple[np.ndarray, sapien.Pose] | None:
+    """(full size, pose in the body) of a static box, or of a convex mesh's bounds in its frame
+    (a campaign's static boxes are convex meshes of their corners: datagen.grasping.contacts)."""
+    if isinstance(shape, sapien.physx.PhysxCollisionShapeBox):
+        return 2 * np.asarray(shape.half_size, float), shape.get_local_pose()
+    if isinstance(shape, sapien.physx.PhysxCollisionShapeConvexMesh):
+        vertices = np.asarray(shape.get_vertices(), float) * np.asarray(shape.get_scale(), float)
+        lo, hi = vertices.min(axis=0), vertices.max(axis=0)
+        return hi - lo, shape.get_local_pose() * sapien.Pose((lo + hi) / 2)
+    return None
+
+
 def _obstacles(scene: sapien.Scene, objects: list[SceneObject]):
     """(name, full box size, world pose) of static boxes and object bounding boxes."""
     for i, entity in enumerate(scene.get_entities()):
@@ -74,9 +86,9 @@ def _obstacles(scene: sapien.Scene, objects: list[SceneObject]):
         if body is None:
             continue
         for j, shape in enumerate(body.get_collision_shapes()):
-            if isinstance(shape, sapien.physx.PhysxCollisionShapeBox):
-                pose = entity.get_pose() * shape.get_local_pose()
-                yield f"static_{i}_{j}", 2 * np.asarray(shape.half_size, float), pose
+            box = _static_box(shape)
+            if box is not None:
+                yield f"static_{i}_{j}", box[0], entity.get_pose() * box[1]
     for obj in objects:
         pose = obj.entity.get_pose() * sapien.Pose(obj.geometry.obb_transform)
         yield f"object_{obj.instance_id}", np.asarray(obj.geometry.obb_extents, float), pose

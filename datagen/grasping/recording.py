@@ -54,8 +54,9 @@ class Recorder:
         arm_joints: Sequence[str],
         frame_hz: float = 0.0,
         on_frame: Callable[[int], None] | None = None,
+        finger_unit: str = "m",
     ):
-        self.timestep = timestep
+        self.timestep, self.finger_unit = timestep, finger_unit
         self.row_every = steps_per_sample(record_hz, timestep, "campaign.record_hz")
         self.frame_every = (
             steps_per_sample(frame_hz, timestep, "campaign.frame_hz") if frame_hz > 0 else 0
@@ -132,6 +133,8 @@ class Recorder:
                 *(f"{name}.velocity" for name in self.arm_joints),
                 "finger_target",
             ],
+            # each prismatic finger's travel (m), or a jaw's angle (rad)
+            "finger_target_unit": self.finger_unit,
             "contact_names": list(CONTACT_NAMES),
             "phases": list(PHASES),
             "timestep": round(self.timestep, 9),  # s (the scene's, stored as float32)

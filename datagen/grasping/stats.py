@@ -16,7 +16,9 @@ def campaign_stats(
     outcomes: Iterable[Mapping[str, Any]], seconds: float | None = None
 ) -> dict[str, Any]:
     """Success rates overall, per sampler and per shape family, and failure-mode counts, of
-    grasp outcomes (each sample counted once)."""
+    grasp outcomes (each sample counted once). ``disturbed`` attempts (an object moved faster
+    than the hand could push it: ``datagen.grasping.disturbance``) are failures of the physics,
+    not of the grasp: counted apart, and left out of ``success_rate_undisturbed``."""
     total, successes = 0, 0
     by_sampler: dict[str, list[int]] = defaultdict(lambda: [0, 0])
     by_family: dict[str, list[int]] = defaultdict(lambda: [0, 0])
@@ -40,10 +42,13 @@ def campaign_stats(
             for k, (a, s) in sorted(table.items())
         }
 
+    disturbed = failures["disturbed"]
     stats = {
         "attempts": total,
         "successes": successes,
         "success_rate": _rate(successes, total),
+        "disturbed": disturbed,
+        "success_rate_undisturbed": _rate(successes, total - disturbed),
         "per_sampler": rows(by_sampler),
         "per_family": rows(by_family),
         "failure_modes": dict(sorted(failures.items())),

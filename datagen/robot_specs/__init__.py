@@ -97,6 +97,10 @@ class RobotSpec:
     # five arm joints (pan, three pitches, wrist roll): a grasp's approach must lie in the
     # vertical plane through the base, which the antipodal sampler then keeps to
     approach_in_base_plane: bool = False
+    # kg·m² added to every active joint's inertia from the start of a grasp attempt (a servo's
+    # rotor seen through its gearbox); 0: the links' own. A jaw squeezing an object between
+    # links of 1e-5 kg·m² left the solver's error in the arm joints (so100: 0.14 rad)
+    armature: float = 0.0
 
     @property
     def joint_names(self) -> tuple[str, ...]:

@@ -56,4 +56,7 @@ KOCH = RobotSpec(
     object_scale=0.5,  # objects of 1.5-5 cm (the Panda's 3-10 cm): what a small jaw holds
     approach_in_base_plane=True,
     mount=(0.0, 0.0, 0.001),  # 1 mm clear of the table top, which the planner counts as touching
+    # kg·m² per joint while grasping: without it the squeezing jaw left the wrist 0.15 rad
+    # from its command through lift and hold (docs/robots.md)
+    armature=0.01,
 )

@@ -25,6 +25,7 @@ from datagen.engines.sim.picture_conversion import rgb_from_colour
 from datagen.engines.sim.render import keep_renderer_alive
 from datagen.geometry import pose_record
 from datagen.grasping import GraspOutcome
+from datagen.grasping.contacts import sat_twin
 from datagen.grasping.execute import ExecutionParams, execute_grasp
 from datagen.grasping.gripper_geometry import gripper_geometry
 from datagen.grasping.recording import Recorder
@@ -103,6 +104,7 @@ def _recorder(config: BuildConfig, scene: GraspScene, parts: dict[str, bytes]) -
         scene.spec.arm_joints,
         campaign.frame_hz,
         film,
+        "rad" if scene.spec.gripper.jaw else "m",
     )
 
 
@@ -118,7 +120,8 @@ def _approach_plane_through(scene: GraspScene) -> tuple[float, float] | None:
 def produce(config: BuildConfig, seed: int, index: int, attempt: int = 0) -> Sample:
     keep_renderer_alive()
     campaign = scaled_to_robot(config).campaign  # pre-grasp and lift distances for a small arm
-    scene = build_scene(config, seed, index, attempt)
+    # settled as grasp_tabletop's, then built again where PCM launches nothing (its module)
+    scene = sat_twin(config, build_scene(config, seed, index, attempt))
     pre = annotate_scene(scene, config, seed, index, attempt=attempt)
     workspace = pre.metadata["views"]["workspace"]
     target = choose_target(sample_rng(seed, index, "grasp_target", attempt), scene, workspace)
@@ -165,6 +168,7 @@ def produce(config: BuildConfig, seed: int, index: int, attempt: int = 0) -> Sam
             "pose_camera": pose_record(extrinsics @ candidate.pose_world),
             "tries": result.tries,
         }
+        grasp |= outcome.executed or {"executed_pose_world": None}  # None: never closed
     target_meta = next(o for o in pre.metadata["objects"] if o["instance_id"] == target.instance_id)
     record = {
         "attempt_id": pre.metadata["key"],

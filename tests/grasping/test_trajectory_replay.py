@@ -17,6 +17,7 @@ from datagen.config import BuildConfig
 from datagen.config.sections import CampaignConfig, RenderConfig
 from datagen.dataset.loader import decode_parts, load
 from datagen.exports.runner import run_exports
+from datagen.grasping.contacts import sat_twin
 from datagen.grasping.execute import ExecutionParams
 from datagen.scenes.grasp_attempts import produce
 from datagen.tools.inspection import inspect_dataset
@@ -50,7 +51,7 @@ def recorded():
 def _replay(index: int, trajectory: dict, target_id: int) -> tuple[np.ndarray, np.ndarray, bool]:
     """Joint states before each recorded row's step, the target's height at each physics
     step, and whether both fingers touch it at the end."""
-    scene = build_scene(CONFIG, SEED, index)
+    scene = sat_twin(CONFIG, build_scene(CONFIG, SEED, index))  # as the campaign's
     spec, robot, params = scene.spec, scene.robot, ExecutionParams()
     joints = {joint.get_name(): joint for joint in robot.get_active_joints()}
     arm = [joints[name] for name in spec.arm_joints]
