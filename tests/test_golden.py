@@ -29,7 +29,12 @@ re-recorded; ``grasp_flat`` (the robot out of view) its ``rgb.png`` and sample 0
 fractions); navigation its ``rgb.png`` frames (shadow edges). Issue 28 made a navigation episode's
 ``shortest_path_m`` a true lower bound, gave it a TartanAir-style ``poses.head.txt`` and named the
 commands of its robot (its JSON re-recorded, the pose file added), and added an aerial episode
-(``configs/aerial_corridor.yaml``, two drones). The
+(``configs/aerial_corridor.yaml``, two drones). Issue 39 re-recorded, on the AVX-512 class only
+(the AVX2 digests of those parts are null until recorded there): the aerial sample (a
+conservative voxel grid changes the flights; IMU streams, NED pose files, Habitat's SPL), the
+``nav_maze`` sample's JSON, pose file and frames after the first (Fetch's step an exact arc,
+trajectories to 6 digits, each frame's action) and the campaign sample's JSON, trajectory and
+post-grasp frames (attempts run in a rebuilt scene with SAT contacts; executed grasp poses). The
 digests were recorded with Mesa's lavapipe (llvmpipe) on x86-64, as on CI; another renderer draws
 other pixels, so the test runs only there. The same commit draws other bytes on a CPU with
 AVX-512 than on one with AVX2 only, so each class has its digests (:func:`cpu_class`):
