@@ -89,7 +89,9 @@ def _view_images(raw: dict[str, bytes], view: LabelledView) -> tuple[np.ndarray,
     if "distortion" not in camera:
         return rgb, raw[f"{p}depth.png"], depth, seg, K
     pinhole = view_camera(view, "render_intrinsics")[0]
-    maps = _undistort_maps(tuple(K.ravel()), lens_distortion(view), tuple(pinhole.ravel()), seg.shape[1], seg.shape[0])  # fmt: skip
+    maps = _undistort_maps(
+        tuple(K.ravel()), lens_distortion(view), tuple(pinhole.ravel()), seg.shape[1], seg.shape[0]
+    )
     rgb = cv2.remap(rgb, *maps, cv2.INTER_LINEAR, borderMode=cv2.BORDER_CONSTANT)
     depth = cv2.remap(depth, *maps, cv2.INTER_NEAREST, borderMode=cv2.BORDER_CONSTANT)
     seg = cv2.remap(seg, *maps, cv2.INTER_NEAREST, borderMode=cv2.BORDER_CONSTANT)

@@ -90,7 +90,10 @@ def _camera(stage, name: str, camera: dict[str, Any]) -> None:
     usd_camera.CreateClippingRangeAttr(Gf.Vec2f(camera["near"], camera["far"]))
     prim = usd_camera.GetPrim()
     prim.SetCustomDataByKey("datagen:intrinsics", json.dumps(camera["intrinsics"], allow_nan=False))
-    prim.SetCustomDataByKey("datagen:extrinsics_world_to_camera", json.dumps(camera["extrinsics_world_to_camera"], allow_nan=False))  # fmt: skip
+    prim.SetCustomDataByKey(
+        "datagen:extrinsics_world_to_camera",
+        json.dumps(camera["extrinsics_world_to_camera"], allow_nan=False),
+    )
     prim.SetCustomDataByKey("datagen:resolution", Gf.Vec2i(w, h))
     for key in ("distortion", "distortion_model", "render_intrinsics"):
         if key in camera:
@@ -158,7 +161,9 @@ def scene_stage(meta: dict[str, Any], out_dir: str | Path | None = None) -> Usd.
     world.GetPrim().SetCustomDataByKey("datagen:key", key)
     world.GetPrim().SetCustomDataByKey("datagen:seed", int(meta["seed"]))
     world.GetPrim().SetCustomDataByKey("datagen:scene", meta["scene"])
-    world.GetPrim().SetCustomDataByKey("datagen:randomisation", json.dumps(meta["randomisation"], sort_keys=True, allow_nan=False))  # fmt: skip
+    world.GetPrim().SetCustomDataByKey(
+        "datagen:randomisation", json.dumps(meta["randomisation"], sort_keys=True, allow_nan=False)
+    )
     materials = meta["randomisation"]["materials"]
     robot = meta["robot"]
     ws = Workspace(float(robot.get("workspace_scale", 1.0)), float(robot.get("object_scale", 1.0)))

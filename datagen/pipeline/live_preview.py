@@ -49,7 +49,11 @@ def thumbnail(sample: Sample, width: int = PREVIEW_WIDTH) -> np.ndarray | None:
     Drawn at thumbnail size (the images are scaled down first): ~10 ms of CPU for 640x480, mostly
     decoding the PNGs."""
     wanted = {"rgb.png": "rgb", "seg.png": "seg", "map.png": "map"}
-    item = {field: _decoded(sample.parts[name], name) for name, field in wanted.items() if name in sample.parts}  # fmt: skip
+    item = {
+        field: _decoded(sample.parts[name], name)
+        for name, field in wanted.items()
+        if name in sample.parts
+    }
     meta = sample.metadata if "json" in sample.parts else None
     # cv2.imdecode gives the stored RGB PNGs in BGR order, which is what cv2.imencode expects
     if "map" in item:
