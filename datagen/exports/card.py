@@ -176,9 +176,10 @@ def _header(doc: dict[str, Any]) -> str:
 
 # a statistic whose name alone would mislead -> what it counts
 STATISTIC_LABELS = {
-    "visible_fraction_histogram": "visible fraction histogram, targets and distractors "
-    "together: objects per bin of the fraction of each object the workspace camera sees (an "
-    "object it does not see counts in the first bin)",
+    "visible_fraction_targets": "visible fraction of the targets: targets per bin of the "
+    "fraction of each the workspace camera sees (one it does not see counts in the first bin)",
+    "visible_fraction_distractors": "visible fraction of the distractors: the same for the "
+    "distractors (class distractor), counted apart from the targets",
 }
 
 

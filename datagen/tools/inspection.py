@@ -56,14 +56,19 @@ _SAMPLE_VALUES: dict[str, Callable[[SampleMetadata], list[float]]] = {
     "objects per scene": lambda m: [len(m["objects"])],
     "object mass (kg)": lambda m: [o["mass"] for o in m["objects"]],
     "object friction": lambda m: [o["friction"] for o in m["objects"]],
-    "visible fraction": lambda m: [
-        o["visible_fraction"] for o in m["views"]["workspace"]["objects"]
-    ],
+    "visible fraction, targets": lambda m: _visible(m, "target"),
+    "visible fraction, distractors": lambda m: _visible(m, "distractor"),
     "ambient light": lambda m: [m["randomisation"]["lighting"]["ambient"]],
     "lights": lambda m: [len(m["randomisation"]["lighting"]["lights"])],
     "camera fovy (deg)": lambda m: [m["randomisation"]["camera"]["fovy_deg"]],
     "camera eye z (m)": lambda m: [m["randomisation"]["camera"]["eye"][2]],
 }
+
+
+def _visible(meta: SampleMetadata, role: str) -> list[float]:
+    """Visible fractions of the workspace view's objects of one ``role`` (target, distractor)."""
+    objects = meta["views"]["workspace"]["objects"]
+    return [o["visible_fraction"] for o in objects if o.get("role", "target") == role]
 
 
 def _sample_distributions(metas: list[SampleMetadata]) -> dict[str, list[float]]:
@@ -157,13 +162,15 @@ def _histogram(values: list[float], bins: int = 5) -> dict[str, int]:
 
 def _sample_summary(metas: Sequence[SampleMetadata]) -> dict[str, Any]:
     classes = Counter(o["class"] for m in metas for o in m["objects"])
-    visible = [o["visible_fraction"] for m in metas for o in m["views"]["workspace"]["objects"]]
+    targets = [v for m in metas for v in _visible(m, "target")]
+    distractors = [v for m in metas for v in _visible(m, "distractor")]
     panels = randomisation_panels(metas)
     return {
         "samples": len(metas),
         "objects": sum(classes.values()),
         "objects_per_class": dict(sorted(classes.items())),
-        "visible_fraction_histogram": _histogram(visible),
+        "visible_fraction_targets": _histogram(targets),
+        "visible_fraction_distractors": _histogram(distractors),
         "surface_textures": dict(sorted(panels["surface textures"].items())),
         "distractors": int(sum(panels["distractors per scene"])),
     }
@@ -335,7 +342,8 @@ def summary_fields(meta: SampleMetadata) -> SampleMetadata:
         {"class": o["class"], "shape": {"family": o["shape"]["family"]}} for o in meta["objects"]
     ]
     seen = meta["views"]["workspace"]["objects"]
-    cut["views"] = {"workspace": {"objects": [{"visible_fraction": o["visible_fraction"]} for o in seen]}}  # fmt: skip
+    kept = ("visible_fraction", "role")
+    cut["views"] = {"workspace": {"objects": [{k: o[k] for k in kept if k in o} for o in seen]}}
     drawn = meta.get("randomisation", {})
     materials = drawn.get("materials", {})
     cut["randomisation"] = {
