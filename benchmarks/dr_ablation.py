@@ -17,9 +17,10 @@ Training sets, equal sizes, the same seed and sample indices, built by the real 
 (``run_build``: workers, MQTT, writer, shards) at 160x120 with ``render.views`` views per scene,
 all with the training texture families, lighting within the training band, photographs of
 the training sources only (``photos.sources``), and the same camera for every set and test
-domain: the close-up of ``configs/grasp_closeup.yaml`` (from the default camera behind the arm
-the objects are a pixel or two at the net's 80x60, and a set that differs in viewpoint would
-measure the viewpoint, not the appearance):
+domain: the close-up of ``configs/grasp_closeup.yaml`` with its arm folded back out of view and
+no wrist camera (from the default camera behind the arm the objects are a pixel or two at the
+net's 80x60, and a set that differs in viewpoint would measure the viewpoint, not the
+appearance; so issue 39's wrist camera over the tray left these frames as they were):
 
 - ``a_flat``: ``configs/grasp_flat.yaml`` (flat colours, primitives, nothing around);
 - ``b_textures_room``: (a) with procedural textures and the room (no photographs);
@@ -98,8 +99,10 @@ def variant_configs(scenes: int, test_scenes: int, views: int) -> tuple[dict, di
 
     flat = read_yaml(REPO / "configs/grasp_flat.yaml")
     default = read_yaml(REPO / "configs/grasp_tabletop.yaml")
-    size = {"render": {"width": 160, "height": 120, "views": views, "shadow_map_size": 512},
-            "camera": read_yaml(REPO / "configs/grasp_closeup.yaml")["camera"]}  # fmt: skip
+    closeup = read_yaml(REPO / "configs/grasp_closeup.yaml")
+    size = {"render": {"width": 160, "height": 120, "views": views, "shadow_map_size": 512,
+                       "wrist_camera": False},
+            "camera": closeup["camera"], "robot": closeup["robot"]}  # fmt: skip
     train = size | {"num_samples": scenes, "seed": 1, "lighting": TRAIN_LIGHTING}
     families = {"materials": {"texture_families": TRAIN_TEXTURES}}
     room = {"materials": _merge(default["materials"], families["materials"]),

@@ -31,17 +31,46 @@ class UrdfRobotConfig:
     srdf: str = ""  # collision pairs the planner may skip; "" = generated once and cached
 
 
+ROBOT_POSES = ("look", "ready")
+
+
+@dataclass(frozen=True)
+class LookConfig:
+    """Where ``robot.pose: look`` puts the wrist camera (lengths for the Panda's workspace,
+    scaled with a small arm's)."""
+
+    height: tuple[float, float] = field(
+        default=(0.32, 0.42),
+        metadata=_range(0.05, 1.0, "wrist camera above the tray floor, metres"),
+    )
+    offset: float = field(
+        default=0.04, metadata=_range(0.0, 0.2, "look-at point from the tray centre, metres/axis")
+    )
+    tilt_deg: tuple[float, float] = field(
+        default=(0.0, 15.0), metadata=_range(0.0, 45.0, "view direction from straight down")
+    )
+    roll_deg: tuple[float, float] = field(
+        default=(-20.0, 20.0), metadata=_range(-180.0, 180.0, "image up from away-from-the-base")
+    )
+
+
 @dataclass(frozen=True)
 class RobotConfig:
     name: str = "panda"
+    pose: str = "look"  # look: wrist camera over the tray (robot.look); ready: the ready pose
     joint_jitter: float = field(
         default=0.15, metadata=_range(0.0, 1.0, "radians around the ready pose, per arm joint")
     )
+    look: LookConfig = field(default_factory=LookConfig)
     urdf: UrdfRobotConfig = field(default_factory=UrdfRobotConfig)
 
 
 def robot_spec(cfg: RobotConfig, source: str = "<config>") -> RobotSpec:
     """The record of the configured arm; a ConfigError naming the key when it is not usable."""
+    if cfg.pose not in ROBOT_POSES:
+        raise ConfigError(
+            f"{source}: robot.pose: expected one of {list(ROBOT_POSES)}, got {cfg.pose!r}"
+        )
     if not cfg.urdf.file:
         return ROBOTS.check(cfg.name, f"{source}: robot.name").load()
     if cfg.name in ROBOTS:

@@ -21,7 +21,7 @@ def _range(lo: float, hi: float, doc: str) -> Any:
 class RenderConfig:
     width: int = field(default=640, metadata=_range(16, 4096, "image width, pixels"))
     height: int = field(default=480, metadata=_range(16, 4096, "image height, pixels"))
-    wrist_camera: bool = False
+    wrist_camera: bool = True
     views: int = field(
         default=1, metadata=_range(1, 16, "randomised cameras per settled scene (tabletop scenes)")
     )

@@ -53,7 +53,7 @@ def sample_scene(
         ),
         "lighting": sample_lighting(rng("lighting"), config.lighting, tray_centre),
         "camera": sample_camera(rng("camera"), config.camera),
-        "robot": sample_robot(rng("robot"), config.robot),
+        "robot": sample_robot(rng("robot"), config.robot, ws),
     }
     if config.background.enabled:  # absent when off: the scene stays as it was
         params["background"] = sample_background(
@@ -77,6 +77,7 @@ def sample_scene(
         params["distractors"] += sample_flying(  # after the others; none for flying [0, 0]
             rng("distractors.flying"), config.distractors, config.materials, config.photos,
             params["camera"], room, ws, config.render.width / config.render.height,
+            wrist_view="look" in params["robot"],
         )  # fmt: skip
     if config.render.views > 1:  # absent for one view: a one-view sample stays as it was
         names = [extra_view_name(k) for k in range(1, config.render.views)]

@@ -218,10 +218,13 @@ def sample_distractors(
     return distractors
 
 
-def _clear_in_air(point: np.ndarray, radius: float, view: _View, room) -> bool:
+def _clear_in_air(
+    point: np.ndarray, radius: float, view: _View, room, wrist_view: bool = False
+) -> bool:
     """Whether a flying distractor of ``radius`` about ``point`` is seen (not behind the table
     top), above the floor, inside the room (else within BACKGROUND_REACH of the table's centre)
-    and clear of the table and of the space above the tray where the targets lie."""
+    and clear of the table and of the space above the tray where the targets lie (with
+    ``wrist_view``, of the whole column above the tray, which the wrist camera looks down)."""
     ws, (x, y, z) = view.ws, point
     if room is not None:
         lo = np.array([room["x"][0], room["y"][0], 0.0]) + radius
@@ -235,10 +238,11 @@ def _clear_in_air(point: np.ndarray, radius: float, view: _View, room) -> bool:
     in_table = abs(x) < hx + radius and abs(y) < hy + radius and z < ws.table_top + radius
     (ix, iy), wall = ws.tray_inner_half, ws.tray_wall[0] + radius
     over_tray = abs(x - cx) < ix + wall and abs(y - cy) < iy + wall
-    return not in_table and not (over_tray and z < cz + TRAY_HEADROOM * ws.scale + radius)
+    headroom = np.inf if wrist_view else TRAY_HEADROOM * ws.scale + radius
+    return not in_table and not (over_tray and z < cz + headroom)
 
 
-def _flying_spot(rng, view: _View, cfg: DistractorsConfig, size: float, room):
+def _flying_spot(rng, view: _View, cfg: DistractorsConfig, size: float, room, wrist_view: bool):
     """(centre, largest extent) of a flying distractor: a random image point at a random depth
     (``flying_depth`` times the camera-to-target distance, along the view's axis), the extent
     capped so that it spans at most FLYING_VIEW_SHARE of the view's height there; None when no
@@ -247,7 +251,7 @@ def _flying_spot(rng, view: _View, cfg: DistractorsConfig, size: float, room):
         depth = rng.uniform(*cfg.flying_depth) * view.distance
         point = view.eye + depth * view.random_ray(rng)
         extent = min(size, FLYING_VIEW_SHARE * 2 * depth * min(view.tan_half, 1.0))
-        if _clear_in_air(point, extent / 2, view, room):
+        if _clear_in_air(point, extent / 2, view, room, wrist_view):
             return point, extent
     return None
 
@@ -280,16 +284,20 @@ def sample_flying(
     room: dict[str, Any] | None = None,
     ws: Workspace = DEFAULT_WORKSPACE,
     aspect: float = 1.0,
+    wrist_view: bool = False,
 ) -> list[dict[str, Any]]:
     """Flying distractors of one scene (placement ``flying``), from their own stream; none for
     ``flying`` [0, 0]. ``photos`` is the ``photos`` config section (None: no photographs),
-    ``aspect`` the workspace view's width / height; the rest as in :func:`sample_distractors`."""
+    ``aspect`` the workspace view's width / height, ``wrist_view`` whether the wrist camera
+    looks down at the tray (``robot.pose: look``: nothing flies above the tray); the rest as in
+    :func:`sample_distractors`."""
     view = _View.of(camera, ws, aspect)
     photo_share = photos.distractor_probability if photos is not None and photos.enabled else 0.0
     flying = []
     for _ in range(int(rng.integers(cfg.flying[0], cfg.flying[1] + 1))):
         with_photo = rng.random() < photo_share  # always drawn: photos on or off
-        spot = _flying_spot(rng, view, cfg, float(rng.uniform(*cfg.flying_size)), room)
+        size = float(rng.uniform(*cfg.flying_size))
+        spot = _flying_spot(rng, view, cfg, size, room, wrist_view)
         if spot is None:
             continue
         centre, size = spot

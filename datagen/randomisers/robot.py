@@ -1,4 +1,6 @@
-"""Robot randomiser: the arm's initial joint configuration around its ready pose."""
+"""Robot randomiser: the arm's initial joint configuration around its ready pose and, with
+``robot.pose: look``, where its wrist camera looks at the tray from (the world finds the
+joints that put it there: :mod:`datagen.worlds.look_pose`)."""
 
 from __future__ import annotations
 
@@ -6,16 +8,46 @@ from typing import Any
 
 import numpy as np
 
-from datagen.config.robot import RobotConfig, robot_spec
+from datagen.assets.tabletop_layout import Workspace
+from datagen.config.robot import LookConfig, RobotConfig, robot_spec
 
 
-def sample_robot(rng: np.random.Generator, cfg: RobotConfig) -> dict[str, Any]:
+def sample_robot(rng: np.random.Generator, cfg: RobotConfig, ws: Workspace) -> dict[str, Any]:
     """Joint positions: the arm's ready pose jittered, the finger joints (two prismatic fingers,
     or one jaw) opened alike within their travel (radians, metres), in the order of the record's
-    ``joint_names``."""
+    ``joint_names``; and with ``robot.pose: look`` the wrist camera's ``look`` (world metres)."""
     spec = robot_spec(cfg)
     ready = spec.ready_pose
     arm = np.asarray(ready) + rng.uniform(-cfg.joint_jitter, cfg.joint_jitter, len(ready))
     finger = float(rng.uniform(*spec.gripper.finger_travel))
     fingers = [finger] * len(spec.gripper.finger_joints)
-    return {"qpos": np.round(np.append(arm, fingers), 6).tolist()}
+    values: dict[str, Any] = {"qpos": np.round(np.append(arm, fingers), 6).tolist()}
+    if cfg.pose == "look":
+        values["look"] = sample_look(rng, cfg.look, ws, spec.approach_in_base_plane)
+    return values
+
+
+def sample_look(
+    rng: np.random.Generator, cfg: LookConfig, ws: Workspace, in_base_plane: bool
+) -> dict[str, list[float]]:
+    """The wrist camera's ``eye``, the ``target`` it looks at on the tray floor and the world
+    direction its image's ``up`` turns towards (metres, world frame). The eye leans up to
+    ``tilt_deg`` from straight above the target, to the base's side; for an arm whose approach
+    must lie in the vertical plane
+    through the base (``RobotSpec.approach_in_base_plane``) straight down: its camera sits
+    off the fingers' axis, so a leaning view would need the approach out of that plane."""
+    centre = np.asarray(ws.tray_floor_top, float)
+    target = centre + np.append(rng.uniform(-1, 1, 2) * cfg.offset * ws.scale, 0.0)
+    height = rng.uniform(*cfg.height) * ws.scale
+    tilt = np.deg2rad(rng.uniform(*cfg.tilt_deg)) * (not in_base_plane)
+    back = np.asarray(ws.robot_base[:2], float) - target[:2]  # the eye leans towards the base,
+    azimuth = np.arctan2(back[1], back[0]) + rng.uniform(-np.pi / 2, np.pi / 2)  # within reach
+    lean = np.array([np.sin(tilt) * np.cos(azimuth), np.sin(tilt) * np.sin(azimuth), np.cos(tilt)])
+    eye = target + lean * height / np.cos(tilt)
+    roll = np.deg2rad(rng.uniform(*cfg.roll_deg))
+    up = [np.cos(roll), np.sin(roll), 0.0]  # about +x: away from the base
+    return {
+        "eye": np.round(eye, 6).tolist(),
+        "target": np.round(target, 6).tolist(),
+        "up": np.round(up, 6).tolist(),
+    }

@@ -76,6 +76,16 @@ class CameraMount:
     near: float  # metres
 
 
+# a camera's forward (SAPIEN's x) along the link's z, its up (z) along the link's x
+LOOKING_ALONG_Z = (0.0, 0.70710678, 0.0, 0.70710678)
+
+
+def tcp_camera(link: str, side: float, back: float) -> CameraMount:
+    """A wrist camera on the TCP link, ``back`` metres behind the TCP and ``side`` metres along
+    its x (off the fingers' closing plane), looking along the fingers (58° vertical field)."""
+    return CameraMount(link, (side, 0.0, -back), LOOKING_ALONG_Z, 58.0, 0.01)
+
+
 @dataclass(frozen=True)
 class RobotSpec:
     name: str
@@ -88,7 +98,7 @@ class RobotSpec:
     reach: float  # metres from the base's mount to the farthest TCP position
     srdf: str | None = None  # located like ``description``; None: collision pairs generated
     mount: Vector3 = (0.0, 0.0, 0.0)  # metres added to the world's robot base position
-    wrist_camera: CameraMount | None = None
+    wrist_camera: CameraMount | None = None  # None: DEFAULT_WRIST_CAMERA on the TCP link
     # a small arm's tabletop: table, tray, base position and camera scaled about the world
     # origin so that it reaches the whole tray floor; 1.0 keeps the Panda-sized scene
     workspace_scale: float = 1.0
@@ -145,3 +155,8 @@ def locate(where: str) -> Path:
         module, _, function = rest.partition(":")
         return Path(getattr(importlib.import_module(module), function)())
     return Path(where)
+
+
+def wrist_mount(spec: RobotSpec) -> CameraMount:
+    """The robot's wrist camera: its record's, else one on the TCP link 10 cm behind the TCP."""
+    return spec.wrist_camera or tcp_camera(spec.gripper.tcp_link, side=0.05, back=0.1)

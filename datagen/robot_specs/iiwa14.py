@@ -8,7 +8,7 @@ from pathlib import Path
 
 from datagen.robot_specs import RobotSpec
 from datagen.robot_specs.compose import Composition, compose_srdf, compose_urdf
-from datagen.robot_specs.panda import FRANKA_HAND
+from datagen.robot_specs.panda import FRANKA_HAND, FRANKA_WRIST_CAMERA
 
 COMPOSITION = Composition(
     name="iiwa14",
@@ -37,6 +37,7 @@ IIWA14 = RobotSpec(
     # base, pointing down; joints 2, 4, 6 limited to +-2.094 rad
     ready_pose=(0.0, -0.1, 0.0, -1.95, 0.0, 1.25, 0.0),
     gripper=FRANKA_HAND,
+    wrist_camera=FRANKA_WRIST_CAMERA,
     reach=0.82,  # datasheet, to the flange
     # link_0's collision mesh reaches 3.4e-6 m below its frame: raised 1 mm so that the planner
     # does not see the base in collision with the table top it stands on

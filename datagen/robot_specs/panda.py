@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from datagen.robot_specs import CameraMount, GripperSpec, RobotSpec
+from datagen.robot_specs import LOOKING_ALONG_Z, CameraMount, GripperSpec, RobotSpec
 
 FRANKA_HAND = GripperSpec(
     hand_link="panda_hand",
@@ -10,6 +10,15 @@ FRANKA_HAND = GripperSpec(
     finger_links=("panda_leftfinger", "panda_rightfinger"),
     finger_joints=("panda_finger_joint1", "panda_finger_joint2"),
     finger_travel=(0.0, 0.04),
+)
+
+# ManiSkill's panda_wristcam, on the Franka hand
+FRANKA_WRIST_CAMERA = CameraMount(
+    link="panda_hand",
+    position=(0.0464982, -0.0200011, 0.0360011),
+    quat_wxyz=LOOKING_ALONG_Z,
+    fovy_deg=58.0,
+    near=0.01,
 )
 
 PANDA = RobotSpec(
@@ -23,12 +32,5 @@ PANDA = RobotSpec(
     ready_pose=(0.0, -0.95, 0.0, -2.75, 0.0, 1.95, 0.785),
     gripper=FRANKA_HAND,
     reach=0.855,
-    # ManiSkill's panda_wristcam
-    wrist_camera=CameraMount(
-        link="panda_hand",
-        position=(0.0464982, -0.0200011, 0.0360011),
-        quat_wxyz=(0, 0.70710678, 0, 0.70710678),
-        fovy_deg=70.0,
-        near=0.01,
-    ),
+    wrist_camera=FRANKA_WRIST_CAMERA,
 )

@@ -8,7 +8,7 @@ from __future__ import annotations
 import math
 from pathlib import Path
 
-from datagen.robot_specs import GripperSpec, RobotSpec
+from datagen.robot_specs import GripperSpec, RobotSpec, tcp_camera
 from datagen.robot_specs.compose import Frame, FrameComposition, compose_framed_urdf
 
 COMPOSITION = FrameComposition(
@@ -60,4 +60,6 @@ SO100 = RobotSpec(
     # kg·m² per joint while grasping: without it the squeezing jaw left the wrist 0.15 rad
     # from its command through lift and hold (docs/robots.md)
     armature=0.01,
+    # a small camera on the jaw's back, looking along the fingers
+    wrist_camera=tcp_camera("so100_tcp", side=0.03, back=0.06),
 )

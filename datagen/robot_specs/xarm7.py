@@ -8,7 +8,7 @@ from pathlib import Path
 
 from datagen.robot_specs import RobotSpec
 from datagen.robot_specs.compose import Composition, compose_srdf, compose_urdf
-from datagen.robot_specs.panda import FRANKA_HAND
+from datagen.robot_specs.panda import FRANKA_HAND, FRANKA_WRIST_CAMERA
 
 COMPOSITION = Composition(
     name="xarm7",
@@ -36,6 +36,7 @@ XARM7 = RobotSpec(
     # base, pointing down; joint 4 limited to -0.19..3.93 rad
     ready_pose=(0.0, -0.6, 0.0, 0.95, 0.0, 1.55, 0.0),
     gripper=FRANKA_HAND,
+    wrist_camera=FRANKA_WRIST_CAMERA,
     reach=0.70,  # datasheet, to the flange
     # 0.1 m nearer the tray than the Panda (its reach is 0.15 m shorter); link_base's collision
     # mesh ends at z = 0: 1 mm clear of the table

@@ -21,7 +21,8 @@ from datagen.config.robot import robot_spec, robot_workspace
 from datagen.config.sections import SHAPE_FAMILIES
 from datagen.engines.sim.cameras import add_camera
 from datagen.randomisers import redrawn_drop_poses, sample_scene
-from datagen.robot_specs import RobotSpec
+from datagen.robot_specs import RobotSpec, wrist_mount
+from datagen.worlds.look_pose import look_qpos
 from datagen.worlds.realise import (
     SOFT_LIGHT_SPOTS,
     add_background,
@@ -180,6 +181,9 @@ def construct_scene(config: BuildConfig, params: dict[str, Any]) -> GraspScene:
     robot = load_arm(scene, spec, config.render.robot_triangles)
     robot.set_root_pose(sapien.Pose(list(np.add(ws.robot_base, spec.mount))))
     apply_robot(robot, params["robot"], spec.joint_names)
+    if "look" in params["robot"]:  # robot.pose: look
+        qpos = look_qpos(spec, np.add(ws.robot_base, spec.mount), **params["robot"])
+        apply_robot(robot, {"qpos": qpos}, spec.joint_names)
     for link in robot.get_links():
         gripper = link.name in spec.gripper.links
         stuff[link.entity.per_scene_id] = GRIPPER_CLASS if gripper else "robot"
@@ -209,9 +213,7 @@ def construct_scene(config: BuildConfig, params: dict[str, Any]) -> GraspScene:
         cameras[name] = add_camera(scene, name, r.width, r.height, 1.0, r.near, r.far)
         apply_camera(cameras[name], values)
     if r.wrist_camera:
-        mount = spec.wrist_camera
-        if mount is None:
-            raise ValueError(f"render.wrist_camera: the robot {spec.name!r} has no wrist camera")
+        mount = wrist_mount(spec)
         link = next(link for link in robot.get_links() if link.name == mount.link)
         pose = sapien.Pose(list(mount.position), list(mount.quat_wxyz))
         fovy = np.deg2rad(mount.fovy_deg)
