@@ -3,9 +3,10 @@
 ``DIR/<class name>/<mesh file>``: OBJ, STL, PLY, GLB/GLTF (trimesh) or USD (.usd, .usda, .usdc,
 usd-core). Each mesh is centred on its bounding box and scaled so its largest extent is 1; a
 sample scales it to a size drawn from ``objects.size``. Collision shapes come from a convex
-decomposition (CoACD, seeded, so the same file always gives the same parts). A file that cannot
-be read, is empty, has non-finite or degenerate geometry, or fails to decompose is skipped and
-reported, never fatal; the build fails only if no mesh at all is usable. A mesh with more faces
+decomposition (CoACD, seeded, so the same file always gives the same parts), computed once per
+machine and shared by every process (:mod:`datagen.assets.mesh_decomposition`). A file that
+cannot be read, is empty, has non-finite or degenerate geometry, or fails to decompose is
+skipped and reported, never fatal; the build fails only if no mesh at all is usable. A mesh with more faces
 than ``objects.max_mesh_faces`` is refused before anything starts (config validation,
 :func:`oversized_meshes`): its decomposition would take minutes in every worker; so is a mesh with
 a non-finite vertex coordinate or one beyond ``MAX_COORDINATE`` (:func:`out_of_range_meshes`):
@@ -26,10 +27,10 @@ import numpy as np
 import trimesh
 
 from datagen.assets.image_library import machine_free
+from datagen.assets.mesh_decomposition import cache_dir, decompose_all
 
 log = logging.getLogger(__name__)
 MESH_SUFFIXES = {".obj", ".stl", ".ply", ".glb", ".gltf", ".usd", ".usda", ".usdc"}
-MAX_PARTS = 8  # convex parts per object
 MIN_EXTENT = 1e-6  # metres (before normalisation): smaller is degenerate
 MAX_COORDINATE = 1e6  # file units (metres, millimetres, ...): farther is no object's vertex
 
@@ -52,6 +53,7 @@ class AssetLibrary:
     root: Path
     assets: list[Asset] = field(default_factory=list)
     skipped: list[tuple[str, str]] = field(default_factory=list)  # (relative path, reason)
+    decomposed: list[str] = field(default_factory=list)  # by this process, not read from the cache
 
     def find(self, path: str) -> Asset | None:
         return next((a for a in self.assets if a.path == path), None)
@@ -116,21 +118,6 @@ def _normalised(mesh: trimesh.Trimesh) -> trimesh.Trimesh:
     mesh.apply_translation(-mesh.bounds.mean(axis=0))
     mesh.apply_scale(1.0 / mesh.extents.max())
     return mesh
-
-
-def convex_parts(mesh: trimesh.Trimesh) -> tuple[np.ndarray, ...]:
-    import coacd
-
-    coacd.set_log_level("error")
-    parts = coacd.run_coacd(
-        coacd.Mesh(np.asarray(mesh.vertices), np.asarray(mesh.faces)),
-        threshold=0.08, max_convex_hull=MAX_PARTS, preprocess_mode="auto", resolution=1000,
-        mcts_iterations=50, mcts_max_depth=2, seed=0,
-    )  # fmt: skip
-    hulls = tuple(np.asarray(v, float) for v, _ in parts if len(v) >= 4)
-    if not hulls:
-        raise ValueError("convex decomposition produced no part")
-    return hulls
 
 
 def face_count(path: Path) -> int:
@@ -249,31 +236,58 @@ def oversized_meshes(root: str, max_faces: int) -> list[tuple[str, int]]:
     return found
 
 
-@functools.lru_cache(maxsize=4)
-def load_library(root: str) -> AssetLibrary:
-    """Scans ``root`` once per process (sorted, so every worker sees the same library)."""
-    base = Path(root)
-    library = AssetLibrary(base)
+def _scanned(base: Path) -> dict[str, trimesh.Trimesh | str]:
+    """Every file under ``base`` (relative path, in sorted order): its normalised mesh, or the
+    reason it is skipped."""
+    found: dict[str, trimesh.Trimesh | str] = {}
     for path in sorted(p for p in base.rglob("*") if p.is_file()):
         relative = path.relative_to(base).as_posix()
         if path.suffix.lower() not in MESH_SUFFIXES:
             if path.suffix.lower() not in {".mtl", ".png", ".jpg", ".bin", ".txt", ".md"}:
-                library.skipped.append((relative, f"not a mesh file ({path.suffix or 'no suffix'})"))  # fmt: skip
-            continue
-        if len(path.relative_to(base).parts) < 2:
-            library.skipped.append((relative, "not in a class folder (DIR/<class>/<file>)"))
-            continue
-        try:
-            mesh = _normalised(load_mesh(path))
-            parts = convex_parts(mesh)
-        except Exception as exc:  # a broken file of any kind is reported, never fatal
-            library.skipped.append((relative, machine_free(f"{type(exc).__name__}: {exc}", base)))
-            continue
-        digest = hashlib.sha256(path.read_bytes()).hexdigest()
-        library.assets.append(Asset(path.relative_to(base).parts[0], relative, digest, mesh, parts))
+                found[relative] = f"not a mesh file ({path.suffix or 'no suffix'})"
+        elif len(path.relative_to(base).parts) < 2:
+            found[relative] = "not in a class folder (DIR/<class>/<file>)"
+        else:
+            try:
+                found[relative] = _normalised(load_mesh(path))
+            except Exception as exc:  # a broken file of any kind is reported, never fatal
+                found[relative] = machine_free(f"{type(exc).__name__}: {exc}", base)
+    return found
+
+
+@functools.lru_cache(maxsize=4)
+def load_library(root: str) -> AssetLibrary:
+    """Scans ``root`` once per process (sorted, so every worker sees the same library); the
+    convex parts come from the machine's cache where they are in it."""
+    base = Path(root)
+    library = AssetLibrary(base)
+    scanned = _scanned(base)
+    decompositions = decompose_all({p: m for p, m in scanned.items() if not isinstance(m, str)})
+    for relative, outcome in (scanned | decompositions).items():
+        if isinstance(outcome, str):
+            library.skipped.append((relative, outcome))
+        elif isinstance(outcome, Exception):
+            reason = f"{type(outcome).__name__}: {outcome}"
+            library.skipped.append((relative, machine_free(reason, base)))
+        else:
+            digest = hashlib.sha256((base / relative).read_bytes()).hexdigest()
+            mesh = scanned[relative]
+            class_name = relative.split("/")[0]
+            library.assets.append(Asset(class_name, relative, digest, mesh, outcome.parts))
+            if outcome.computed:
+                library.decomposed.append(relative)
     for relative, reason in library.skipped:
         log.warning("asset %s skipped: %s", relative, reason)
     if not library.assets:
         found = "; ".join(f"{p}: {r}" for p, r in library.skipped[:10]) or "no files"
         raise AssetError(f"{base}: no usable mesh in DIR/<class>/<file> ({found})")
+    computed = len(library.decomposed)
+    log.info(
+        "%s: %d meshes, %d decomposed here, %d read from %s",
+        base,
+        len(library.assets),
+        computed,
+        len(library.assets) - computed,
+        cache_dir(),
+    )
     return library

@@ -6,6 +6,9 @@ once is paid at start-up (under the start-up grace, docs/liveness.md), so that
   datagen's cameras, their pipelines and the machine's cached BRDF table;
 - the family's modules: its ``produce`` imported, with everything it imports (a grasp
   tabletop's first sample: 0.4 s of imports);
+- a user's meshes (``objects.source: folder``): their convex parts, read from the machine's
+  cache, or decomposed once for the machine by the workers starting together, each taking the
+  meshes no other is decomposing (:mod:`datagen.assets.mesh_decomposition`);
 - a family from a plug-in: one frame of SAPIEN's own camera (``scene.add_camera``, as the
   docs/extending.md example renders), since SAPIEN computes its BRDF table on the first such
   frame of a process: 3-4 s at rest and 9 s on a loaded 2-core machine, once the first sample
@@ -32,6 +35,8 @@ BUILT_IN = "datagen."  # the module prefix of datagen's own families
 def warm_up(config: BuildConfig) -> None:
     """Readies this process to make samples of ``config``'s family."""
     keep_renderer_alive()
+    if config.objects.source == "folder":
+        _user_meshes(config.objects.assets_dir)
     family = FAMILIES[config.scene]
     try:
         resolve(family.produce)
@@ -40,6 +45,15 @@ def warm_up(config: BuildConfig) -> None:
         return
     if not family.produce.startswith(BUILT_IN):
         _first_frame_of_a_sapien_camera()
+
+
+def _user_meshes(assets_dir: str) -> None:
+    from datagen.assets.mesh_library import AssetError, load_library
+
+    try:
+        load_library(assets_dir)
+    except AssetError as exc:  # the first sample raises it again, under build.on_sample_error
+        log.debug("warm-up: %s", exc)
 
 
 def _first_frame_of_a_sapien_camera() -> None:
