@@ -5,12 +5,13 @@ A texture's stored values (``randomisation.materials.<surface>.texture``) are pl
     {"family": "marble", "palette": [[r, g, b], ...], "seed": 123, "scale_m": 0.2,
      "rotation_deg": 40.0}
 
-``family`` is one of :data:`TEXTURE_FAMILIES` (or ``image``: a user's picture, with ``root``,
-``path`` and ``sha256`` instead of ``palette`` and ``seed``). The pattern's own generator is
-seeded by ``seed``, so the tile is rebuilt from these values alone (replay, USD export). Every
-tile is periodic (it repeats without seams); ``scale_m`` is metres per repeat and
-``rotation_deg`` turns the pattern on the surface: both act on the texture coordinates
-(:func:`surface_uv`), so a pattern looks the same size on a cup and on the table.
+``family`` is one of :data:`TEXTURE_FAMILIES`, or ``image`` (a user's picture: ``root``,
+``path`` and ``sha256`` instead of ``palette`` and ``seed``, with a photograph's crop and colour
+jitter) or ``photo`` (a picture of the library, :mod:`datagen.randomisers.photos`). The
+pattern's own generator is seeded by ``seed``, so the tile is rebuilt from these values alone
+(replay, USD export). Every tile is periodic (it repeats without seams); ``scale_m`` is metres
+per repeat and ``rotation_deg`` turns the pattern on the surface: both act on the texture
+coordinates (:func:`surface_uv`), so a pattern looks the same size on a cup and on the table.
 
 Convention: tiles are stored as sRGB-encoded uint8 and given to SAPIEN as ``R8G8B8A8Unorm``
 with ``srgb=False``, the same for procedural tiles and users' pictures (docs/platform.md).
@@ -195,6 +196,8 @@ def _tile(key: str) -> np.ndarray:
                 f"(its sha256 differs from the stored {values['sha256'][:12]}...)"
             )
         tile = load_image(values["root"], values["path"])
+        if "crop" in values:  # drawn as a photograph is (samples made before: the whole picture)
+            tile = cropped_and_jittered(tile, values)
     elif values["family"] == PHOTO_FAMILY:
         tile = photo_tile(values)
     else:
@@ -225,12 +228,16 @@ def surface_uv(uv_m: np.ndarray, values: dict[str, Any]) -> np.ndarray:
 
 
 def photo_tile(values: dict[str, Any]) -> np.ndarray:
-    """A library picture as its stored values draw it: cropped (``crop``: x0, y0, side as
-    fractions), mirrored (``flip``), hue-rotated, saturation-scaled, then contrast about its
-    mean and a brightness offset; (H, W, 3) uint8 sRGB."""
+    """A library picture as its stored values draw it (:func:`cropped_and_jittered`)."""
     from datagen.library.catalogue import load_picture
 
-    image = load_picture(values["path"], values["sha256"])
+    return cropped_and_jittered(load_picture(values["path"], values["sha256"]), values)
+
+
+def cropped_and_jittered(image: np.ndarray, values: dict[str, Any]) -> np.ndarray:
+    """``image`` (H, W, 3) uint8 sRGB as a picture's stored values draw it: cropped (``crop``:
+    x0, y0, side as fractions), mirrored (``flip``), hue-rotated, saturation-scaled, then
+    contrast about its mean and a brightness offset; (h, w, 3) uint8 sRGB."""
     height, width = image.shape[:2]
     x0, y0, side = values["crop"]
     rows = slice(round(y0 * height), max(round(y0 * height) + 1, round((y0 + side) * height)))

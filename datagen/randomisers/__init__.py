@@ -50,6 +50,7 @@ def sample_scene(
             rng("textures"),
             config.materials,
             sample_materials(rng("materials"), config.materials, len(objects)),
+            config.photos,
         ),
         "lighting": sample_lighting(rng("lighting"), config.lighting, tray_centre),
         "camera": sample_camera(rng("camera"), config.camera),
@@ -57,7 +58,7 @@ def sample_scene(
     }
     if config.background.enabled:  # absent when off: the scene stays as it was
         params["background"] = sample_background(
-            rng("background"), config.background, config.materials, tray_centre
+            rng("background"), config.background, config.materials, tray_centre, config.photos
         )
     if config.photos.enabled:  # photographs over what was drawn, from streams of their own
         params["materials"] = add_photo_surfaces(

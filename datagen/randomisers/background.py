@@ -19,27 +19,30 @@ from typing import Any
 import numpy as np
 
 from datagen.assets.texture_tiles import sample_texture
-from datagen.config.appearance import BackgroundConfig
+from datagen.config.appearance import BackgroundConfig, PhotosConfig
 from datagen.config.sections import MaterialsConfig
 from datagen.randomisers.materials import random_material
-from datagen.randomisers.textures import sample_picture
+from datagen.randomisers.textures import DEFAULT_PHOTOS, sample_picture
 
 WALL_SATURATION = (0.0, 0.4)  # HSV: painted walls are muted
 WALL_VALUE = (0.3, 0.95)
 WALL_TEXTURE_SCALE_M = (0.2, 1.5)  # metres per repeat of a procedural wall pattern
-PICTURE_SCALE_M = (1.0, 4.0)  # metres across one repeat of a user's backdrop picture
 LIGHT_COLOUR_JITTER = 0.1  # largest per-channel deviation of a room light's colour
 WALLS = ("x_min", "x_max", "y_min", "y_max")
 
 
 def _wall_material(
-    rng: np.random.Generator, cfg: BackgroundConfig, materials: MaterialsConfig
+    rng: np.random.Generator,
+    cfg: BackgroundConfig,
+    materials: MaterialsConfig,
+    photos: PhotosConfig,
 ) -> dict[str, Any]:
     material = random_material(rng, materials, WALL_SATURATION, WALL_VALUE)
     material["metallic"] = 0.0
     textured, use_picture = rng.random() < cfg.texture_probability, rng.random()
     if textured and cfg.images_dir and use_picture < cfg.images_dir_share:
-        material["texture"] = sample_picture(rng, cfg.images_dir, PICTURE_SCALE_M, rotate=False)
+        scale_m = photos.backdrop_scale_m  # as a photograph on a wall
+        material["texture"] = sample_picture(rng, cfg.images_dir, photos, scale_m, rotate=False)
     elif textured:
         material["texture"] = sample_texture(
             rng, material["base_color"], materials.texture_families, WALL_TEXTURE_SCALE_M
@@ -52,12 +55,15 @@ def sample_background(
     cfg: BackgroundConfig,
     materials: MaterialsConfig,
     target: tuple[float, float, float],
+    photos: PhotosConfig = DEFAULT_PHOTOS,
 ) -> dict[str, Any]:
-    """The room's values; room lights are scaled to their radiance at ``target`` (the tray)."""
+    """The room's values; room lights are scaled to their radiance at ``target`` (the tray).
+    A picture of ``background.images_dir`` is drawn as a photograph is on a wall (``photos``'
+    crop, jitter and ``backdrop_scale_m``), upright."""
     x_min, x_max, y_min, y_max = (round(float(rng.uniform(*cfg.room_half_size)), 6) for _ in WALLS)
     height = round(float(rng.uniform(*cfg.wall_height)), 6)
     ceiling = bool(rng.random() < cfg.ceiling_probability)
-    walls = {name: _wall_material(rng, cfg, materials) for name in (*WALLS, "ceiling")}
+    walls = {name: _wall_material(rng, cfg, materials, photos) for name in (*WALLS, "ceiling")}
     lights = []
     for _ in range(int(rng.integers(cfg.room_lights[0], cfg.room_lights[1] + 1))):
         x = rng.uniform(-x_min, x_max) * 0.8

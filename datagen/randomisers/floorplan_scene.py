@@ -102,6 +102,7 @@ def sample_nav_scene(
             sample_rng(seed, index, "nav_materials", attempt), config, len(obstacles)
         ),
         TEXTURED_SURFACES,
+        config.photos,
     )
     if nav.robot == "car":  # from a stream of its own: Fetch's episodes keep their values
         car_rng = sample_rng(seed, index, "nav_car", attempt)

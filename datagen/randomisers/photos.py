@@ -1,7 +1,9 @@
 """Photograph randomiser: pictures of the library's training sources (``photos.sources``) on
 the tabletop scene's surfaces (stream ``photos.surfaces``), on the room's walls and ceiling
 (stream ``photos.backdrops``), and on flying distractors (:func:`sample_photo`, called from
-theirs). ``photos.held_out`` sources are never drawn.
+theirs). ``photos.held_out`` sources are never drawn. A user's picture
+(``materials.textures_dir``, ``background.images_dir``) is drawn with the same crop, jitter
+and scale (:func:`sample_look`, called from :mod:`datagen.randomisers.textures`).
 
 A photograph's stored texture values (drawn by :mod:`datagen.assets.texture_tiles`)::
 
@@ -36,19 +38,34 @@ def sample_photo(
     """One photograph of the training sources with its crop, placement and colour jitter."""
     choices = pictures(cfg.sources)
     picture = choices[int(rng.integers(len(choices)))]
-    side = float(rng.uniform(*cfg.crop))
     return {
         "family": PHOTO_FAMILY,
         "source": picture["source"],
         "path": picture["path"],
         "sha256": picture["sha256"],
+        **sample_look(rng, cfg, picture["height"] / picture["width"], scale_m, rotate),
+    }
+
+
+def sample_look(
+    rng: np.random.Generator,
+    cfg: PhotosConfig,
+    aspect: float,
+    scale_m: tuple[float, float],
+    rotate: bool = True,
+) -> dict[str, Any]:
+    """How a picture of ``aspect`` (height / width) is drawn: its crop, mirroring and colour
+    jitter within ``cfg``'s ranges, its size and rotation on the surface; the keys after the
+    picture's own in a photograph's stored values (a user's picture draws the same)."""
+    side = float(rng.uniform(*cfg.crop))
+    return {
         "crop": [_round(rng.uniform(0, 1 - side)), _round(rng.uniform(0, 1 - side)), _round(side)],
         "flip": bool(rng.random() < 0.5),
         "contrast": _round(rng.uniform(*cfg.contrast)),
         "brightness": _round(rng.uniform(*cfg.brightness)),
         "saturation": _round(rng.uniform(*cfg.saturation)),
         "hue_deg": _round(rng.uniform(*cfg.hue_deg)),
-        "aspect": _round(picture["height"] / picture["width"]),
+        "aspect": _round(aspect),
         "scale_m": _round(rng.uniform(*scale_m)),
         "rotation_deg": _round(rng.uniform(0.0, 360.0)) if rotate else 0.0,
     }

@@ -2,7 +2,10 @@
 worlds draw the stored values (:mod:`datagen.worlds.surfaces`), the USD export too.
 
 The stored values are those of :mod:`datagen.assets.texture_tiles`; a picture from a user's folder is
-``{"family": "image", "root", "path", "sha256", "aspect", "scale_m", "rotation_deg"}``.
+``{"family": "image", "root", "path", "sha256", "crop", "flip", "contrast", "brightness",
+"saturation", "hue_deg", "aspect", "scale_m", "rotation_deg"}``: cropped, mirrored, jittered and
+sized as a photograph of the library is (:func:`datagen.randomisers.photos.sample_look`, within
+the ``photos`` section's ranges, enabled or not), on surfaces ``photos.surface_scale_m`` across.
 """
 
 from __future__ import annotations
@@ -13,15 +16,23 @@ import numpy as np
 
 from datagen.assets.image_library import load_library
 from datagen.assets.texture_tiles import IMAGE_FAMILY, sample_texture
+from datagen.config.appearance import PhotosConfig
 from datagen.config.sections import MaterialsConfig
+from datagen.randomisers.photos import sample_look
 
 SURFACES = ("table", "tray", "floor")  # the room's surfaces in materials, after the objects
+DEFAULT_PHOTOS = PhotosConfig()  # the ranges for a caller that has no photos section at hand
 
 
 def sample_picture(
-    rng: np.random.Generator, root: str, scale_m: tuple[float, float], rotate: bool = True
+    rng: np.random.Generator,
+    root: str,
+    photos: PhotosConfig,
+    scale_m: tuple[float, float],
+    rotate: bool = True,
 ) -> dict[str, Any]:
-    """A picture drawn from a user's folder, as stored texture values."""
+    """A picture drawn from a user's folder, as stored texture values: cropped, mirrored and
+    jittered within ``photos``' ranges, ``scale_m`` metres across."""
     pictures = load_library(root).pictures
     picture = pictures[int(rng.integers(len(pictures)))]
     return {
@@ -29,9 +40,7 @@ def sample_picture(
         "root": root,
         "path": picture.path,
         "sha256": picture.sha256,
-        "aspect": round(picture.height / picture.width, 6),
-        "scale_m": round(float(rng.uniform(*scale_m)), 6),
-        "rotation_deg": round(float(rng.uniform(0.0, 360.0)), 6) if rotate else 0.0,
+        **sample_look(rng, photos, picture.height / picture.width, scale_m, rotate),
     }
 
 
@@ -39,24 +48,25 @@ def sample_surface_texture(
     rng: np.random.Generator,
     base_color: list[float],
     cfg: MaterialsConfig,
-    pictures_root: str,
-    pictures_share: float,
-    scale_m: tuple[float, float],
+    photos: PhotosConfig,
 ) -> dict[str, Any]:
-    """A picture of ``pictures_root`` with probability ``pictures_share`` (when a folder is
-    set), else a procedural texture around the surface's colour."""
-    use_picture = rng.random() < pictures_share
-    if pictures_root and use_picture:
-        values = sample_picture(rng, pictures_root, scale_m)
+    """A picture of ``materials.textures_dir`` with probability ``textures_dir_share`` (when a
+    folder is set), else a procedural texture around the surface's colour."""
+    use_picture = rng.random() < cfg.textures_dir_share
+    if cfg.textures_dir and use_picture:
+        values = sample_picture(rng, cfg.textures_dir, photos, photos.surface_scale_m)
     else:
-        values = sample_texture(rng, base_color, cfg.texture_families, scale_m)
+        values = sample_texture(rng, base_color, cfg.texture_families, cfg.texture_scale_m)
     if cfg.normal_maps:
         values["normal_map"] = True
     return values
 
 
 def add_textures(
-    rng: np.random.Generator, cfg: MaterialsConfig, materials: dict[str, Any]
+    rng: np.random.Generator,
+    cfg: MaterialsConfig,
+    materials: dict[str, Any],
+    photos: PhotosConfig = DEFAULT_PHOTOS,
 ) -> dict[str, Any]:
     """``materials`` (as :func:`sample_materials` drew them) with a ``texture`` on each surface
     drawn to be textured: every object, then table, tray and floor, one draw each, so
@@ -67,22 +77,20 @@ def add_textures(
         **{surface: dict(materials[surface]) for surface in SURFACES},
     }
     for material in [*textured["objects"], *(textured[surface] for surface in SURFACES)]:
-        maybe_texture(rng, material, cfg)
+        maybe_texture(rng, material, cfg, photos)
     return textured
 
 
-def maybe_texture(rng: np.random.Generator, material: dict[str, Any], cfg: MaterialsConfig) -> None:
+def maybe_texture(
+    rng: np.random.Generator,
+    material: dict[str, Any],
+    cfg: MaterialsConfig,
+    photos: PhotosConfig = DEFAULT_PHOTOS,
+) -> None:
     """Gives ``material`` a ``texture`` with ``materials.texture_probability`` (one draw, then
     the texture's own draws when it is textured)."""
     if rng.random() < cfg.texture_probability:
-        material["texture"] = sample_surface_texture(
-            rng,
-            material["base_color"],
-            cfg,
-            cfg.textures_dir,
-            cfg.textures_dir_share,
-            cfg.texture_scale_m,
-        )
+        material["texture"] = sample_surface_texture(rng, material["base_color"], cfg, photos)
 
 
 def texture_surfaces(
@@ -90,6 +98,7 @@ def texture_surfaces(
     cfg: MaterialsConfig,
     materials: dict[str, Any],
     names: tuple[str, ...],
+    photos: PhotosConfig = DEFAULT_PHOTOS,
 ) -> dict[str, Any]:
     """``materials`` with a ``texture`` on each of the surfaces ``names`` drawn to be textured
     (one draw each, in order; the navigation scenes' floor, walls and doors)."""
@@ -97,12 +106,6 @@ def texture_surfaces(
     for name in names:
         textured[name] = dict(materials[name])
         if rng.random() < cfg.texture_probability:
-            textured[name]["texture"] = sample_surface_texture(
-                rng,
-                textured[name]["base_color"],
-                cfg,
-                cfg.textures_dir,
-                cfg.textures_dir_share,
-                cfg.texture_scale_m,
-            )
+            base_color = textured[name]["base_color"]
+            textured[name]["texture"] = sample_surface_texture(rng, base_color, cfg, photos)
     return textured

@@ -69,7 +69,11 @@ def sample_aerial_scene(
     cameras = [_cameras(cameras_rng, cfg) for _ in range(drones)]
     return {
         "materials": texture_surfaces(
-            sample_rng(seed, index, "aerial_textures", attempt), materials_cfg, materials, TEXTURED
+            sample_rng(seed, index, "aerial_textures", attempt),
+            materials_cfg,
+            materials,
+            TEXTURED,
+            config.photos,
         ),
         "drones": drone_materials,
         "lighting": sample_nav_lighting(
