@@ -118,6 +118,7 @@ class ViewRecord(TypedDict, total=False):
     robot_parts: list[RobotPartViewRecord]  # the arm, then the gripper (absent before issue 24)
     camera_effects: dict[str, Any]  # the drawn effects, when camera effects are on
     depth_sensor: dict[str, Any]  # the drawn sensor, when a depth sensor is on
+    shader: str  # "raytraced" or "rasterized" in builds with render.shader: raytraced
 
 
 SequenceThing = TypedDict("SequenceThing", {"instance_id": int, "class": str, "name": str})

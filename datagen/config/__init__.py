@@ -46,6 +46,7 @@ from datagen.config.sections import (
     TransferConfig,
     _range,
 )
+from datagen.config.shading import check_shader
 from datagen.config.values import fits, shape, show, show_key
 from datagen.config.yaml_file import read_yaml
 from datagen.errors import ConfigError
@@ -282,6 +283,7 @@ def _check_semantics(config: BuildConfig, source: str) -> None:
         )
     if config.render.near >= config.render.far:
         raise ConfigError(f"{source}: render.near: must be smaller than render.far")
+    check_shader(config.render, config.scene, family.world, source)
     _check_camera(config.camera, source)
     _check_recording(config, source)
     if config.render.views > 1 and family.world != "tabletop":

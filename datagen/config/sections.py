@@ -11,6 +11,8 @@ from datagen.assets.family_names import HOUSEHOLD_FAMILIES, TEXTURE_FAMILIES
 PRIMITIVE_FAMILIES = ("box", "cylinder", "sphere", "capsule", "convex", "compound")
 SHAPE_FAMILIES = (*PRIMITIVE_FAMILIES, *HOUSEHOLD_FAMILIES)
 SAMPLE_ERROR_POLICIES = ("fail", "retry")
+SHADERS = ("rasterized", "raytraced")
+DENOISERS = ("none", "oidn", "optix")
 
 
 def _range(lo: float, hi: float, doc: str) -> Any:
@@ -31,6 +33,18 @@ class RenderConfig:
     robot_triangles: int = field(
         default=20000,
         metadata=_range(0, 10**7, "most triangles the robot is drawn with; 0 = its own meshes"),
+    )
+    shader: str = "rasterized"  # or "raytraced": colour images path-traced, labels rasterized
+    samples_per_pixel: int = field(
+        default=16, metadata=_range(1, 4096, "paths per pixel of a path-traced image")
+    )
+    path_depth: int = field(
+        default=8, metadata=_range(0, 32, "bounces of a path after its first hit; 0: direct light")
+    )
+    denoiser: str = "none"  # or "oidn", "optix" (SAPIEN's, on CUDA)
+    raytraced_share: float = field(
+        default=1.0,
+        metadata=_range(0.0, 1.0, "chance that a view is path-traced (shader raytraced)"),
     )
 
 

@@ -3,7 +3,9 @@ once is paid at start-up (under the start-up grace, docs/liveness.md), so that
 ``build.sample_timeout_s`` measures one sample alone. Measured on lavapipe, at rest:
 
 - the renderer: one tiny scene held for the life of the process (``keep_renderer_alive``):
-  datagen's cameras, their pipelines and the machine's cached BRDF table;
+  datagen's cameras, their pipelines and the machine's cached BRDF table; with
+  ``render.shader: raytraced``, one tiny path-traced picture (SAPIEN compiles its ``rt``
+  shaders) and the check that ``render.denoiser`` runs on this machine;
 - the family's modules: its ``produce`` imported, with everything it imports (a grasp
   tabletop's first sample: 0.4 s of imports);
 - a user's meshes (``objects.source: folder``): their convex parts, read from the machine's
@@ -25,6 +27,7 @@ import logging
 import sapien
 
 from datagen.config import BuildConfig
+from datagen.engines.sim import path_tracing
 from datagen.engines.sim.render import keep_renderer_alive
 from datagen.registries import FAMILIES, resolve
 
@@ -35,6 +38,8 @@ BUILT_IN = "datagen."  # the module prefix of datagen's own families
 def warm_up(config: BuildConfig) -> None:
     """Readies this process to make samples of ``config``'s family."""
     keep_renderer_alive()
+    if config.render.shader == "raytraced":
+        path_tracing.warm_up(config.render.denoiser)  # a denoiser that cannot run: refused here
     if config.objects.source == "folder":
         _user_meshes(config.objects.assets_dir)
     family = FAMILIES[config.scene]

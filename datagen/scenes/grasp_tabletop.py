@@ -23,6 +23,7 @@ from datagen.engines.sim.annotate import (
 from datagen.engines.sim.camera_effects import sample_camera_effects
 from datagen.engines.sim.depth_sensor import sample_depth_sensor, specular
 from datagen.engines.sim.encode import DEFAULT_PNG_LEVEL, View, encode_view, metadata_bytes
+from datagen.engines.sim.path_tracing import path_tracing_of, view_is_path_traced
 from datagen.engines.sim.render import DEPTH_SCALE, capture, keep_renderer_alive
 from datagen.engines.sim.robot_labels import part_instance_ids, part_view_records, robot_parts
 from datagen.engines.sim.view_effects import apply_view_effects
@@ -125,7 +126,8 @@ def annotate_scene(
     for name, camera in scene.cameras.items():
         if cameras is not None and name not in cameras:
             continue
-        frame = capture(camera)
+        traced = view_is_path_traced(config.render, seed, index, name, attempt)
+        frame = capture(camera, path_tracing_of(config.render) if traced else None)
         instance, semantic = label_maps(frame, objects, stuff_class_ids, part_instances)
         meta = {
             "camera": {
@@ -142,6 +144,8 @@ def annotate_scene(
             "objects": object_view_records(frame, instance, objects, float(camera.near)),
             "robot_parts": part_view_records(frame, instance, parts, float(camera.near)),
         }
+        if config.render.shader != "rasterized":  # which views of the build are path-traced
+            meta["shader"] = "raytraced" if traced else "rasterized"
         views[name], view_meta[name] = apply_view_effects(
             View(frame.rgb, frame.depth, instance, semantic),
             frame.intrinsics,

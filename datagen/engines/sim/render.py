@@ -19,6 +19,7 @@ import sapien
 
 from datagen.engines.sim import picture_conversion as conversion
 from datagen.engines.sim.cameras import add_camera
+from datagen.engines.sim.path_tracing import PathTracing, raytraced_rgb
 from datagen.engines.sim.picture_conversion import DEPTH_MAX_UNITS, DEPTH_SCALE
 from datagen.engines.sim.stage_clock import timed
 from datagen.geometry import world_to_cv_camera
@@ -100,12 +101,18 @@ def _pictures_gpu(camera) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         return rgb, depth, ids
 
 
-def capture(camera: sapien.render.RenderCameraComponent) -> Frame:
-    """Renders ``camera``; the caller has already called ``scene.update_render()``."""
+def capture(
+    camera: sapien.render.RenderCameraComponent, path_tracing: PathTracing | None = None
+) -> Frame:
+    """Renders ``camera``; the caller has already called ``scene.update_render()``. With
+    ``path_tracing`` the colour image is path-traced from the same scene state, after the
+    rasterized pictures the depth and the ids come from (``path_tracing.py``)."""
     if gpu_read_back(_render_device_is_cuda(camera)):
         rgb, depth, entity_ids = _pictures_gpu(camera)
     else:
         rgb, depth, entity_ids = _pictures_cpu(camera)
+    if path_tracing is not None:
+        rgb = raytraced_rgb(camera, path_tracing)
     return Frame(
         rgb=rgb,
         depth=depth,
