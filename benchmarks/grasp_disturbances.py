@@ -37,8 +37,8 @@ from scipy.spatial.transform import Rotation
 
 from datagen.assets.shapes import build_geometry
 from datagen.config import BuildConfig, load_config
+from datagen.convex import ConvexBody, box_hits_body
 from datagen.dataset.trajectory import decode_trajectory
-from datagen.grasping.gripper import ConvexBody, box_hits_body
 from datagen.registries import FAMILIES
 
 REPO = Path(__file__).resolve().parents[1]

@@ -25,7 +25,7 @@ from dataclasses import dataclass
 import numpy as np
 import trimesh
 
-from datagen.grasping.gripper import ConvexBody, box_hits_body
+from datagen.convex import ConvexBody, box_hits_body
 from datagen.robot_specs import GripperSpec, RobotSpec
 from datagen.robot_specs.urdf import Geometry, Joint, Urdf, read_urdf
 

@@ -23,29 +23,36 @@ def sample_robot(rng: np.random.Generator, cfg: RobotConfig, ws: Workspace) -> d
     fingers = [finger] * len(spec.gripper.finger_joints)
     values: dict[str, Any] = {"qpos": np.round(np.append(arm, fingers), 6).tolist()}
     if cfg.pose == "look":
-        values["look"] = sample_look(rng, cfg.look, ws, spec.approach_in_base_plane)
+        values["look"] = sample_look(
+            rng, cfg.look, ws, spec.approach_in_base_plane, spec.look_scale
+        )
     return values
 
 
 def sample_look(
-    rng: np.random.Generator, cfg: LookConfig, ws: Workspace, in_base_plane: bool
+    rng: np.random.Generator,
+    cfg: LookConfig,
+    ws: Workspace,
+    in_base_plane: bool,
+    look_scale: float = 1.0,
 ) -> dict[str, list[float]]:
     """The wrist camera's ``eye``, the ``target`` it looks at on the tray floor and the world
-    direction its image's ``up`` turns towards (metres, world frame). The eye leans up to
-    ``tilt_deg`` from straight above the target, to the base's side; for an arm whose approach
-    must lie in the vertical plane
-    through the base (``RobotSpec.approach_in_base_plane``) straight down: its camera sits
-    off the fingers' axis, so a leaning view would need the approach out of that plane."""
+    direction its image's ``up`` turns towards (metres, world frame; heights times ``look_scale``,
+    ``RobotSpec.look_scale``, offsets times the workspace's scale). The eye leans up to
+    ``tilt_deg`` from straight above the target, to the base's side, and the image's up turns by
+    up to ``roll_deg`` from pointing away from the base (world +x). An arm whose approach must
+    lie in the vertical plane through its shoulder (``RobotSpec.approach_in_base_plane``) looks
+    straight down: a leaning view would need the approach out of that plane."""
     centre = np.asarray(ws.tray_floor_top, float)
     target = centre + np.append(rng.uniform(-1, 1, 2) * cfg.offset * ws.scale, 0.0)
-    height = rng.uniform(*cfg.height) * ws.scale
+    height = rng.uniform(*cfg.height) * look_scale
     tilt = np.deg2rad(rng.uniform(*cfg.tilt_deg)) * (not in_base_plane)
     back = np.asarray(ws.robot_base[:2], float) - target[:2]  # the eye leans towards the base,
     azimuth = np.arctan2(back[1], back[0]) + rng.uniform(-np.pi / 2, np.pi / 2)  # within reach
     lean = np.array([np.sin(tilt) * np.cos(azimuth), np.sin(tilt) * np.sin(azimuth), np.cos(tilt)])
     eye = target + lean * height / np.cos(tilt)
     roll = np.deg2rad(rng.uniform(*cfg.roll_deg))
-    up = [np.cos(roll), np.sin(roll), 0.0]  # about +x: away from the base
+    up = [np.cos(roll), np.sin(roll), 0.0]
     return {
         "eye": np.round(eye, 6).tolist(),
         "target": np.round(target, 6).tolist(),

@@ -104,6 +104,9 @@ class RobotSpec:
     workspace_scale: float = 1.0
     # object sizes and drop heights: set by the gripper (which does not shrink with the arm)
     object_scale: float = 1.0
+    # the wrist camera's height over the tray (robot.look.height), against the Panda's: a small
+    # arm holds it straight down no higher than its reach allows, its jaw clear of the objects
+    look_scale: float = 1.0
     # five arm joints (pan, three pitches, wrist roll): a grasp's approach must lie in the
     # vertical plane through the base, which the antipodal sampler then keeps to
     approach_in_base_plane: bool = False

@@ -60,6 +60,8 @@ SO100 = RobotSpec(
     # kg·m² per joint while grasping: without it the squeezing jaw left the wrist 0.15 rad
     # from its command through lift and hold (docs/robots.md)
     armature=0.01,
-    # a small camera on the jaw's back, looking along the fingers
+    # a small camera beside the jaw, looking along the fingers; held 0.12-0.16 m over the tray
+    # floor (its straight-down reach ends at 0.16 m), the TCP 6 cm lower
     wrist_camera=tcp_camera("so100_tcp", side=0.03, back=0.06),
+    look_scale=0.38,
 )

@@ -22,6 +22,7 @@ from datagen.config.sections import SHAPE_FAMILIES
 from datagen.engines.sim.cameras import add_camera
 from datagen.randomisers import redrawn_drop_poses, sample_scene
 from datagen.robot_specs import RobotSpec, wrist_mount
+from datagen.worlds.arm_clearance import link_bodies, meets, part_bodies
 from datagen.worlds.look_pose import look_qpos
 from datagen.worlds.realise import (
     SOFT_LIGHT_SPOTS,
@@ -53,6 +54,7 @@ GRIPPER_CLASS = "gripper"
 LAST_CLASSES = (DISTRACTOR_CLASS, WALL_CLASS, GRIPPER_CLASS)
 CLASSES = (*STUFF_CLASSES, *SHAPE_FAMILIES, *LAST_CLASSES)
 CLASS_ID = {name: i for i, name in enumerate(CLASSES)}
+LOOK_CLEARANCE = 0.005  # metres between an object and the arm at its look pose
 
 
 def grasp_classes(config: BuildConfig) -> tuple[str, ...]:
@@ -122,8 +124,10 @@ def _light_slots(config: BuildConfig) -> dict[str, int]:
 
 def build_scene(config: BuildConfig, seed: int, index: int, attempt: int = 0) -> GraspScene:
     """A fresh SAPIEN scene for sample ``index`` of the build, settled and ready to render, with
-    every target in the tray: a scene where one is not is built again from re-drawn drop poses
-    (``datagen.worlds.tray_targets``); raises TargetsOutsideTray after ``MAX_REDRAWS``."""
+    every target in the tray and, with ``robot.pose: look``, the arm then moved to its look pose
+    (the objects settle under the arm at its ready pose: dropped, they would meet the hand): a
+    scene where a target is outside or the posed arm meets one is built again from re-drawn drop
+    poses (``datagen.worlds.tray_targets``); raises TargetsOutsideTray after ``MAX_REDRAWS``."""
     ws = robot_workspace(config.robot)
     tray_floor_top, tray_inner_half = ws.tray_floor_top, ws.tray_inner_half
     params = sample_scene(config, seed, index, tray_floor_top, tray_inner_half, attempt)
@@ -131,7 +135,7 @@ def build_scene(config: BuildConfig, seed: int, index: int, attempt: int = 0) ->
     while True:
         scene = construct_scene(config, params)
         settle_scene(config, scene)
-        outside = outside_tray(scene.objects, ws)
+        outside = outside_tray(scene.objects, ws) or take_look_pose(scene)
         if not outside:
             return scene
         if len(redraws) == MAX_REDRAWS:
@@ -147,14 +151,36 @@ def build_scene(config: BuildConfig, seed: int, index: int, attempt: int = 0) ->
         params = {**params, "drop_poses": poses, "redraws": redraws}
 
 
+def take_look_pose(scene: GraspScene) -> list[str]:
+    """Moves the arm of a settled scene to its look pose (``randomisation.robot.look``; nothing
+    without one); one line per object its links then come within ``LOOK_CLEARANCE`` of."""
+    values = scene.params["robot"]
+    if "look" not in values:
+        return []
+    base = np.add(scene.workspace.robot_base, scene.spec.mount)
+    qpos = look_qpos(scene.spec, base, **values)
+    apply_robot(scene.robot, {"qpos": qpos}, scene.spec.joint_names)
+    arm = link_bodies(scene.robot.get_links())
+    return [
+        f"object {obj.instance_id} ({obj.class_name}) meets the arm at its look pose"
+        for obj in scene.objects
+        if meets(arm, part_bodies(obj.geometry.parts, _pose(obj.entity)), LOOK_CLEARANCE)
+    ]
+
+
+def _pose(entity: sapien.Entity) -> np.ndarray:
+    return np.asarray(entity.pose.to_transformation_matrix(), float)
+
+
+def body(obj: SceneObject) -> sapien.physx.PhysxRigidDynamicComponent:
+    return obj.entity.find_component_by_type(sapien.physx.PhysxRigidDynamicComponent)
+
+
 def settle_scene(config: BuildConfig, scene: GraspScene) -> int:
     """Settles ``scene``'s objects (``datagen.worlds.settle``); returns the physics steps."""
     return settle(
         scene.scene,
-        [
-            o.entity.find_component_by_type(sapien.physx.PhysxRigidDynamicComponent)
-            for o in scene.objects
-        ],
+        [body(o) for o in scene.objects],
         [float(np.max(o.geometry.obb_extents)) / 2 for o in scene.objects],
         scene.robot,
         max_steps=round(config.physics.settle_time / config.physics.timestep),
@@ -181,9 +207,6 @@ def construct_scene(config: BuildConfig, params: dict[str, Any]) -> GraspScene:
     robot = load_arm(scene, spec, config.render.robot_triangles)
     robot.set_root_pose(sapien.Pose(list(np.add(ws.robot_base, spec.mount))))
     apply_robot(robot, params["robot"], spec.joint_names)
-    if "look" in params["robot"]:  # robot.pose: look
-        qpos = look_qpos(spec, np.add(ws.robot_base, spec.mount), **params["robot"])
-        apply_robot(robot, {"qpos": qpos}, spec.joint_names)
     for link in robot.get_links():
         gripper = link.name in spec.gripper.links
         stuff[link.entity.per_scene_id] = GRIPPER_CLASS if gripper else "robot"

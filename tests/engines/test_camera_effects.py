@@ -162,7 +162,9 @@ def test_switched_off_the_sample_has_only_todays_parts_and_keys(renders):
 
     clean, _ = renders
     parts = set(to_sample(clean).parts)
-    assert parts == {f"{p}{n}.png" for p in ("", "view1.") for n in ("rgb", "depth", "seg", "semantic")} | {"json"}  # fmt: skip
+    cameras = ("", "view1.", "wrist.")
+    kinds = ("rgb", "depth", "seg", "semantic")
+    assert parts == {f"{p}{n}.png" for p in cameras for n in kinds} | {"json"}
     for view in clean.metadata["views"].values():
         assert not {"camera_effects", "depth_sensor"} & set(view)
         assert "distortion" not in view["camera"]

@@ -134,8 +134,9 @@ def test_grasp_attempts_render_every_view_before_and_the_workspace_after():
     )  # fmt: skip
     sample = produce(config, 1, 0)
     meta = json.loads(sample.parts["json"])
-    assert sorted(meta["views"]) == ["view1", "workspace"]
-    assert {n.rpartition(".")[0].rpartition(".")[0] for n in sample.parts if n.count(".") == 2} == {"view1", "post"}  # fmt: skip
+    assert sorted(meta["views"]) == ["view1", "workspace", "wrist"]
+    prefixes = {n.rpartition(".")[0].rpartition(".")[0] for n in sample.parts if n.count(".") == 2}
+    assert prefixes == {"view1", "wrist", "post"}
     assert meta["attempt"]["outcome"]["failure_mode"] != "error"
 
 

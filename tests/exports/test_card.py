@@ -139,7 +139,7 @@ def test_an_export_writes_its_card_and_the_dataset_card_lists_it(
     assert "| coco | [coco/](coco/README.md) |" in body and "| hdf5 | `episodes.h5` |" in body
     assert not (dataset / "episodes.h5.README.md").exists()  # a one-file export has no card
     counts = _read_back(readers_python, dataset / "coco" / "croissant.json", tmp_path / "c1")
-    assert counts == {"images_png": 8}  # 4 samples x 2 views
+    assert counts == {"images_png": 12}  # 4 samples x 3 views (workspace, view1, wrist)
     # the loading snippet of docs/dataset-card.md, as printed, on this dataset
     doc = (REPO / "docs" / "dataset-card.md").read_text()
     snippet = doc.split("<!-- snippet: tested by tests/exports/test_card.py -->\n```python\n")[1]

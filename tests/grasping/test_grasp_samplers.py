@@ -7,8 +7,8 @@ import pytest
 import trimesh
 
 from datagen.assets.shapes import build_geometry
+from datagen.convex import ConvexBody
 from datagen.errors import ConfigError
-from datagen.grasping.gripper import ConvexBody
 from datagen.grasping.gripper_geometry import gripper_geometry
 from datagen.grasping.samplers import GraspTarget, Obstacles
 from datagen.registries import ROBOTS, SAMPLERS
@@ -208,7 +208,7 @@ def test_box_vs_convex_matches_linear_programming():
     """The separating-axis test agrees with an exact LP feasibility test on random poses."""
     from scipy.optimize import linprog
 
-    from datagen.grasping.gripper import box_hits_body
+    from datagen.convex import box_hits_body
 
     rng = np.random.default_rng(3)
     body = ConvexBody.from_mesh(trimesh.creation.cylinder(radius=0.03, height=0.05, sections=12))

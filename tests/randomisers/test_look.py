@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from datagen.config import config_from_dict
-from datagen.config.robot import robot_workspace
+from datagen.config.robot import robot_spec, robot_workspace
 from datagen.errors import ConfigError
 from datagen.randomisers.robot import sample_robot
 from datagen.seeding import sample_rng
@@ -32,9 +32,8 @@ def test_the_look_lies_within_the_configured_ranges(name):
         assert target[2] == pytest.approx(floor[2])
         assert (np.abs(target[:2] - floor[:2]) <= cfg.look.offset * ws.scale + 1e-6).all()
         height = eye[2] - floor[2]
-        assert (
-            cfg.look.height[0] * ws.scale - 1e-6 <= height <= cfg.look.height[1] * ws.scale + 1e-6
-        )
+        low, high = np.multiply(cfg.look.height, robot_spec(cfg).look_scale)
+        assert low - 1e-6 <= height <= high + 1e-6
         tilt = np.degrees(np.arctan2(np.linalg.norm(eye[:2] - target[:2]), height))
         if name == "so100":  # approach in the base's vertical plane: straight down
             assert tilt < 1e-3

@@ -14,12 +14,12 @@ import numpy as np
 import pytest
 
 from datagen.config import load_config
-from datagen.config.robot import robot_workspace
+from datagen.config.robot import robot_spec, robot_workspace
 from datagen.geometry import look_at
 from datagen.randomisers import sample_scene
 from datagen.registries import ROBOTS
 from datagen.scenes.grasp_tabletop import produce
-from datagen.worlds.tabletop import construct_scene
+from datagen.worlds.tabletop import build_scene, construct_scene, take_look_pose
 
 DEFAULT = Path(__file__).resolve().parents[2] / "configs" / "grasp_tabletop.yaml"
 COCO_MEDIUM = 32 * 32  # px: COCO's area of a "medium" object
@@ -37,14 +37,17 @@ def test_the_wrist_camera_sits_where_the_randomiser_drew_it(robot):
         params = sample_scene(config, 0, index, ws.tray_floor_top, ws.tray_inner_half)
         look = params["robot"]["look"]
         scene = construct_scene(config, params)
-        pose = np.asarray(scene.cameras["wrist"].entity.pose.to_transformation_matrix(), float)
+        take_look_pose(scene)  # unsettled: objects may still be where the arm goes
+        scene.scene.update_render()  # a camera on a link follows it when the render is updated
+        pose = np.asarray(scene.cameras["wrist"].get_global_pose().to_transformation_matrix())
         drawn = look_at(look["eye"], look["target"], look["up"])
         where = f"{robot} sample {index}"
         assert np.linalg.norm(pose[:3, 3] - drawn[:3, 3]) < 1e-3, where  # metres
         cosines = np.clip(np.einsum("ij,ij->j", pose[:3, :3], drawn[:3, :3]), -1, 1)
         assert np.degrees(np.arccos(cosines)).max() < 0.1, where
         above = look["eye"][2] - ws.tray_floor_top[2]
-        assert 0.32 * ws.scale - 1e-6 <= above <= 0.42 * ws.scale + 1e-6, where
+        low, high = np.multiply(config.robot.look.height, robot_spec(config.robot).look_scale)
+        assert low - 1e-6 <= above <= high + 1e-6, where
         qpos = scene.robot.get_qpos()
         limits = np.concatenate([j.get_limits() for j in scene.robot.get_active_joints()])
         assert ((limits[:, 0] - 1e-4 <= qpos) & (qpos <= limits[:, 1] + 1e-4)).all(), where
@@ -72,3 +75,16 @@ def test_every_default_sample_has_a_view_with_medium_sized_targets():
                 best[view] = float(np.median(seen))
         assert max(best.values(), default=0.0) >= COCO_MEDIUM, f"sample {index}: {best}"
         assert best.get("wrist", 0.0) >= COCO_MEDIUM, f"sample {index}: {best}"  # the one that does
+
+
+@pytest.mark.sim
+def test_an_object_where_the_posed_arm_reaches_is_reported():
+    config = load_config(DEFAULT)
+    config = config.replace(render=replace(config.render, width=64, height=48))
+    scene = build_scene(config, 0, 0)
+    assert take_look_pose(scene) == []  # the built scene: settled, posed, clear
+    hand = next(link for link in scene.robot.get_links() if link.name == "panda_hand")
+    scene.objects[0].entity.set_pose(hand.entity_pose)
+    assert take_look_pose(scene) == [
+        f"object 1 ({scene.objects[0].class_name}) meets the arm at its look pose"
+    ]

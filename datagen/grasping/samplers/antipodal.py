@@ -17,8 +17,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from datagen.config.sections import CampaignConfig
+from datagen.convex import ConvexBody
 from datagen.grasping import GraspCandidate
-from datagen.grasping.gripper import ConvexBody
 from datagen.grasping.gripper_geometry import GripperGeometry
 from datagen.grasping.samplers.base import GraspTarget, Obstacles, SampleResult
 

@@ -11,8 +11,8 @@ import trimesh
 
 from datagen.assets.shapes import ObjectGeometry
 from datagen.config.sections import CampaignConfig
+from datagen.convex import ConvexBody
 from datagen.grasping import GraspCandidate
-from datagen.grasping.gripper import ConvexBody
 from datagen.grasping.gripper_geometry import GripperGeometry
 
 TABLE_Z = 0.75  # metres, the grasping scene's table top

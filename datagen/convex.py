@@ -1,4 +1,5 @@
-"""Exact box-vs-convex collision checks: a convex polyhedron and a separating-axis test.
+"""Exact collision checks of convex polyhedra: a convex body and separating-axis tests (box
+against body, body against body).
 
 Collision is a separating-axis test between an oriented box and an obstacle, taken as a convex
 polyhedron: exact for convex parts, conservative (the convex hull) for anything else, so pass
@@ -54,4 +55,22 @@ def box_hits_body(transform: np.ndarray, extents: np.ndarray, body: ConvexBody) 
     box_c = axes @ centre
     box_r = np.abs(axes @ rot) @ half
     separated = (box_c + box_r < proj.min(axis=0)) | (box_c - box_r > proj.max(axis=0))
+    return not separated.any()
+
+
+def bodies_meet(a: ConvexBody, b: ConvexBody, clearance: float = 0.0) -> bool:
+    """Separating-axis test of two convex bodies: whether they come within ``clearance`` metres
+    along every axis (face normals of both, cross products of their edges)."""
+    if np.any(a.bounds[1] + clearance < b.bounds[0]) or np.any(
+        b.bounds[1] + clearance < a.bounds[0]
+    ):
+        return False
+    cross = np.cross(a.edges[:, None, :], b.edges[None, :, :]).reshape(-1, 3)
+    axes = np.concatenate([a.normals, b.normals, cross])
+    norms = np.linalg.norm(axes, axis=1)
+    axes = axes[norms > 1e-9] / norms[norms > 1e-9, None]
+    pa, pb = a.vertices @ axes.T, b.vertices @ axes.T
+    separated = (pa.max(axis=0) + clearance < pb.min(axis=0)) | (
+        pb.max(axis=0) + clearance < pa.min(axis=0)
+    )
     return not separated.any()
