@@ -34,7 +34,11 @@ commands of its robot (its JSON re-recorded, the pose file added), and added an 
 conservative voxel grid changes the flights; IMU streams, NED pose files, Habitat's SPL), the
 ``nav_maze`` sample's JSON, pose file and frames after the first (Fetch's step an exact arc,
 trajectories to 6 digits, each frame's action) and the campaign sample's JSON, trajectory and
-post-grasp frames (attempts run in a rebuilt scene with SAT contacts; executed grasp poses). The
+post-grasp frames (attempts run in a rebuilt scene with SAT contacts; executed grasp poses).
+Issue 39 then turned the wrist camera on by default and held it over the tray (``robot.pose:
+look``): every part of the default grasp and campaign samples was re-recorded on the AVX-512
+class and their ``wrist.*`` parts added; ``grasp_flat`` (arm folded back, no wrist camera) kept
+its bytes. The
 digests were recorded with Mesa's lavapipe (llvmpipe) on x86-64, as on CI; another renderer draws
 other pixels, so the test runs only there. The same commit draws other bytes on a CPU with
 AVX-512 than on one with AVX2 only, so each class has its digests (:func:`cpu_class`):
