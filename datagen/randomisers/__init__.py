@@ -72,8 +72,15 @@ def sample_scene(
     params = class_free_colours(rng("colours"), config.materials, params)
     if config.distractors.enabled:  # absent when off: the scene stays as it was
         room = params["background"]["room"] if "background" in params else None
+        camera = params["camera"]
         params["distractors"] = sample_distractors(
-            rng("distractors"), config.distractors, config.materials, params["camera"], room, ws
+            rng("distractors"),
+            config.distractors,
+            config.materials,
+            camera,
+            room,
+            ws,
+            config.photos,
         )
         params["distractors"] += sample_flying(  # after the others; none for flying [0, 0]
             rng("distractors.flying"), config.distractors, config.materials, config.photos,

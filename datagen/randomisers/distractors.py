@@ -39,7 +39,7 @@ from datagen.geometry import random_quaternion
 from datagen.randomisers.materials import random_material
 from datagen.randomisers.objects import sample_shape
 from datagen.randomisers.photos import sample_photo
-from datagen.randomisers.textures import maybe_texture
+from datagen.randomisers.textures import DEFAULT_PHOTOS, maybe_texture
 
 PLACEMENTS = ("table", "air", "background")
 ROBOT_CLEARANCE = 0.3  # metres around the robot base kept free of table distractors
@@ -169,10 +169,13 @@ def _background_position(rng, view: _View, bounds, radius, room) -> list[float] 
     return None
 
 
-def _material(rng: np.random.Generator, cfg: MaterialsConfig) -> dict[str, Any]:
-    """A colour like an object's, textured with ``materials.texture_probability``."""
+def _material(
+    rng: np.random.Generator, cfg: MaterialsConfig, photos: PhotosConfig | None
+) -> dict[str, Any]:
+    """A colour like an object's, textured with ``materials.texture_probability`` (a picture of
+    ``textures_dir`` cropped and jittered within the ``photos`` section's ranges)."""
     material = random_material(rng, cfg, cfg.saturation, cfg.value)
-    maybe_texture(rng, material, cfg)
+    maybe_texture(rng, material, cfg, photos or DEFAULT_PHOTOS)
     return material
 
 
@@ -183,8 +186,10 @@ def sample_distractors(
     camera: dict[str, Any],
     room: dict[str, Any] | None = None,
     ws: Workspace = DEFAULT_WORKSPACE,
+    photos: PhotosConfig | None = None,
 ) -> list[dict[str, Any]]:
     """Distractors of one scene, by placement; ``camera`` is the workspace camera's values,
+    ``photos`` the section whose ranges crop and jitter a picture of ``textures_dir``,
     ``room`` the background's room (``{"x": [lo, hi], "y": [lo, hi], ...}``) if there is one."""
     counts = {"table": cfg.on_table, "air": cfg.in_air, "background": cfg.background}
     view = _View.of(camera, ws)
@@ -195,7 +200,7 @@ def sample_distractors(
             size_range = cfg.background_size if placement == "background" else cfg.size
             size = float(rng.uniform(*size_range))
             shape = sample_shape(rng, str(rng.choice(SHAPE_FAMILIES)), size)
-            material = _material(rng, materials)
+            material = _material(rng, materials, photos)
             radius = size / 2
             if placement == "air":
                 quat, position = random_quaternion(rng), _air_position(rng, view, radius)
@@ -309,7 +314,7 @@ def sample_flying(
                 shape = card_shape(rng, size, float(rng.uniform(*CARD_ASPECT)))
             else:
                 shape = sample_shape(rng, family, size)
-            material = _material(rng, materials)
+            material = _material(rng, materials, photos)
         quat = random_quaternion(rng)
         bounds = build_geometry(shape).visual.bounds
         # the shape's bounding-box centre at the spot: its origin may be a corner or its base

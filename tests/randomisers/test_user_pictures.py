@@ -5,6 +5,8 @@ tile is that crop, jittered; a record made before (no crop) still draws the whol
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import cv2
 import numpy as np
 import pytest
@@ -90,6 +92,22 @@ def test_users_pictures_are_cropped_sized_and_jittered_within_the_photos_ranges(
     assert {v["rotation_deg"] for v in walls} == {0.0}  # upright, as photographs on walls
     assert {v["flip"] for v in surfaces + walls} == {False, True}
     assert {v["path"] for v in surfaces + walls} == {"noise.png", "square.jpg"}
+
+
+def test_a_distractors_picture_takes_the_photos_ranges_too(pictures):
+    config = _config(pictures, PHOTOS)
+    config = config.replace(distractors=replace(config.distractors, enabled=True, flying=(0, 0)))
+    shown = []
+    for index in range(8):
+        params = sample_scene(config, 3, index, TRAY_CENTRE, TRAY_INNER_HALF)
+        shown += [d["material"].get("texture", {}) for d in params["distractors"]]
+    pictures_shown = [t for t in shown if t.get("family") == "image"]
+    assert pictures_shown  # texture_probability 1, textures_dir_share 1
+    for values in pictures_shown:
+        assert _within(values["crop"][2], PHOTOS["crop"]) and _within(
+            values["hue_deg"], PHOTOS["hue_deg"]
+        )
+        assert _within(values["scale_m"], PHOTOS["surface_scale_m"])
 
 
 def test_the_look_comes_from_the_randomisers_streams_and_changes_nothing_else(pictures):
