@@ -73,6 +73,10 @@ def main(argv: list[str] | None = None) -> int:
             f"{name:<10} {np.median(m):>12.0f} / {np.percentile(m, 10):>5.0f} / {m.min():>5.0f}"
             f"{reached:>21d}/{len(m)}{100 * np.mean(seen[name]):>14.1f} %"
         )
+    for name in cameras:
+        below = [i for i, v in enumerate(medians[name]) if v < COCO_MEDIUM]
+        if 0 < len(below) <= 10:
+            print(f"{name}: samples below 32x32: {below}")
     return 0
 
 

@@ -1,5 +1,6 @@
 """The pictures of docs/robots.md: sample 0 of each built-in arm's grasp config, rendered by a
-real build's producer, its workspace view with the robot and gripper pixels outlined.
+real build's producer: its workspace view with the robot and gripper pixels outlined, and its
+wrist camera's view beside it.
 
     .venv/bin/python scripts/robot_pictures.py docs/images/robots
 """
@@ -24,17 +25,23 @@ def picture(name: str) -> np.ndarray:
         REPO / "configs" / ("grasp_tabletop.yaml" if name == "panda" else f"grasp_{name}.yaml")
     )
     sample = FAMILIES["grasp_tabletop"].produce_sample(config, config.seed, 0)
-    meta = json.loads(sample.parts["json"])
-    rgb = cv2.imdecode(np.frombuffer(sample.parts["rgb.png"], np.uint8), cv2.IMREAD_COLOR)
+    classes = json.loads(sample.parts["json"])["classes"]
+    views = [_outlined(sample.parts, prefix, classes) for prefix in ("", "wrist.")]
+    cv2.putText(views[0], name, (12, 32), cv2.FONT_HERSHEY_SIMPLEX, 1.0, (255, 255, 255), 2)
+    return np.hstack(views)
+
+
+def _outlined(parts: dict[str, bytes], prefix: str, classes: list[str]) -> np.ndarray:
+    """A camera's colour image with its robot and gripper pixels outlined."""
+    rgb = cv2.imdecode(np.frombuffer(parts[f"{prefix}rgb.png"], np.uint8), cv2.IMREAD_COLOR)
     labels = cv2.imdecode(
-        np.frombuffer(sample.parts["semantic.png"], np.uint8), cv2.IMREAD_UNCHANGED
+        np.frombuffer(parts[f"{prefix}semantic.png"], np.uint8), cv2.IMREAD_UNCHANGED
     )
     for colour, label in (((0, 200, 255), "robot"), ((255, 80, 0), "gripper")):
-        if label in meta["classes"]:
-            mask = (labels == meta["classes"].index(label)).astype(np.uint8)
+        if label in classes:
+            mask = (labels == classes.index(label)).astype(np.uint8)
             contours, _ = cv2.findContours(mask, cv2.RETR_EXTERNAL, cv2.CHAIN_APPROX_SIMPLE)
             cv2.drawContours(rgb, contours, -1, colour, 2)
-    cv2.putText(rgb, name, (12, 32), cv2.FONT_HERSHEY_SIMPLEX, 1.0, (255, 255, 255), 2)
     return rgb
 
 
@@ -43,7 +50,7 @@ def main(out: Path) -> None:
     for name in sorted(ROBOTS):
         path = out / f"{name}.jpg"
         cv2.imwrite(
-            str(path), cv2.resize(picture(name), (480, 360)), [cv2.IMWRITE_JPEG_QUALITY, 80]
+            str(path), cv2.resize(picture(name), (640, 240)), [cv2.IMWRITE_JPEG_QUALITY, 80]
         )
         print(path, path.stat().st_size, "bytes")
 

@@ -40,7 +40,7 @@ class LookConfig:
     scaled with a small arm's)."""
 
     height: tuple[float, float] = field(
-        default=(0.32, 0.42),
+        default=(0.28, 0.38),
         metadata=_range(0.05, 1.0, "wrist camera above the tray floor, metres"),
     )
     offset: float = field(

@@ -6,6 +6,8 @@ from __future__ import annotations
 
 from typing import Any
 
+import numpy as np
+
 from datagen.config import BuildConfig
 from datagen.config.robot import robot_workspace
 from datagen.randomisers.background import sample_background
@@ -40,11 +42,13 @@ def sample_scene(
     config = scaled_to_robot(config)  # a small arm's scene; the config itself for scale 1
     ws = robot_workspace(config.robot)
     objects = sample_objects(rng("objects"), config.objects)
+    drops = sample_drop_poses(
+        rng("drop_poses"), config.objects, len(objects), tray_centre, tray_inner_half
+    )
+    dropped_at = np.mean([pose["position"][:2] for pose in drops], axis=0)
     params: dict[str, Any] = {
         "objects": objects,
-        "drop_poses": sample_drop_poses(
-            rng("drop_poses"), config.objects, len(objects), tray_centre, tray_inner_half
-        ),
+        "drop_poses": drops,
         # textures come from a stream of their own: probability 0 leaves the materials as they were
         "materials": add_textures(
             rng("textures"),
@@ -54,7 +58,7 @@ def sample_scene(
         ),
         "lighting": sample_lighting(rng("lighting"), config.lighting, tray_centre),
         "camera": sample_camera(rng("camera"), config.camera),
-        "robot": sample_robot(rng("robot"), config.robot, ws),
+        "robot": sample_robot(rng("robot"), config.robot, ws, dropped_at),
     }
     if config.background.enabled:  # absent when off: the scene stays as it was
         params["background"] = sample_background(

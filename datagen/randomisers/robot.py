@@ -12,10 +12,13 @@ from datagen.assets.tabletop_layout import Workspace
 from datagen.config.robot import LookConfig, RobotConfig, robot_spec
 
 
-def sample_robot(rng: np.random.Generator, cfg: RobotConfig, ws: Workspace) -> dict[str, Any]:
+def sample_robot(
+    rng: np.random.Generator, cfg: RobotConfig, ws: Workspace, aim: np.ndarray | None = None
+) -> dict[str, Any]:
     """Joint positions: the arm's ready pose jittered, the finger joints (two prismatic fingers,
     or one jaw) opened alike within their travel (radians, metres), in the order of the record's
-    ``joint_names``; and with ``robot.pose: look`` the wrist camera's ``look`` (world metres)."""
+    ``joint_names``; and with ``robot.pose: look`` the wrist camera's ``look`` (world metres),
+    aimed towards ``aim`` (world x, y: where the objects were dropped) when given."""
     spec = robot_spec(cfg)
     ready = spec.ready_pose
     arm = np.asarray(ready) + rng.uniform(-cfg.joint_jitter, cfg.joint_jitter, len(ready))
@@ -24,7 +27,7 @@ def sample_robot(rng: np.random.Generator, cfg: RobotConfig, ws: Workspace) -> d
     values: dict[str, Any] = {"qpos": np.round(np.append(arm, fingers), 6).tolist()}
     if cfg.pose == "look":
         values["look"] = sample_look(
-            rng, cfg.look, ws, spec.approach_in_base_plane, spec.look_scale
+            rng, cfg.look, ws, spec.approach_in_base_plane, spec.look_scale, aim
         )
     return values
 
@@ -35,15 +38,21 @@ def sample_look(
     ws: Workspace,
     in_base_plane: bool,
     look_scale: float = 1.0,
+    aim: np.ndarray | None = None,
 ) -> dict[str, list[float]]:
-    """The wrist camera's ``eye``, the ``target`` it looks at on the tray floor and the world
-    direction its image's ``up`` turns towards (metres, world frame; heights times ``look_scale``,
-    ``RobotSpec.look_scale``, offsets times the workspace's scale). The eye leans up to
+    """The wrist camera's ``eye``, the ``target`` it looks at on the tray floor (within
+    ``offset`` of the tray's centre, or of ``aim`` brought within half the tray's inner half of
+    it) and the world direction its image's ``up`` turns towards (metres, world frame; heights
+    times ``look_scale``, ``RobotSpec.look_scale``, offsets times the workspace's scale). The
+    eye leans up to
     ``tilt_deg`` from straight above the target, to the base's side, and the image's up turns by
     up to ``roll_deg`` from pointing away from the base (world +x). An arm whose approach must
     lie in the vertical plane through its shoulder (``RobotSpec.approach_in_base_plane``) looks
     straight down: a leaning view would need the approach out of that plane."""
     centre = np.asarray(ws.tray_floor_top, float)
+    if aim is not None:  # towards the objects, at most half the tray's inner half off its centre
+        half = np.asarray(ws.tray_inner_half, float) / 2
+        centre[:2] += np.clip(np.asarray(aim, float) - centre[:2], -half, half)
     target = centre + np.append(rng.uniform(-1, 1, 2) * cfg.offset * ws.scale, 0.0)
     height = rng.uniform(*cfg.height) * look_scale
     tilt = np.deg2rad(rng.uniform(*cfg.tilt_deg)) * (not in_base_plane)

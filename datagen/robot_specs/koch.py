@@ -62,5 +62,5 @@ KOCH = RobotSpec(
     # a small camera beside the jaw, looking along the fingers; held 0.12-0.16 m over the tray
     # floor (its straight-down reach ends at 0.16 m), the TCP 6 cm lower
     wrist_camera=tcp_camera("koch_tcp", side=0.03, back=0.06),
-    look_scale=0.38,
+    look_scale=0.42,
 )

@@ -66,3 +66,16 @@ def test_a_narrower_range_is_kept():
     look = sample_robot(sample_rng(0, 0, "robot"), cfg, ws)["look"]
     assert look["eye"][2] - ws.tray_floor_top[2] == pytest.approx(0.5)
     assert look["eye"][:2] == pytest.approx(look["target"][:2])
+
+
+def test_the_look_aims_towards_where_the_objects_were_dropped_within_the_tray():
+    cfg = _robot("panda")
+    ws = robot_workspace(cfg)
+    centre, half = np.asarray(ws.tray_floor_top[:2]), np.asarray(ws.tray_inner_half)
+    for aim, expected in (
+        (centre + [0.05, -0.04], centre + [0.05, -0.04]),  # near the centre: the aim itself
+        (centre + [1.0, 1.0], centre + half / 2),  # far off: half the inner half from the centre
+    ):
+        look = sample_robot(sample_rng(0, 1, "robot"), cfg, ws, np.asarray(aim))["look"]
+        off = np.asarray(look["target"][:2]) - expected
+        assert (np.abs(off) <= cfg.look.offset + 1e-6).all()
