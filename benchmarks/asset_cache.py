@@ -46,6 +46,7 @@ from pathlib import Path
 
 import mani_skill
 import yaml
+from machine import cpu_model  # benchmarks/machine.py
 
 from datagen.library.catalogue import library_root
 
@@ -140,13 +141,6 @@ def one_build(tree: Path, config: Path, samples: int, cache: Path) -> dict[str, 
     if code != 0 or "first_durable_s" not in marks:
         raise SystemExit(f"the build with {tree} failed ({code}):\n{''.join(lines)[-3000:]}")
     return marks
-
-
-def cpu_model() -> str:
-    for line in Path("/proc/cpuinfo").read_text().splitlines():
-        if line.startswith("model name"):
-            return line.split(":", 1)[1].strip()
-    return "unknown"
 
 
 def _archive(rev: str, into: Path) -> Path:

@@ -25,13 +25,13 @@ import collections
 import dataclasses
 import json
 import multiprocessing
-import platform
 import sys
 import time
 from pathlib import Path
 
 import numpy as np
 import sapien
+from machine import cpu_model  # benchmarks/machine.py
 from mplib.pymp.collision_detection import fcl
 from scipy.spatial.transform import Rotation
 
@@ -155,16 +155,6 @@ def _attempt(job: tuple[BuildConfig, int]) -> dict:
     }
 
 
-def _cpu() -> str:
-    try:
-        for line in Path("/proc/cpuinfo").read_text().splitlines():
-            if line.startswith("model name"):
-                return line.split(":", 1)[1].strip()
-    except OSError:
-        pass
-    return platform.processor() or "unknown"
-
-
 def _report_offsets(offsets: list[dict]) -> None:
     """Executed minus planned grasp frame at closure, in the planned frame (mm, degrees)."""
     if not offsets:
@@ -220,7 +210,7 @@ def main() -> int:
     parser.add_argument("--contacts", type=int, help="measure the contact generation instead")
     args = parser.parse_args()
     print("command:", " ".join([Path(sys.executable).name, *sys.argv]))
-    print(f"cpu: {_cpu()}, {multiprocessing.cpu_count()} cores; workers {args.workers}")
+    print(f"cpu: {cpu_model()}, {multiprocessing.cpu_count()} cores; workers {args.workers}")
     if args.contacts:
         for pcm, offset in ((True, 0.01), (True, 0.002), (False, 0.01), (False, 0.002)):
             apart, touching, deep = _deep_contacts(args.contacts, pcm, offset)

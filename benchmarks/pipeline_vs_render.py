@@ -41,6 +41,7 @@ from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
+from machine import cpu_model  # benchmarks/machine.py
 from tqdm import tqdm
 
 from datagen.config import BuildConfig, config_from_dict, load_config
@@ -217,20 +218,10 @@ def warm_up_and_probe(config: BuildConfig) -> str:
     return device
 
 
-def _cpu_model() -> str:
-    try:
-        for line in Path("/proc/cpuinfo").read_text().splitlines():
-            if line.startswith("model name"):
-                return line.split(":", 1)[1].strip()
-    except OSError:
-        pass
-    return platform.processor() or "unknown"
-
-
 def machine(device_summary: str, load_average: tuple[float, ...]) -> dict[str, Any]:
     return {
         "cores": os.cpu_count(),
-        "cpu_model": _cpu_model(),
+        "cpu_model": cpu_model(),
         "render_device": device_summary,
         "platform": platform.platform(),
         "python": platform.python_version(),

@@ -27,7 +27,6 @@ import argparse
 import atexit
 import json
 import os
-import platform
 import shutil
 import statistics
 import sys
@@ -36,22 +35,14 @@ import time
 from dataclasses import replace
 from pathlib import Path
 
+from machine import cpu_model  # benchmarks/machine.py
+
 os.environ.setdefault("OMP_NUM_THREADS", "1")  # as in the workers
 os.environ["MESA_SHADER_CACHE_DIR"] = tempfile.mkdtemp(prefix="datagen-rt-bench-mesa-")
 atexit.register(shutil.rmtree, os.environ["MESA_SHADER_CACHE_DIR"], ignore_errors=True)
 
 REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO))
-
-
-def cpu_model() -> str:
-    try:
-        for line in Path("/proc/cpuinfo").read_text().splitlines():
-            if line.startswith("model name"):
-                return line.split(":", 1)[1].strip()
-    except OSError:
-        pass
-    return platform.processor() or "unknown"
 
 
 def mean_se(values: list[float]) -> dict[str, float]:

@@ -15,22 +15,15 @@ from __future__ import annotations
 
 import argparse
 import json
-import platform
 import sys
 from pathlib import Path
 
 import cv2
 import numpy as np
+from machine import cpu_model  # benchmarks/machine.py
 
 REPO = Path(__file__).resolve().parents[1]
 COCO_MEDIUM = 32 * 32  # px
-
-
-def cpu() -> str:
-    for line in Path("/proc/cpuinfo").read_text().splitlines():
-        if line.startswith("model name"):
-            return line.split(":", 1)[1].strip()
-    return platform.processor() or "unknown"
 
 
 def target_areas(parts: dict[str, bytes], prefix: str) -> list[int]:
@@ -64,7 +57,7 @@ def main(argv: list[str] | None = None) -> int:
     print(file=sys.stderr)
     size = f"{config.render.width}x{config.render.height}"
     print(f"{args.samples} samples of {Path(args.config).name} (seed {config.seed}), {size}")
-    print(f"CPU: {cpu()}")
+    print(f"CPU: {cpu_model()}")
     print("camera     median target px (median / p10 / min)   samples >= 32x32   targets seen")
     for name in cameras:
         m = np.asarray(medians[name])
