@@ -26,13 +26,13 @@ def sample_robot(
     fingers = [finger] * len(spec.gripper.finger_joints)
     values: dict[str, Any] = {"qpos": np.round(np.append(arm, fingers), 6).tolist()}
     if cfg.pose == "look":
-        values["look"] = sample_look(
+        values["look"] = sample_wrist_look(
             rng, cfg.look, ws, spec.approach_in_base_plane, spec.look_scale, aim
         )
     return values
 
 
-def sample_look(
+def sample_wrist_look(
     rng: np.random.Generator,
     cfg: LookConfig,
     ws: Workspace,
