@@ -1,7 +1,11 @@
-"""What a benchmark prints about the machine it ran on (imported by the scripts beside it)."""
+"""What a benchmark prints about the machine it ran on (imported by the scripts beside it).
+
+.venv/bin/python benchmarks/machine.py     # prints it
+"""
 
 from __future__ import annotations
 
+import argparse
 import platform
 from pathlib import Path
 
@@ -15,3 +19,8 @@ def cpu_model() -> str:
     except OSError:
         pass
     return platform.processor() or "unknown"
+
+
+if __name__ == "__main__":
+    argparse.ArgumentParser(description=__doc__.splitlines()[0]).parse_args()
+    print(cpu_model())

@@ -73,8 +73,8 @@ def test_the_look_aims_towards_where_the_objects_were_dropped_within_the_tray():
     ws = robot_workspace(cfg)
     centre, half = np.asarray(ws.tray_floor_top[:2]), np.asarray(ws.tray_inner_half)
     for aim, expected in (
-        (centre + [0.05, -0.04], centre + [0.05, -0.04]),  # near the centre: the aim itself
-        (centre + [1.0, 1.0], centre + half / 2),  # far off: half the inner half from the centre
+        (np.add(centre, [0.05, -0.04]), np.add(centre, [0.05, -0.04])),  # near: the aim itself
+        (np.add(centre, [1.0, 1.0]), centre + half / 2),  # far off: half the inner half away
     ):
         look = sample_robot(sample_rng(0, 1, "robot"), cfg, ws, np.asarray(aim))["look"]
         off = np.asarray(look["target"][:2]) - expected

@@ -27,13 +27,17 @@ def test_other_index_or_seed_gives_other_values():
 
 
 def test_streams_are_independent_of_each_other():
-    """Changing the object config must not change the lighting or camera draws."""
+    """Changing the object config must not change the lighting, camera or robot draws (the
+    wrist camera's look-at point follows the objects; its height and roll are the robot's)."""
     config = BuildConfig()
     fewer = config.replace(objects=ObjectsConfig(count=(1, 1)))
     a, b = sample_scene(config, 0, 3, *TRAY), sample_scene(fewer, 0, 3, *TRAY)
     assert a["lighting"] == b["lighting"]
     assert a["camera"] == b["camera"]
-    assert a["robot"] == b["robot"]
+    assert a["robot"]["qpos"] == b["robot"]["qpos"]
+    looks = a["robot"]["look"], b["robot"]["look"]
+    assert looks[0]["up"] == looks[1]["up"] and looks[0]["eye"][2] == looks[1]["eye"][2]
+    assert looks[0]["target"] != looks[1]["target"]
 
 
 def test_values_are_json_and_within_config_ranges():
