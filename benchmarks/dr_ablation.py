@@ -49,120 +49,64 @@ go to ``benchmarks/results/dr_ablation.json``.
 from __future__ import annotations
 
 import argparse
-import copy
 import json
 import os
 import statistics
 import sys
 import tempfile
 import time
+from functools import partial
 from pathlib import Path
+
+from dr_transfer.building import build
+from dr_transfer.frames import SEGMENTATION_CLASSES, load_frames, read_frames, save_frames
+from dr_transfer.scoring import blind_prediction, iou, mean_se, shown
+from dr_transfer.training import predict, train
+from dr_transfer.variants import (
+    HELD_OUT_LIGHTING,
+    HELD_OUT_TEXTURES,
+    TEST_SEED,
+    TRAINING_SETS,
+    held_out_photos,
+    merged,
+    real_meshes,
+    repo_config,
+    training_sets,
+)
 
 os.environ.setdefault("OMP_NUM_THREADS", "1")  # workers' BLAS threads busy-wait otherwise
 
 REPO = Path(__file__).resolve().parents[1]
-ABLATION_CLASSES = ("other", "table", "tray", "object")
-OTHER = ("background", "floor", "wall", "robot", "gripper", "distractor")
 INPUT_SIZE = (80, 60)  # width, height seen by the net
-TRAIN_TEXTURES = ["noise", "stripes", "checker"]
-HELD_OUT_TEXTURES = ["marble", "grain", "speckle"]
-TRAIN_LIGHTING = {"ambient": [0.08, 0.6], "intensity": [0.3, 2.4]}
-HELD_OUT_LIGHTING = {"ambient": [0.02, 0.08], "intensity": [2.4, 4.0]}
-# the lighting before issue 26 (narrow, white, hard shadows), inside the training band
-BEFORE_LIGHTING = {"ambient": [0.15, 0.45], "lights": [1, 3], "intensity": [0.6, 2.0],
-                   "elevation_deg": [35, 85], "colour_temperature_k": [6500, 6500],
-                   "soft_shadow_probability": 0.0}  # fmt: skip
-WITHOUT = {  # c_no_<name>: what (c) turns off
-    "photo_surfaces": {"photos": {"surface_probability": 0.0}},
-    "photo_backdrops": {"photos": {"backdrop_probability": 0.0}},
-    "flying": {"distractors": {"flying": [0, 0]}},
-    "wide_lighting": {"lighting": BEFORE_LIGHTING},
-    "class_colours": {"materials": {"class_independent_probability": 0.0}},
-}
 TARGET_GAIN, TARGET_OVER_BLIND, TARGET_SE = 15.0, 15.0, 2.0  # mIoU points, photo domain
-
-
-def _merge(base: dict, overrides: dict) -> dict:
-    merged = copy.deepcopy(base)
-    for key, value in overrides.items():
-        if isinstance(value, dict) and isinstance(merged.get(key), dict):
-            merged[key] = _merge(merged[key], value)
-        else:
-            merged[key] = value
-    return merged
 
 
 def variant_configs(scenes: int, test_scenes: int, views: int) -> tuple[dict, dict]:
     """Config dicts of the training sets and of the test domains (validated when built)."""
-    from datagen.config.yaml_file import read_yaml
-    from datagen.library.catalogue import library_root
-
-    flat = read_yaml(REPO / "configs/grasp_flat.yaml")
-    default = read_yaml(REPO / "configs/grasp_tabletop.yaml")
-    closeup = read_yaml(REPO / "configs/grasp_closeup.yaml")
-    size = {"render": {"width": 160, "height": 120, "views": views, "shadow_map_size": 512,
-                       "wrist_camera": False},
-            "camera": closeup["camera"], "robot": closeup["robot"]}  # fmt: skip
-    train = size | {"num_samples": scenes, "seed": 1, "lighting": TRAIN_LIGHTING}
-    families = {"materials": {"texture_families": TRAIN_TEXTURES}}
-    room = {"materials": _merge(default["materials"], families["materials"]),
-            "background": default["background"]}  # fmt: skip
-    c = _merge(_merge(default, families), train)
-    sets = {
-        "a_flat": _merge(flat, train),
-        "b_textures_room": _merge(_merge(flat, room), train),
-        "c_default": c,
-    } | {f"c_no_{name}": _merge(c, off) for name, off in WITHOUT.items()}
-    test = size | {"num_samples": test_scenes, "seed": 99, "lighting": HELD_OUT_LIGHTING,
-                   "materials": {"texture_families": HELD_OUT_TEXTURES}}  # fmt: skip
-    training_sources = default["photos"]["sources"]
-    held_out_photos = {
-        "photos": {"sources": default["photos"]["held_out"], "held_out": training_sources,
-                   "surface_probability": 0.9, "backdrop_probability": 1.0,
-                   "distractor_probability": 1.0},
-        "objects": {"source": "folder", "assets_dir": str(library_root() / "robosuite-objects")},
-    }  # fmt: skip
-    tests = {
-        "procedural": _merge(_merge(default, test), {"photos": {"enabled": False}}),
-        "photos": _merge(_merge(default, test), held_out_photos),
+    default = repo_config("grasp_tabletop.yaml")
+    closeup = repo_config("grasp_closeup.yaml")
+    size = {
+        "render": {
+            "width": 160,
+            "height": 120,
+            "views": views,
+            "shadow_map_size": 512,
+            "wrist_camera": False,
+        },
+        "camera": closeup["camera"],
+        "robot": closeup["robot"],
     }
-    return sets, tests
-
-
-def build(name: str, data: dict, root: Path, workers: int) -> tuple[Path, float]:
-    from datagen.config import config_from_dict
-    from datagen.pipeline.run import run_build
-
-    config = config_from_dict(data, source=f"dr_ablation:{name}")
-    out = root / name
-    start = time.perf_counter()
-    run_build(config, out, workers=workers)
-    return out, time.perf_counter() - start
-
-
-def frames(dataset: Path):
-    """(N, 3, H, W) float images and (N, H, W) ablation class maps of every view."""
-    import cv2
-    import numpy as np
-    import torch
-
-    import datagen
-
-    classes = datagen.dataset.loader.read_manifest(dataset)["classes"]
-    lut = np.zeros(256, np.int64)  # stored semantic id -> ablation class
-    for i, name in enumerate(classes):
-        if name in ("table", "tray"):
-            lut[i] = ABLATION_CLASSES.index(name)
-        elif name not in OTHER:
-            lut[i] = ABLATION_CLASSES.index("object")
-    images, targets = [], []
-    for item in datagen.load(dataset):
-        for view in [item, *item.get("views", {}).values()]:  # workspace, view1, ...
-            images.append(cv2.resize(view["rgb"], INPUT_SIZE, interpolation=cv2.INTER_AREA))
-            semantic = cv2.resize(view["semantic"], INPUT_SIZE, interpolation=cv2.INTER_NEAREST)
-            targets.append(lut[semantic])
-    x = torch.from_numpy(np.stack(images)).permute(0, 3, 1, 2).float() / 255.0
-    return x, torch.from_numpy(np.stack(targets))
+    test = size | {
+        "num_samples": test_scenes,
+        "seed": TEST_SEED,
+        "lighting": HELD_OUT_LIGHTING,
+        "materials": {"texture_families": HELD_OUT_TEXTURES},
+    }
+    tests = {
+        "procedural": merged(merged(default, test), {"photos": {"enabled": False}}),
+        "photos": merged(merged(default, test), held_out_photos(default) | real_meshes()),
+    }
+    return training_sets(size, scenes), tests
 
 
 def segmentation_net(channels: int = 32):
@@ -176,124 +120,30 @@ def segmentation_net(channels: int = 32):
         nn.Conv2d(c, c, 3, padding=4, dilation=4), nn.BatchNorm2d(c), nn.ReLU(),
         nn.Conv2d(c, c, 3, padding=8, dilation=8), nn.BatchNorm2d(c), nn.ReLU(),
         nn.Conv2d(c, c, 3, padding=16, dilation=16), nn.BatchNorm2d(c), nn.ReLU(),
-        nn.Conv2d(c, len(ABLATION_CLASSES), 1),
+        nn.Conv2d(c, len(SEGMENTATION_CLASSES), 1),
     )  # fmt: skip
 
 
-def augmented(x, y, generator):
-    """Each image mirrored left-right with probability 0.5, its contrast scaled by 0.8-1.2
-    about its mean and its brightness moved by -0.1..0.1 (images in 0..1): the usual
-    photometric and geometric augmentation, applied alike to every training set."""
-    import torch
-
-    n = len(x)
-    flip = (torch.rand(n, generator=generator) < 0.5).to(x.device)
-    x = torch.where(flip[:, None, None, None], x.flip(-1), x)
-    y = torch.where(flip[:, None, None], y.flip(-1), y)
-    contrast = (0.8 + 0.4 * torch.rand(n, 1, 1, 1, generator=generator)).to(x.device)
-    brightness = (0.2 * torch.rand(n, 1, 1, 1, generator=generator) - 0.1).to(x.device)
-    mean = x.mean(dim=(1, 2, 3), keepdim=True)
-    return ((x - mean) * contrast + mean + brightness).clamp(0, 1), y
-
-
-def _autocast(device, precision: str):
-    import torch
-
-    return torch.autocast(device.type, dtype=torch.bfloat16, enabled=precision == "bf16")
-
-
-def train(x, y, epochs: int, seed: int, channels: int = 32, augment: bool = True,
-          precision: str = "fp32"):  # fmt: skip
-    """AdamW with a cosine learning-rate schedule to zero: the last epochs settle the weights,
-    so the score depends less on where the seed left them. ``precision="bf16"`` runs the
-    convolutions in bfloat16 (weights stay float32): 4x faster on a CPU with AVX-512 BF16."""
-    import torch
-    from torch import nn
-
-    torch.manual_seed(seed)
-    net = segmentation_net(channels).to(x.device, memory_format=torch.channels_last)
-    optimiser = torch.optim.AdamW(net.parameters(), lr=3e-3, weight_decay=1e-4)
-    steps = epochs * ((len(x) + 31) // 32)
-    schedule = torch.optim.lr_scheduler.CosineAnnealingLR(optimiser, steps)
-    generator = torch.Generator().manual_seed(seed)
-    losses = []
-    for _ in range(epochs):
-        order = torch.randperm(len(x), generator=generator).to(x.device)
-        total = 0.0
-        for batch in order.split(32):
-            xb, yb = augmented(x[batch], y[batch], generator) if augment else (x[batch], y[batch])
-            with _autocast(x.device, precision):
-                logits = net(xb.contiguous(memory_format=torch.channels_last))
-            loss = nn.functional.cross_entropy(logits.float(), yb)
-            optimiser.zero_grad()
-            loss.backward()
-            optimiser.step()
-            schedule.step()
-            total += loss.item() * len(batch)
-        losses.append(round(total / len(x), 4))
-    return net.eval(), losses
-
-
-def iou(predicted, y) -> dict[str, float]:
-    scores = {}
-    for c, name in enumerate(ABLATION_CLASSES):
-        union = ((predicted == c) | (y == c)).sum().item()
-        scores[name] = round(100 * ((predicted == c) & (y == c)).sum().item() / max(union, 1), 2)
-    scores["mIoU"] = round(sum(scores[n] for n in ABLATION_CLASSES) / len(ABLATION_CLASSES), 2)
-    return scores
-
-
-def predict(net, x, precision: str = "fp32"):
-    import torch
-
-    with torch.no_grad(), _autocast(x.device, precision):
-        return torch.cat([net(b.contiguous(memory_format=torch.channels_last)).argmax(1) for b in x.split(64)])  # fmt: skip
-
-
-def blind_prediction(y_train, count: int):
-    """Each pixel's most common class over a training set, for ``count`` images."""
-    import torch
-
-    counts = torch.stack([(y_train == c).sum(0) for c in range(len(ABLATION_CLASSES))])
-    return counts.argmax(0).expand(count, -1, -1)
-
-
-def mean_se(values: list[float]) -> tuple[float, float]:
-    if len(values) < 2:
-        return values[0], float("nan")
-    return statistics.fmean(values), statistics.stdev(values) / len(values) ** 0.5
-
-
-def _shown(values: list[float]) -> str:
-    mean, se = mean_se(values)
-    return f"{mean:5.1f} ± {se:3.1f}"
-
-
 TEST_DOMAINS = ("procedural", "photos")
-SETS = ("a_flat", "b_textures_room", "c_default", *(f"c_no_{name}" for name in WITHOUT))
+SETS = TRAINING_SETS
 
 
 def dataset_frames(name: str, args, configs, tmp: Path):
     """The frames of one set: read from ``--frames-dir`` if saved there, else built (and
     saved there when it is given); (x, y, seconds it took to build or None)."""
-    import numpy as np
-    import torch
-
     saved = Path(args.frames_dir) / f"{name}.npz" if args.frames_dir else None
     if saved and saved.is_file():
-        with np.load(saved) as data:
-            x, y = torch.from_numpy(data["x"]).float() / 255.0, torch.from_numpy(data["y"]).long()
-        return x, y, None
+        frames = load_frames(saved)
+        return frames.float_images(), frames.classes, None
     if configs is None:
         configs = variant_configs(args.scenes, args.test_scenes, args.views)
     data = {**configs[0], **configs[1]}[name.removeprefix("test_")]
-    dataset, build_s = build(name, data, tmp, args.workers)
-    x, y = frames(dataset)
+    built = build(f"dr_ablation:{name}", data, tmp / name, args.workers)
+    build_s = built.seconds if built else None
+    frames = read_frames(tmp / name, INPUT_SIZE)
     if saved:
-        saved.parent.mkdir(parents=True, exist_ok=True)
-        as_bytes = (x * 255).round().to(torch.uint8).numpy()
-        np.savez_compressed(saved, x=as_bytes, y=y.to(torch.uint8).numpy())
-    return x, y, build_s
+        save_frames(frames, saved)
+    return frames.float_images(), frames.classes, build_s
 
 
 def main() -> int:
@@ -344,14 +194,18 @@ def main() -> int:
             train_s = []
             for seed in args.seeds:
                 start = time.perf_counter()
-                net, _ = train(x, y, args.epochs, seed, args.channels, args.augment, args.precision)
+                make_net = partial(segmentation_net, args.channels)
+                net, _ = train(x, y, make_net, args.epochs, seed, args.augment, args.precision)
                 train_s.append(time.perf_counter() - start)
                 for t, (tx, ty) in test_data.items():
                     runs[t].append(iou(predict(net, tx, args.precision), ty))
             result["models"][name] = {"frames": len(x), "build_s": build_s,
                                       "train_s": round(statistics.fmean(train_s), 1), "scores": runs}  # fmt: skip
-            shown = "  ".join(f"{t} {_shown([r['mIoU'] for r in runs[t]])}" for t in runs)
-            print(f"{name:22} {len(x)} frames, trained {statistics.fmean(train_s):.0f} s/seed: {shown}", flush=True)  # fmt: skip
+            per_domain = "  ".join(f"{t} {shown([r['mIoU'] for r in runs[t]])}" for t in runs)
+            print(
+                f"{name:22} {len(x)} frames, trained {statistics.fmean(train_s):.0f} s/seed: {per_domain}",
+                flush=True,
+            )
     if args.build_only:
         return 0
     report(result, list(test_data))
@@ -365,7 +219,10 @@ def report(result: dict, domains: list[str]) -> None:
     print(f"\nmIoU on each test domain, mean ± standard error over training seeds {result['seeds']}")  # fmt: skip
     print(f"{'model':22} " + " ".join(f"{d:>14}" for d in domains))
     for name, row in models.items():
-        print(f"{name:22} " + " ".join(f"{_shown([r['mIoU'] for r in row['scores'][d]]):>14}" for d in domains))  # fmt: skip
+        print(
+            f"{name:22} "
+            + " ".join(f"{shown([r['mIoU'] for r in row['scores'][d]]):>14}" for d in domains)
+        )
     if "a_flat" not in models or "c_default" not in models:
         return
     summary = {}
