@@ -1,0 +1,70 @@
+"""What ``object_transfer.py`` builds: the training sets of ``variants.training_sets`` and
+five test domains, every one seen by the wrist camera the arm holds over the tray.
+
+Each test domain is the default set's recipe (training texture families, lighting within the
+training band, photographs of the training sources) with its own seed and one thing no
+training set drew: the held-out photographs, the library's real meshes, lighting outside the
+band, the held-out texture families (and no photographs, so every textured surface shows
+one), or path-traced colour images."""
+
+from __future__ import annotations
+
+from dr_transfer.variants import (
+    HELD_OUT_LIGHTING,
+    HELD_OUT_TEXTURES,
+    TEST_SEED,
+    TRAIN_LIGHTING,
+    TRAIN_TEXTURES,
+    WITHOUT,
+    held_out_photos,
+    merged,
+    real_meshes,
+    repo_config,
+    training_sets,
+)
+
+TEST_DOMAINS = {
+    "photos": "held-out photographs",
+    "meshes": "real meshes",
+    "lighting": "lighting outside the band",
+    "textures": "held-out texture families",
+    "raytraced": "path-traced",
+}
+SET_LABELS = {
+    "a_flat": "flat",
+    "b_textures_room": "procedural",
+    "c_default": "default",
+} | {f"c_no_{name}": f"default, no {name.replace('_', ' ')}" for name in WITHOUT}
+
+
+def wrist_view(width: int, height: int) -> dict:
+    """Every camera at ``width`` x ``height``, the wrist camera on, the arm holding it over the
+    tray (the defaults), one view per scene."""
+    render = {"width": width, "height": height, "views": 1, "shadow_map_size": 512}
+    return {"render": render | {"wrist_camera": True}, "robot": {"pose": "look"}}
+
+
+def wrist_training_sets(width: int, height: int, frames: int) -> dict[str, dict]:
+    return training_sets(wrist_view(width, height), frames)
+
+
+def wrist_test_domains(width: int, height: int, frames: int, raytraced: int) -> dict[str, dict]:
+    """The test domains of ``TEST_DOMAINS`` with ``frames`` scenes each (``raytraced`` for the
+    path-traced one); a domain of no scenes is left out."""
+    default = repo_config("grasp_tabletop.yaml")
+    recipe = {"materials": {"texture_families": TRAIN_TEXTURES}, "lighting": TRAIN_LIGHTING}
+    counts = {"num_samples": frames, "seed": TEST_SEED}
+    base = merged(merged(default, recipe), wrist_view(width, height) | counts)
+    held_out_textures = {
+        "materials": {"texture_families": HELD_OUT_TEXTURES},
+        "photos": {"enabled": False},
+    }
+    path_traced = {"num_samples": raytraced, "render": {"shader": "raytraced"}}
+    domains = {
+        "photos": merged(base, held_out_photos(default)),
+        "meshes": merged(base, real_meshes()),
+        "lighting": merged(base, {"lighting": HELD_OUT_LIGHTING}),
+        "textures": merged(base, held_out_textures),
+        "raytraced": merged(base, path_traced),
+    }
+    return {name: data for name, data in domains.items() if data["num_samples"] > 0}

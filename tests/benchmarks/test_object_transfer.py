@@ -1,0 +1,93 @@
+"""benchmarks/object_transfer.py: how it decides that a target instance was found, and its
+quick mode end to end (real builds, trainings and scores) on two of its training sets."""
+
+from __future__ import annotations
+
+import json
+import re
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+REPO = Path(__file__).resolve().parents[2]
+DOMAINS = ("photos", "meshes", "lighting", "textures")  # the quick mode builds no path-traced one
+TABLES = (
+    "IoU of object (%)",
+    "object vs rest IoU (%)",
+    "instance recall at IoU 0.5 (%)",
+    "IoU of other (%)",
+    "IoU of table (%)",
+    "IoU of tray (%)",
+)
+SCORES = ("object", "object_vs_rest", "instance_recall", "other", "table", "tray")
+MEAN_SE = r"\d+\.\d ± \d+\.\d"
+
+
+@pytest.fixture
+def object_scores(monkeypatch):
+    monkeypatch.syspath_prepend(str(REPO / "benchmarks"))
+    from dr_transfer import object_scores
+
+    return object_scores
+
+
+def test_an_instance_is_found_only_by_one_region_overlapping_it_at_iou_one_half(object_scores):
+    targets = np.zeros((1, 12, 12), np.int32)
+    targets[0, 0:3, 0:3] = 1  # predicted exactly: found
+    targets[0, 0:4, 6:10] = 2  # a quarter of it predicted: IoU 0.25, not found
+    targets[0, 8:11, 0:3], targets[0, 8:11, 3:6] = 3, 4  # touching, predicted as one region
+    predicted = np.zeros((1, 12, 12), bool)
+    predicted[0, 0:3, 0:3] = True
+    predicted[0, 0:1, 6:10] = True
+    predicted[0, 8:11, 0:6] = True  # IoU 0.5 with each of 3 and 4: found
+    assert object_scores.found_instances(predicted, targets) == (3, 4)
+    predicted[0, 8:11, 6] = True  # the merged region grows: IoU 9/21 with each
+    assert object_scores.found_instances(predicted, targets) == (1, 4)
+
+
+def test_object_versus_rest_is_the_mean_of_the_two_classes_iou(object_scores):
+    import torch
+
+    classes = torch.zeros(1, 4, 4, dtype=torch.long)
+    classes[0, :2, :2] = object_scores.OBJECT  # 4 object pixels
+    predicted = torch.zeros_like(classes)
+    predicted[0, :2, :1] = object_scores.OBJECT  # 2 of them found, nothing else called object
+    scores = object_scores.object_scores(
+        predicted, classes, torch.zeros(1, 4, 4, dtype=torch.int32)
+    )
+    assert scores["object"] == 50.0
+    assert scores["object_vs_rest"] == round((50.0 + 100 * 12 / 14) / 2, 2)
+
+
+@pytest.mark.sim
+@pytest.mark.slow
+def test_quick_mode_prints_every_score_with_its_standard_error_and_writes_its_results(tmp_path):
+    command = [sys.executable, "benchmarks/object_transfer.py", "--quick"]
+    command += ["--only", "a_flat", "c_default", "--out", str(tmp_path)]
+    run = subprocess.run(command, cwd=REPO, capture_output=True, text=True, timeout=600)
+    assert run.returncode == 0, run.stdout[-3000:] + run.stderr[-3000:]
+    lines = run.stdout.splitlines()
+    for heading in ("command: ", "commit:  ", "machine: "):
+        assert any(line.startswith(heading) for line in lines), heading
+    for title in TABLES:
+        start = next(i for i, line in enumerate(lines) if line.startswith(title))
+        assert lines[start].split()[-5:] == [*DOMAINS, "raytraced"]
+        rows = lines[start + 1 : start + 4]
+        assert [row[:32].strip() for row in rows] == ["image-blind (prior)", "flat", "default"]
+        for row in rows:
+            assert re.fullmatch(rf".{{32}}(\s+{MEAN_SE}){{4}}\s+—", row), row
+    results = json.loads((tmp_path / "results.json").read_text())
+    assert results["seeds"] == [0, 1]
+    assert results["precision"]["precision"] in ("fp32", "bf16")
+    assert set(results["domains"]) == set(DOMAINS)
+    assert all(results["domains"][d]["instances"] > 0 for d in DOMAINS)
+    for name, row in [("blind", {"scores": results["blind"]}), *results["sets"].items()]:
+        for domain in DOMAINS:
+            runs = row["scores"][domain]
+            assert len(runs) == 2, (name, domain)
+            assert set(SCORES) <= set(runs[0]), (name, domain)
+    assert results["sets"]["a_flat"]["train_s_per_epoch"] > 0
+    assert results["sets"]["c_default"]["frames"] == 24
