@@ -342,8 +342,10 @@ def summary_fields(meta: SampleMetadata) -> SampleMetadata:
         {"class": o["class"], "shape": {"family": o["shape"]["family"]}} for o in meta["objects"]
     ]
     seen = meta["views"]["workspace"]["objects"]
-    kept = ("visible_fraction", "role")
-    cut["views"] = {"workspace": {"objects": [{k: o[k] for k in kept if k in o} for o in seen]}}
+    kept = [
+        {"visible_fraction": o["visible_fraction"], "role": o.get("role", "target")} for o in seen
+    ]
+    cut["views"] = {"workspace": {"objects": kept}}
     drawn = meta.get("randomisation", {})
     materials = drawn.get("materials", {})
     cut["randomisation"] = {
