@@ -202,9 +202,17 @@ class SampleMetadata(TypedDict, total=False):
 
 # --- scene worker -> coordinator -----------------------------------------------------------------
 WorkerEventKind = Literal[
-    "heartbeat", "ready", "started", "retried", "failed", "outcome", "published", "done",
-    "error", "lost",
-]  # fmt: skip
+    "heartbeat",
+    "ready",
+    "started",
+    "retried",
+    "failed",
+    "outcome",
+    "published",
+    "done",
+    "error",
+    "lost",
+]
 
 
 class AttemptRecord(ProductionRecord):

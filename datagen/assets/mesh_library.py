@@ -88,7 +88,10 @@ def _usd_mesh(path: Path) -> trimesh.Trimesh:
         indices = list(mesh.GetFaceVertexIndicesAttr().Get() or [])
         faces, start = [], 0
         for n in counts:  # fan-triangulate polygons
-            faces += [[indices[start], indices[start + k], indices[start + k + 1]] for k in range(1, n - 1)]  # fmt: skip
+            faces += [
+                [indices[start], indices[start + k], indices[start + k + 1]]
+                for k in range(1, n - 1)
+            ]
             start += n
         to_world = np.asarray(UsdGeom.Xformable(prim).ComputeLocalToWorldTransform(0)).T
         if len(points) and faces:

@@ -315,6 +315,10 @@ class BuildPolicyConfig:
     )
     outage_wait_s: float = field(
         default=600.0,
-        metadata=_range(0.0, 86400.0, "seconds an external writer or broker may stay silent "
-                        "after it was reported, before the build stops"),
-    )  # fmt: skip
+        metadata=_range(
+            0.0,
+            86400.0,
+            "seconds an external writer or broker may stay silent "
+            "after it was reported, before the build stops",
+        ),
+    )

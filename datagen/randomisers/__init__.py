@@ -87,10 +87,16 @@ def sample_scene(
             config.photos,
         )
         params["distractors"] += sample_flying(  # after the others; none for flying [0, 0]
-            rng("distractors.flying"), config.distractors, config.materials, config.photos,
-            params["camera"], room, ws, config.render.width / config.render.height,
+            rng("distractors.flying"),
+            config.distractors,
+            config.materials,
+            config.photos,
+            params["camera"],
+            room,
+            ws,
+            config.render.width / config.render.height,
             wrist_view="look" in params["robot"],
-        )  # fmt: skip
+        )
     if config.render.views > 1:  # absent for one view: a one-view sample stays as it was
         names = [extra_view_name(k) for k in range(1, config.render.views)]
         params["extra_views"] = {

@@ -233,7 +233,9 @@ def inspect_dataset(
     root = Path(root)
     dataset = load(root)
     skipped = Skipped(on_skip)
-    readable = each_sample(dataset, range(len(dataset)), lambda i: read_metadata(dataset, i), skipped)  # fmt: skip
+    readable = each_sample(
+        dataset, range(len(dataset)), lambda i: read_metadata(dataset, i), skipped
+    )
     fmt = next(iter(readable.values())).get("format") if readable else "datagen.sample/1"
     if not isinstance(fmt, str) or fmt not in SUMMARIES:
         raise DatasetError(
@@ -244,7 +246,10 @@ def inspect_dataset(
     usable = each_sample(dataset, readable, lambda i: _summarisable(kind, readable[i]), skipped)
     # the overview's samples spread over the dataset; one that cannot be drawn is left out
     indices = list(usable)
-    chosen = [indices[k] for k in np.linspace(0, len(indices) - 1, min(GRID_SAMPLES, len(indices))).astype(int)]  # fmt: skip
+    chosen = [
+        indices[k]
+        for k in np.linspace(0, len(indices) - 1, min(GRID_SAMPLES, len(indices))).astype(int)
+    ]
     tiles = each_sample(dataset, chosen, lambda i: sample_tile(read_item(dataset, i)), skipped)
     if not tiles:
         raise no_sample_left(root, skipped, "inspect")
@@ -261,14 +266,26 @@ def inspect_dataset(
     title, grid = f"{len(metas)} {kind.noun}", tile_grid(list(tiles.values()))
     overview = inside(out, "overview.png")  # each written beside its name and renamed onto it
     replace_file(overview, lambda tmp: written(cv2.imwrite(str(tmp), grid), overview, "OpenCV"))
-    pictures = [replace_file(inside(out, "distributions.png"), lambda tmp: _plot_distributions(values, title, tmp))]  # fmt: skip
+    pictures = [
+        replace_file(
+            inside(out, "distributions.png"), lambda tmp: _plot_distributions(values, title, tmp)
+        )
+    ]
     if fmt == "datagen.sample/1":
-        pictures.append(replace_file(inside(out, "randomisation.png"), lambda tmp: plot_randomisation(metas, title, tmp)))  # fmt: skip
+        pictures.append(
+            replace_file(
+                inside(out, "randomisation.png"), lambda tmp: plot_randomisation(metas, title, tmp)
+            )
+        )
     kept = [i for i in usable if i not in undrawable and "attempt" in usable[i]]
     recorded = _trajectories(dataset, kept, skipped)
     if recorded:
-        runs = [(t, bool(grasp_outcome(usable[i]["attempt"])["success"])) for i, t in recorded.items()]  # fmt: skip
-        pictures.append(replace_file(inside(out, "trajectories.png"), lambda tmp: _plot_trajectories(runs, tmp)))  # fmt: skip
+        runs = [
+            (t, bool(grasp_outcome(usable[i]["attempt"])["success"])) for i, t in recorded.items()
+        ]
+        pictures.append(
+            replace_file(inside(out, "trajectories.png"), lambda tmp: _plot_trajectories(runs, tmp))
+        )
     return summary, [overview, *pictures]
 
 
@@ -279,12 +296,19 @@ def metadata_summary(root: str | Path, on_skip: OnSkip = log_skip) -> dict[str, 
     (:func:`summary_fields`) and kept as compact JSON bytes, about 1-2 KB a sample."""
     dataset = load(root)
     skipped = Skipped(on_skip)
-    first = each_sample(dataset, range(min(len(dataset), 1)), lambda i: read_metadata(dataset, i), skipped)  # fmt: skip
+    first = each_sample(
+        dataset, range(min(len(dataset), 1)), lambda i: read_metadata(dataset, i), skipped
+    )
     fmt = first[0].get("format") if first else None
     if not isinstance(fmt, str) or fmt not in SUMMARIES:
         return {}
     kind = SUMMARIES[fmt]
-    usable = each_sample(dataset, range(len(dataset)), lambda i: _packed(summary_fields(_summarisable(kind, read_metadata(dataset, i)))), skipped)  # fmt: skip
+    usable = each_sample(
+        dataset,
+        range(len(dataset)),
+        lambda i: _packed(summary_fields(_summarisable(kind, read_metadata(dataset, i)))),
+        skipped,
+    )
     metas = _Unpacked(list(usable.values()))
     summary = kind.summary(metas) if metas else {}
     if skipped:
@@ -326,9 +350,10 @@ def summary_fields(meta: SampleMetadata) -> SampleMetadata:
     if "attempt" in meta:
         attempt = meta["attempt"]
         cut["attempt"] = {
-            "sampler": attempt["sampler"], "target": {"class": attempt["target"]["class"]},
+            "sampler": attempt["sampler"],
+            "target": {"class": attempt["target"]["class"]},
             "outcome": {k: attempt["outcome"][k] for k in ("success", "failure_mode")},
-        }  # fmt: skip
+        }
     if meta["format"] == "datagen.nav_episode/1":
         heavy = ("trajectory", "layout", "planned_path")
         cut["family"] = meta["family"]
