@@ -260,8 +260,16 @@ def main() -> int:
     }
     probe = prior.float_images()[:BATCH].to(args.device), prior.classes[:BATCH].to(args.device)
     result["precision"] = chosen_precision(args.precision, cpu, args.device, make_net, *probe)
+    earlier = earlier_sets(args.out, result, args.frames)
     for name in names:
+        if name in earlier:
+            result["sets"][name] = earlier[name]
+            print(
+                f"{name:22} trained by an earlier run of this recipe: its scores kept", flush=True
+            )
+            continue
         costs = result["sets"][name]
+        costs["commit"] = result["commit"]
         recipe = partial(set_recipe, args, name)
         frames = (
             prior if name == "c_default" else set_frames(name, args.frames, recipe, args, costs)
@@ -273,6 +281,30 @@ def main() -> int:
     write(result, args.out)
     print("\n" + report(result), flush=True)
     return 0
+
+
+RECIPE_KEYS = ("cpu", "device", "net", "size", "epochs", "seeds", "precision")
+
+
+def earlier_sets(out: Path, result: dict, frames: int) -> dict[str, dict]:
+    """The sets an earlier, interrupted run into ``out`` trained with this run's recipe (machine,
+    net, size, epochs, seeds, precision, ``frames`` a set and the frame counts of every domain),
+    so that a run of hours continues where it stopped; none when anything differs. Each set
+    keeps the commit it was trained at."""
+    try:
+        earlier = json.loads((out / "results.json").read_text())
+    except (OSError, ValueError):
+        return {}
+    if any(earlier.get(key) != result.get(key) for key in RECIPE_KEYS):
+        return {}
+    counts = {n: d.get("frames") for n, d in result["domains"].items()}
+    if counts != {n: d.get("frames") for n, d in earlier.get("domains", {}).items()}:
+        return {}
+    return {
+        name: costs
+        for name, costs in earlier.get("sets", {}).items()
+        if name in result["sets"] and "scores" in costs and costs.get("frames") == frames
+    }
 
 
 def write(result: dict, out: Path) -> None:

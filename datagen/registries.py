@@ -281,24 +281,24 @@ def choices(registry: Registry) -> Callable[[str], str]:
 FAMILIES: Registry[SceneFamily] = Registry("scene family", "datagen.families", [
     SceneFamily(
         "grasp_tabletop", "annotated frames of a Panda before a tray of objects",
-        produce="datagen.scenes.grasp_tabletop:produce", classes="datagen.worlds.tabletop:grasp_classes",
+        produce="datagen.scenes.grasp_tabletop:produce", classes="datagen.worlds.class_names:grasp_classes",
         world="tabletop",
     ),
     SceneFamily(
         "grasp_attempts", "physically executed grasps with success labels",
-        produce="datagen.scenes.grasp_attempts:produce", classes="datagen.worlds.tabletop:grasp_classes",
+        produce="datagen.scenes.grasp_attempts:produce", classes="datagen.worlds.class_names:grasp_classes",
         section="campaign", world="tabletop", finish="datagen.scenes.grasp_attempts:campaign_summary",
         episodes=True,
     ),
     SceneFamily(
         "navigation", "Fetch driving expert paths through rooms, corridors and mazes",
-        produce="datagen.scenes.navigation_fleet:produce", classes="datagen.worlds.floorplan:navigation_classes",
+        produce="datagen.scenes.navigation_fleet:produce", classes="datagen.worlds.class_names:navigation_classes",
         section="navigation", metadata_format="datagen.nav_episode/1", world="floorplan",
         episodes=True,
     ),
     SceneFamily(
         "aerial", "quadrotors flying minimum-snap expert trajectories through 3-D corridors, mazes and rooms",
-        produce="datagen.scenes.aerial_episodes:produce", classes="datagen.worlds.volume:aerial_classes",
+        produce="datagen.scenes.aerial_episodes:produce", classes="datagen.worlds.class_names:aerial_classes",
         section="aerial", metadata_format="datagen.aerial_episode/1", world="volume", episodes=True,
     ),
 ])  # fmt: skip

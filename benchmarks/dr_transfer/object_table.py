@@ -64,6 +64,8 @@ def _costs(result: dict) -> list[str]:
                 cost += f", then {built['steady_s_per_frame']:.2f} s/frame"
         if "train_s_per_epoch" in built:
             cost += f"; trained {built['train_s_per_epoch']:.2f} s/epoch"
+        if built.get("commit", result["commit"]) != result["commit"]:
+            cost += f" at {built['commit']} (an earlier run of this recipe)"
         label = SET_LABELS.get(name, name)
         lines.append(f"  {label:{ROW - 2}}{built['frames']:6} frames, {cost}")
     return lines

@@ -30,7 +30,8 @@ from datagen.engines.sim.view_effects import apply_view_effects
 from datagen.geometry import pose_record
 from datagen.sample import Sample, sample_key
 from datagen.seeding import sample_rng
-from datagen.worlds.tabletop import GraspScene, build_scene, grasp_classes
+from datagen.worlds.class_names import grasp_classes
+from datagen.worlds.tabletop import GraspScene, build_scene
 
 METADATA_FORMAT = "datagen.sample/1"
 

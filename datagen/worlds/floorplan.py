@@ -21,17 +21,12 @@ from datagen.navigation.episode import Episode
 from datagen.navigation.grid import Layout
 from datagen.robot_specs import maniskill_asset
 from datagen.worlds.car import CarBody, build_car, camera_pose
+from datagen.worlds.class_names import NAV_CLASSES
 from datagen.worlds.realise import apply_lighting, light_slots, pad_lights
 from datagen.worlds.robots import FETCH, load_robot
 from datagen.worlds.surfaces import box_entity, render_material
 
-# Semantic classes; 0 is background (nothing rendered).
-NAV_CLASSES = ("background", "floor", "wall", "door", "obstacle", "goal_marker", "robot", "car")
 NAV_CLASS_ID = {name: i for i, name in enumerate(NAV_CLASSES)}
-
-
-def navigation_classes(config: BuildConfig) -> tuple[str, ...]:
-    return NAV_CLASSES
 
 
 FLOOR_THICKNESS = 0.05  # metres

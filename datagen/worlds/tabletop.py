@@ -18,11 +18,16 @@ from datagen.assets.shapes import ObjectGeometry
 from datagen.assets.tabletop_layout import StaticPart, Workspace, static_parts
 from datagen.config import BuildConfig
 from datagen.config.robot import robot_spec, robot_workspace
-from datagen.config.sections import SHAPE_FAMILIES
 from datagen.engines.sim.cameras import add_camera
 from datagen.randomisers import redrawn_drop_poses, sample_scene
 from datagen.robot_specs import RobotSpec, wrist_mount
 from datagen.worlds.arm_clearance import link_bodies, meets, part_bodies
+from datagen.worlds.class_names import (
+    CLASSES,
+    DISTRACTOR_CLASS,
+    GRIPPER_CLASS,
+    WALL_CLASS,
+)
 from datagen.worlds.look_pose import look_qpos
 from datagen.worlds.realise import (
     SOFT_LIGHT_SPOTS,
@@ -41,31 +46,8 @@ from datagen.worlds.settle import settle
 from datagen.worlds.surfaces import box_entity, render_material
 from datagen.worlds.tray_targets import MAX_REDRAWS, TargetsOutsideTray, outside_tray
 
-# Semantic classes: 0 is background (nothing rendered), object classes are shape families,
-# then the distractors (objects that are not grasp targets), whatever their shape, then the
-# backdrop walls and ceiling (background.enabled). The new classes come last so the ids of the
-# earlier ones stay what they were; both are classes whether or not a build has any, so ids are
-# the same across configs (docs/dataset-format.md). The robot's gripper links (its spec's
-# ``gripper.links``) are class ``gripper``, its other links class ``robot``.
-STUFF_CLASSES = ("background", "floor", "table", "tray", "robot")
-DISTRACTOR_CLASS = "distractor"
-WALL_CLASS = "wall"
-GRIPPER_CLASS = "gripper"
-LAST_CLASSES = (DISTRACTOR_CLASS, WALL_CLASS, GRIPPER_CLASS)
-CLASSES = (*STUFF_CLASSES, *SHAPE_FAMILIES, *LAST_CLASSES)
 CLASS_ID = {name: i for i, name in enumerate(CLASSES)}
 LOOK_CLEARANCE = 0.005  # metres between an object and the arm at its look pose
-
-
-def grasp_classes(config: BuildConfig) -> tuple[str, ...]:
-    """Semantic classes of a build: the shape families, or the class folders of the user's
-    meshes (``objects.source: folder``), after the surfaces."""
-    if config.objects.source == "folder":
-        from datagen.assets.mesh_library import load_library
-
-        meshes = load_library(config.objects.assets_dir).classes
-        return (*STUFF_CLASSES, *meshes, *LAST_CLASSES)
-    return CLASSES
 
 
 def load_arm(

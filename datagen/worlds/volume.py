@@ -22,19 +22,15 @@ from datagen.aerial.episode import AerialEpisode
 from datagen.aerial.quadrotor import camera_mounts, quadrotor_parts, right_camera
 from datagen.config import BuildConfig
 from datagen.engines.sim.cameras import add_camera
+from datagen.worlds.class_names import AERIAL_CLASSES
 from datagen.worlds.floorplan import Thing
 from datagen.worlds.realise import apply_lighting, light_slots, pad_lights
 from datagen.worlds.surfaces import box_entity, render_material, render_shape
 
-AERIAL_CLASSES = ("background", "floor", "wall", "ceiling", "obstacle", "goal_marker", "drone")
 AERIAL_CLASS_ID = {name: i for i, name in enumerate(AERIAL_CLASSES)}
 FLOOR_MARGIN = 1.0  # metres of floor beyond the plan
 FLOOR_THICKNESS = 0.05  # metres
 GOAL_RADIUS = 0.08  # metres: the goal marker's sphere
-
-
-def aerial_classes(config: BuildConfig) -> tuple[str, ...]:
-    return AERIAL_CLASSES
 
 
 @dataclass

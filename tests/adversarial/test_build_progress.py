@@ -30,7 +30,7 @@ def failing_build(tmp_path: Path, samples: int, failing: str) -> subprocess.Comp
     config = tmp_path / "blocks.yaml"
     config.write_text(
         f"scene: example_blocks\nnum_samples: {samples}\nseed: 7\n"
-        "render: {width: 32, height: 32}\nbuild: {on_sample_error: retry, retries: 0}\n"
+        "render: {width: 32, height: 32, wrist_camera: false}\nbuild: {on_sample_error: retry, retries: 0}\n"
     )
     plugins = os.pathsep.join(filter(None, [str(REPO / "tests" / "plugins"), os.environ.get("PYTHONPATH")]))  # fmt: skip
     env = os.environ | {"PYTHONPATH": plugins, "EXAMPLE_BLOCKS_FAIL": failing, INTERVAL_ENV: "0"}

@@ -88,7 +88,7 @@ def test_forged_and_replayed_messages_do_not_change_the_outcome(
     attacker.start()
     config = config_from_dict({
         "num_samples": 16, "seed": 5,
-        "render": {"width": 96, "height": 72},
+        "render": {"width": 96, "height": 72, "wrist_camera": False},
         "objects": {"count": [1, 2]}, "physics": {"settle_time": 0.2},
     })  # fmt: skip
     try:

@@ -53,7 +53,7 @@ def built(tmp_path_factory) -> Path:
     out = tmp_path_factory.mktemp("integrity") / "ds"
     config = config_from_dict({
         "num_samples": SAMPLES, "seed": 3,
-        "render": {"width": 64, "height": 48},
+        "render": {"width": 64, "height": 48, "wrist_camera": False},
         "objects": {"count": [1, 1]}, "physics": {"settle_time": 0.1},
         "output": {"shard_size": 3, "sinks": ["webdataset"]},
     })  # fmt: skip

@@ -39,7 +39,7 @@ N = 6
 def tiny_config(**build: Any) -> BuildConfig:
     return config_from_dict({
         "num_samples": N, "seed": 3,
-        "render": {"width": 64, "height": 64},
+        "render": {"width": 64, "height": 64, "wrist_camera": False},
         "objects": {"count": [1, 2]}, "physics": {"settle_time": 0.2},
         "transfer": {"ack_timeout_s": 5},
         "build": build,

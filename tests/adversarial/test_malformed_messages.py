@@ -132,7 +132,7 @@ def test_poison_on_every_control_topic_is_dropped_and_counted(
 def test_a_build_whose_topics_hold_retained_poison_finishes(broker, build_id, hostile, tmp_path):
     _retain_poison(hostile, build_id)
     config = config_from_dict({
-        "num_samples": 2, "seed": 3, "render": {"width": 64, "height": 48},
+        "num_samples": 2, "seed": 3, "render": {"width": 64, "height": 48, "wrist_camera": False},
         "objects": {"count": [1, 1]}, "physics": {"settle_time": 0.1},
     })  # fmt: skip
     result = run_build(config, tmp_path / "ds", 1, broker_url=broker.url, build_id=build_id)

@@ -116,7 +116,7 @@ def test_a_fifo_in_place_of_the_stage_is_refused_without_reading_it(dataset):
 # --- Hypothesis: the stage reading on mutated stages --------------------------------------------
 
 FUZZ = settings(
-    max_examples=150,
+    max_examples=60,  # about 0.6 s each: usd-core reads a stage
     deadline=None,
     database=None,  # writes nothing into the repository (.hypothesis/)
     suppress_health_check=[HealthCheck.too_slow, HealthCheck.function_scoped_fixture],

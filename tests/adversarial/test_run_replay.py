@@ -35,7 +35,7 @@ N = 3
 def tiny_config(seed: int):
     return config_from_dict({
         "num_samples": N, "seed": seed,
-        "render": {"width": 64, "height": 48},
+        "render": {"width": 64, "height": 48, "wrist_camera": False},
         "objects": {"count": [1, 1]}, "physics": {"settle_time": 0.1},
         "output": {"shard_size": N, "sinks": ["webdataset"]},
     })  # fmt: skip

@@ -38,7 +38,7 @@ SECRET = secrets.token_bytes(32)
 TINY = """\
 num_samples: 2
 seed: 3
-render: {width: 64, height: 48}
+render: {width: 64, height: 48, wrist_camera: false}
 objects: {count: [1, 1]}
 physics: {settle_time: 0.1}
 """

@@ -15,7 +15,8 @@ from datagen.sinks.journal import journal_path
 REPO = Path(__file__).resolve().parents[2]
 N = 3
 TINY = {"version": 1, "scene": "grasp_tabletop", "num_samples": N, "seed": 5}
-TINY["render"] = {"width": 64, "height": 48}
+TINY["render"] = {"width": 64, "height": 48, "wrist_camera": False}
+TINY["objects"], TINY["physics"] = {"count": [1, 2]}, {"settle_time": 0.3}
 
 
 def tiny_config(tmp_path: Path) -> Path:

@@ -67,6 +67,7 @@ def test_object_versus_rest_is_the_mean_of_the_two_classes_iou(object_scores):
 def test_quick_mode_prints_every_score_with_its_standard_error_and_writes_its_results(tmp_path):
     command = [sys.executable, "benchmarks/object_transfer.py", "--quick"]
     command += ["--only", "a_flat", "c_default", "--out", str(tmp_path)]
+    command += ["--frames", "16", "--test-frames", "8"]  # the quick mode's 24 and 16, smaller
     run = subprocess.run(command, cwd=REPO, capture_output=True, text=True, timeout=600)
     assert run.returncode == 0, run.stdout[-3000:] + run.stderr[-3000:]
     lines = run.stdout.splitlines()
@@ -90,4 +91,30 @@ def test_quick_mode_prints_every_score_with_its_standard_error_and_writes_its_re
             assert len(runs) == 2, (name, domain)
             assert set(SCORES) <= set(runs[0]), (name, domain)
     assert results["sets"]["a_flat"]["train_s_per_epoch"] > 0
-    assert results["sets"]["c_default"]["frames"] == 24
+    assert results["sets"]["c_default"]["frames"] == 16
+
+
+def test_a_run_of_hours_keeps_the_sets_an_earlier_run_of_its_recipe_trained(tmp_path, monkeypatch):
+    monkeypatch.syspath_prepend(str(REPO / "benchmarks"))
+    import object_transfer
+
+    recipe = {"cpu": {"line": "x"}, "device": "cpu", "net": {"name": "unet"}, "size": [160, 120]}
+    recipe |= {"epochs": 20, "seeds": [0, 1, 2], "precision": {"precision": "fp32"}}
+    domains = {"photos": {"frames": 300}, "meshes": {"frames": 300}}
+    trained = {"frames": 2000, "scores": {"photos": []}, "commit": "abc1234"}
+    earlier = recipe | {"commit": "abc1234", "domains": domains}
+    earlier["sets"] = {"a_flat": trained, "c_default": {"frames": 2000}}  # default: cut short
+    (tmp_path / "results.json").write_text(json.dumps(earlier))
+    now = recipe | {
+        "commit": "def5678",
+        "domains": domains,
+        "sets": {"a_flat": {}, "c_default": {}},
+    }
+    assert object_transfer.earlier_sets(tmp_path, now, 2000) == {"a_flat": trained}
+    assert object_transfer.earlier_sets(tmp_path, now, 500) == {}
+    for key, other in (("epochs", 40), ("seeds", [0]), ("size", [320, 240])):
+        assert object_transfer.earlier_sets(tmp_path, now | {key: other}, 2000) == {}
+    fewer = now | {"domains": {"photos": {"frames": 300}, "meshes": {"frames": 100}}}
+    assert object_transfer.earlier_sets(tmp_path, fewer, 2000) == {}
+    (tmp_path / "results.json").write_text("{cut sh")
+    assert object_transfer.earlier_sets(tmp_path, now, 2000) == {}

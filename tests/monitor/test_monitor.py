@@ -235,7 +235,7 @@ def test_a_finished_build_leaves_its_final_status_retained_for_a_late_monitor(br
     from datagen.pipeline.run import run_build
 
     config = config_from_dict({
-        "num_samples": 6, "seed": 3, "render": {"width": 64, "height": 48},
+        "num_samples": 6, "seed": 3, "render": {"width": 64, "height": 48, "wrist_camera": False},
         "objects": {"count": [1, 2]}, "physics": {"settle_time": 0.2},
     })  # fmt: skip
     run_build(config, tmp_path / "ds", 2, broker_url=broker.url, build_id=build_id)

@@ -20,7 +20,9 @@ from datagen.worlds.tabletop import CLASS_ID
 pytestmark = [pytest.mark.sim, pytest.mark.mqtt, pytest.mark.slow]  # real builds
 
 NUM_SAMPLES = 20
-CONFIG = BuildConfig(num_samples=NUM_SAMPLES, seed=7, render=RenderConfig(width=192, height=144))
+CONFIG = BuildConfig(
+    num_samples=NUM_SAMPLES, seed=7, render=RenderConfig(width=192, height=144, wrist_camera=False)
+)
 
 
 @pytest.fixture(scope="module")

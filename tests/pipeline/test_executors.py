@@ -12,14 +12,20 @@ import psutil
 import pytest
 
 from datagen.config import BuildConfig
-from datagen.config.sections import ExecutorConfig, RenderConfig
+from datagen.config.sections import ExecutorConfig, ObjectsConfig, PhysicsConfig, RenderConfig
 from datagen.dataset.loader import load, verify
 from datagen.pipeline.run import run_build
 
 pytestmark = [pytest.mark.sim, pytest.mark.mqtt, pytest.mark.slow]  # real builds
 
 SAMPLES = 10
-CONFIG = BuildConfig(num_samples=SAMPLES, seed=4, render=RenderConfig(width=128, height=96))
+CONFIG = BuildConfig(  # executors, not scenes: few objects, short settling, one camera
+    num_samples=SAMPLES,
+    seed=4,
+    render=RenderConfig(width=128, height=96, wrist_camera=False),
+    objects=ObjectsConfig(count=(1, 2)),
+    physics=PhysicsConfig(settle_time=0.3),
+)
 
 
 def _parts(root):

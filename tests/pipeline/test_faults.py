@@ -22,8 +22,7 @@ import psutil
 import pytest
 import yaml
 
-from datagen.config import BuildConfig
-from datagen.config.sections import RenderConfig, TransferConfig
+from datagen.config import BuildConfig, config_from_dict
 from datagen.dataset.loader import load, verify
 from datagen.engines.transfer.broker_url import parse_broker_url
 from datagen.engines.transfer.publisher import SamplePublisher
@@ -37,12 +36,12 @@ pytestmark = [pytest.mark.sim, pytest.mark.mqtt, pytest.mark.slow]  # real build
 
 REPO = Path(__file__).resolve().parents[2]
 N = 30
-CONFIG = BuildConfig(
-    num_samples=N,
-    seed=11,
-    render=RenderConfig(width=160, height=120),
-    transfer=TransferConfig(ack_timeout_s=5.0),
-)
+CONFIG = config_from_dict({  # faults of the pipeline: few objects, short settling, one camera
+    "num_samples": N, "seed": 11,
+    "render": {"width": 160, "height": 120, "wrist_camera": False},
+    "objects": {"count": [1, 2]}, "physics": {"settle_time": 0.3},
+    "transfer": {"ack_timeout_s": 5.0},
+})  # fmt: skip
 
 
 def assert_complete(out: Path, n: int = N) -> dict:

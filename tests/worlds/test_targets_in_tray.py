@@ -30,7 +30,9 @@ from datagen.worlds.tray_targets import (
 
 CONFIG = "configs/grasp_tabletop.yaml"  # the default grasp scene, with the Panda
 SEED = 7
-SCENES = 200
+# scenes per arm: the Panda's include every audited fall-out; the other arms change the
+# workspace's scale and the posed arm's clearance, checked over fewer scenes each
+SCENES = {"panda": 120, "iiwa14": 40, "xarm7": 40, "so100": 40, "koch": 40}
 NEEDS_REDRAWS = {0: 1, 19: 2}  # seed 7 samples whose targets fell out: re-draws they took
 FLOOR_TOP = TRAY_CENTRE[2] + TRAY_FLOOR
 
@@ -128,11 +130,12 @@ def _scenes(robot: str, start: int, stop: int) -> list[list]:
 @pytest.mark.sim
 @pytest.mark.slow
 @pytest.mark.parametrize("robot", ["panda", "iiwa14", "xarm7", "so100", "koch"])
-def test_every_target_is_in_the_tray_in_200_scenes(robot):
+def test_every_target_is_in_the_tray_in_every_scene(robot):
+    count = SCENES[robot]
     with ThreadPoolExecutor(2) as pool:  # two processes side by side: one per core
-        halves = pool.map(_scenes, [robot] * 2, [0, SCENES // 2], [SCENES // 2, SCENES])
+        halves = pool.map(_scenes, [robot] * 2, [0, count // 2], [count // 2, count])
         scenes = [scene for half in halves for scene in half]
-    assert [index for index, _, _ in scenes] == list(range(SCENES))
+    assert [index for index, _, _ in scenes] == list(range(count))
     redrawn = []
     for index, outside, redraws in scenes:
         assert outside == [], index
