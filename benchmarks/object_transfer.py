@@ -18,7 +18,9 @@ Training sets (``dr_transfer/variants.py``; equal sizes, the same seed and indic
 texture families, lighting within the training band, photographs of the training sources):
 flat (``configs/grasp_flat.yaml`` with the wrist camera over the tray), procedural (flat with
 procedural textures and the room, no photographs), default, and the default without each of
-issue 26's randomisers. Test domains (``dr_transfer/object_domains.py``; their own seed): the
+issue 26's randomisers or of the object-level ones (textures on surfaces, household shapes,
+the size range, clutter, the look's variety), and the default with 5 % of its views path-traced
+(``object_domains.OBJECT_SETS``). Test domains (``dr_transfer/object_domains.py``; their own seed): the
 default recipe with one held-out source each: photographs of the held-out library source, the
 library's robosuite meshes (``objects.source: folder``), lighting outside the band, the
 held-out texture families, path-traced colour (``render.shader: raytraced``; about 24 s a
@@ -57,12 +59,17 @@ from dr_transfer.frames import (
 )
 from dr_transfer.hardware import chosen_precision, commit, describe, device_named, this_cpu
 from dr_transfer.nets import NETS, chosen_net
-from dr_transfer.object_domains import TEST_DOMAINS, wrist_test_domains, wrist_training_sets
+from dr_transfer.object_domains import (
+    OBJECT_SETS,
+    TEST_DOMAINS,
+    wrist_test_domains,
+    wrist_training_sets,
+)
 from dr_transfer.object_scores import object_scores
 from dr_transfer.object_table import report
 from dr_transfer.scoring import blind_prediction
 from dr_transfer.training import BATCH, predict, train
-from dr_transfer.variants import REPO, TRAINING_SETS
+from dr_transfer.variants import REPO
 
 os.environ.setdefault("OMP_NUM_THREADS", "1")  # workers' BLAS threads busy-wait otherwise
 
@@ -92,7 +99,7 @@ def arguments() -> argparse.Namespace:
     parser.add_argument("--seeds", type=int, nargs="+", help=f"training seeds ({FULL['seeds']})")
     parser.add_argument("--size", default="160x120", help="frame width x height, pixels")
     parser.add_argument(
-        "--only", nargs="+", choices=TRAINING_SETS, help="these training sets (default: all)"
+        "--only", nargs="+", choices=OBJECT_SETS, help="these training sets (default: all)"
     )
     parser.add_argument(
         "--net",
@@ -242,7 +249,7 @@ def main() -> int:
     }
     print(f"{cpu.line()}; {threads} torch threads; {args.device}; net {net} ({why})", flush=True)
     tests = test_domains(args, result)
-    names = [n for n in TRAINING_SETS if not args.only or n in args.only]
+    names = [n for n in OBJECT_SETS if not args.only or n in args.only]
     result["sets"] = {name: {} for name in names}
     prior_costs = result["sets"].get("c_default", {})
     prior = set_frames(

@@ -9,12 +9,14 @@ one), or path-traced colour images."""
 
 from __future__ import annotations
 
+from datagen.config.sections import PRIMITIVE_FAMILIES
 from dr_transfer.variants import (
     HELD_OUT_LIGHTING,
     HELD_OUT_TEXTURES,
     TEST_SEED,
     TRAIN_LIGHTING,
     TRAIN_TEXTURES,
+    TRAINING_SETS,
     WITHOUT,
     held_out_photos,
     merged,
@@ -30,11 +32,34 @@ TEST_DOMAINS = {
     "textures": "held-out texture families",
     "raytraced": "path-traced",
 }
-SET_LABELS = {
-    "a_flat": "flat",
-    "b_textures_room": "procedural",
-    "c_default": "default",
-} | {f"c_no_{name}": f"default, no {name.replace('_', ' ')}" for name in WITHOUT}
+# the randomisers that act on the objects and the wrist camera's view of them: c_no_<name> is
+# the default set with one turned off, c_with_<name> with one added
+OBJECT_WITHOUT = {
+    "surface_textures": {  # pictures and procedural textures on objects and surfaces
+        "materials": {"texture_probability": 0.0},
+        "photos": {"surface_probability": 0.0},
+    },
+    "household_shapes": {"objects": {"families": list(PRIMITIVE_FAMILIES)}},
+    "size_range": {"objects": {"size": [0.07, 0.07]}},  # metres: the default range's middle
+    "clutter": {"objects": {"count": [1, 3]}},
+    "look_variety": {
+        "robot": {"look": {"height": [0.33, 0.33], "tilt_deg": [0, 0], "roll_deg": [0, 0]}}
+    },
+}
+OBJECT_WITH = {"raytraced_share": {"render": {"shader": "raytraced", "raytraced_share": 0.05}}}
+OBJECT_SETS = (
+    *TRAINING_SETS,
+    *(f"c_no_{name}" for name in OBJECT_WITHOUT),
+    *(f"c_with_{name}" for name in OBJECT_WITH),
+)
+SET_LABELS = (
+    {"a_flat": "flat", "b_textures_room": "procedural", "c_default": "default"}
+    | {
+        f"c_no_{name}": f"default, no {name.replace('_', ' ')}"
+        for name in (*WITHOUT, *OBJECT_WITHOUT)
+    }
+    | {f"c_with_{name}": f"default, {name.replace('_', ' ')} 5 %" for name in OBJECT_WITH}
+)
 
 
 def wrist_view(width: int, height: int) -> dict:
@@ -45,7 +70,12 @@ def wrist_view(width: int, height: int) -> dict:
 
 
 def wrist_training_sets(width: int, height: int, frames: int) -> dict[str, dict]:
-    return training_sets(wrist_view(width, height), frames)
+    """``OBJECT_SETS``: the sets of ``variants.training_sets`` and the default set with each of
+    ``OBJECT_WITHOUT`` turned off or ``OBJECT_WITH`` added, seen by the wrist camera."""
+    sets = training_sets(wrist_view(width, height), frames)
+    default = sets["c_default"]
+    sets |= {f"c_no_{name}": merged(default, off) for name, off in OBJECT_WITHOUT.items()}
+    return sets | {f"c_with_{name}": merged(default, on) for name, on in OBJECT_WITH.items()}
 
 
 def wrist_test_domains(width: int, height: int, frames: int, raytraced: int) -> dict[str, dict]:

@@ -118,3 +118,23 @@ def test_a_run_of_hours_keeps_the_sets_an_earlier_run_of_its_recipe_trained(tmp_
     assert object_transfer.earlier_sets(tmp_path, fewer, 2000) == {}
     (tmp_path / "results.json").write_text("{cut sh")
     assert object_transfer.earlier_sets(tmp_path, now, 2000) == {}
+
+
+def test_every_training_set_is_a_valid_config_differing_from_the_default_in_its_recipe(
+    monkeypatch,
+):
+    monkeypatch.syspath_prepend(str(REPO / "benchmarks"))
+    from dr_transfer.object_domains import OBJECT_SETS, SET_LABELS, wrist_training_sets
+
+    from datagen.config import config_from_dict
+
+    sets = wrist_training_sets(160, 120, 10)
+    assert tuple(sets) == OBJECT_SETS and set(SET_LABELS) == set(OBJECT_SETS)
+    configs = {name: config_from_dict(data, source=name) for name, data in sets.items()}
+    default = configs["c_default"]
+    assert all(c.render.wrist_camera and c.num_samples == 10 for c in configs.values())
+    assert configs["c_no_clutter"].objects.count == (1, 3) != default.objects.count
+    assert "mug" not in configs["c_no_household_shapes"].objects.families
+    assert configs["c_no_look_variety"].robot.look.tilt_deg == (0.0, 0.0)
+    assert configs["c_with_raytraced_share"].render.shader == "raytraced"
+    assert default.render.shader == "rasterized"
