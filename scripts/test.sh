@@ -41,7 +41,7 @@ fi
 # The whole suite in two runs that split it: first the quick loop exactly as docs/testing.md
 # prints it (the pure tests), then every test it leaves out.
 echo "[test] pytest: the pure tests (the quick loop of docs/testing.md)"
-.venv/bin/pytest -q -m "not sim and not mqtt and not ray and not slow"
+.venv/bin/pytest -q -n auto -m "not sim and not mqtt and not ray and not slow"
 readers_ready
 echo "[test] pytest: the tests that use the simulator, the broker, Ray or minutes"
 exec .venv/bin/pytest -m "sim or mqtt or ray or slow"
