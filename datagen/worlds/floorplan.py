@@ -112,23 +112,27 @@ def _surface(scene, name, values, boxes) -> sapien.Entity:
     return box_entity(scene, name, boxes, values, collide=False)
 
 
-def _rect_box(rect, z0: float, z1: float) -> tuple[list[float], list[float]]:
+def rect_box(rect, z0: float, z1: float) -> tuple[list[float], list[float]]:
     """(half size, centre) of the box over ``rect`` (x0, y0, x1, y1) from z0 to z1."""
     x0, y0, x1, y1 = rect
-    return [(x1 - x0) / 2, (y1 - y0) / 2, (z1 - z0) / 2], [(x0 + x1) / 2, (y0 + y1) / 2, (z0 + z1) / 2]  # fmt: skip
+    return [(x1 - x0) / 2, (y1 - y0) / 2, (z1 - z0) / 2], [
+        (x0 + x1) / 2,
+        (y0 + y1) / 2,
+        (z0 + z1) / 2,
+    ]
 
 
 def _walls_and_doors(scene, layout: Layout, values) -> tuple[list[sapien.Entity], list[Thing]]:
     h, top = values["wall_height"], values["door_top"]
     wall_material, door_material = values["materials"]["walls"], values["materials"]["doors"]
     walls = [
-        _surface(scene, f"wall_{i}", wall_material, boxes=[_rect_box(rect, 0.0, h)])
+        _surface(scene, f"wall_{i}", wall_material, boxes=[rect_box(rect, 0.0, h)])
         for i, rect in enumerate(layout.walls)
     ]
     doors = []
     for i, rect in enumerate(layout.doors):
-        lintel = _rect_box(rect, top, h)
-        threshold = _rect_box(rect, 0.0, THRESHOLD_HEIGHT)
+        lintel = rect_box(rect, top, h)
+        threshold = rect_box(rect, 0.0, THRESHOLD_HEIGHT)
         entity = _surface(scene, f"door_{i}", door_material, boxes=[lintel, threshold])
         doors.append(Thing(0, "door", f"door_{i}", [entity]))
     return walls, doors
@@ -136,9 +140,11 @@ def _walls_and_doors(scene, layout: Layout, values) -> tuple[list[sapien.Entity]
 
 def _obstacles(scene, layout: Layout, values) -> list[Thing]:
     things = []
-    specs = zip(layout.obstacles, values["obstacles"], values["materials"]["obstacles"], strict=True)  # fmt: skip
+    specs = zip(
+        layout.obstacles, values["obstacles"], values["materials"]["obstacles"], strict=True
+    )
     for i, (rect, spec, material) in enumerate(specs):
-        half, centre = _rect_box(rect, 0.0, spec["height"])
+        half, centre = rect_box(rect, 0.0, spec["height"])
         if spec["shape"] == "cylinder":  # inscribed in the footprint, so inside the occupied cells
             cylinder = (centre, min(half[:2]), spec["height"])
             entity = _static(scene, f"obstacle_{i}", render_material(material), [cylinder])

@@ -23,7 +23,7 @@ from datagen.aerial.quadrotor import camera_mounts, quadrotor_parts, right_camer
 from datagen.config import BuildConfig
 from datagen.engines.sim.cameras import add_camera
 from datagen.worlds.class_names import AERIAL_CLASSES
-from datagen.worlds.floorplan import Thing
+from datagen.worlds.floorplan import Thing, rect_box
 from datagen.worlds.realise import apply_lighting, light_slots, pad_lights
 from datagen.worlds.surfaces import box_entity, render_material, render_shape
 
@@ -57,7 +57,7 @@ class AerialScene:
 
 def _box(box) -> tuple[list[float], list[float]]:
     x0, y0, z0, x1, y1, z1 = box
-    return [(x1 - x0) / 2, (y1 - y0) / 2, (z1 - z0) / 2], [(x0 + x1) / 2, (y0 + y1) / 2, (z0 + z1) / 2]  # fmt: skip
+    return rect_box((x0, y0, x1, y1), z0, z1)
 
 
 def _drone(scene: sapien.Scene, name: str, span: float, materials: dict[str, Any]) -> sapien.Entity:
@@ -93,7 +93,14 @@ def build_aerial_scene(
     scene = sapien.Scene()
     volume, materials = episode.volume, values["materials"]
     width, depth = volume.layout.size_m
-    floor_box = (-FLOOR_MARGIN, -FLOOR_MARGIN, -FLOOR_THICKNESS, width + FLOOR_MARGIN, depth + FLOOR_MARGIN, 0.0)  # fmt: skip
+    floor_box = (
+        -FLOOR_MARGIN,
+        -FLOOR_MARGIN,
+        -FLOOR_THICKNESS,
+        width + FLOOR_MARGIN,
+        depth + FLOOR_MARGIN,
+        0.0,
+    )
     floor = box_entity(scene, "floor", [_box(floor_box)], materials["floor"], collide=False)
     stuff = {floor.per_scene_id: "floor"}
     things: list[Thing] = []
@@ -135,8 +142,16 @@ def build_aerial_scene(
             rigs[f"d{k}_down"] = (_mount(mounts["down"], -90.0), cam["down"]["fovy_deg"])
         for name, (mount, fovy) in rigs.items():
             cameras[name] = add_camera(
-                scene, name, r.width, r.height, math.radians(fovy), r.near, r.far, drone, sapien.Pose(mount)
-            )  # fmt: skip
+                scene,
+                name,
+                r.width,
+                r.height,
+                math.radians(fovy),
+                r.near,
+                r.far,
+                drone,
+                sapien.Pose(mount),
+            )
             camera_in_body[name] = mount @ _CV_IN_SAPIEN
     for i, thing in enumerate(things):
         thing.instance_id = i + 1
