@@ -293,6 +293,13 @@ def main() -> int:
 RECIPE_KEYS = ("cpu", "device", "net", "size", "epochs", "seeds", "precision")
 
 
+def _recipe(result: dict) -> list:
+    """What a run's scores depend on; of the precision, the one chosen (the probe's speeds
+    differ from run to run)."""
+    precision = (result.get("precision") or {}).get("precision")
+    return [result.get(key) for key in RECIPE_KEYS if key != "precision"] + [precision]
+
+
 def earlier_sets(out: Path, result: dict, frames: int) -> dict[str, dict]:
     """The sets an earlier, interrupted run into ``out`` trained with this run's recipe (machine,
     net, size, epochs, seeds, precision, ``frames`` a set and the frame counts of every domain),
@@ -302,7 +309,7 @@ def earlier_sets(out: Path, result: dict, frames: int) -> dict[str, dict]:
         earlier = json.loads((out / "results.json").read_text())
     except (OSError, ValueError):
         return {}
-    if any(earlier.get(key) != result.get(key) for key in RECIPE_KEYS):
+    if _recipe(earlier) != _recipe(result):
         return {}
     counts = {n: d.get("frames") for n, d in result["domains"].items()}
     if counts != {n: d.get("frames") for n, d in earlier.get("domains", {}).items()}:

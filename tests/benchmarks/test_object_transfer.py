@@ -110,8 +110,12 @@ def test_a_run_of_hours_keeps_the_sets_an_earlier_run_of_its_recipe_trained(tmp_
         "domains": domains,
         "sets": {"a_flat": {}, "c_default": {}},
     }
+    # the precision probe measures other speeds each run: the precision chosen is what counts
+    now["precision"] = {"precision": "fp32", "why": "bf16 1.10 vs fp32 1.30 steps/s"}
     assert object_transfer.earlier_sets(tmp_path, now, 2000) == {"a_flat": trained}
     assert object_transfer.earlier_sets(tmp_path, now, 500) == {}
+    bf16 = now | {"precision": {"precision": "bf16", "why": "bf16 1.40 vs fp32 1.30 steps/s"}}
+    assert object_transfer.earlier_sets(tmp_path, bf16, 2000) == {}
     for key, other in (("epochs", 40), ("seeds", [0]), ("size", [320, 240])):
         assert object_transfer.earlier_sets(tmp_path, now | {key: other}, 2000) == {}
     fewer = now | {"domains": {"photos": {"frames": 300}, "meshes": {"frames": 100}}}
