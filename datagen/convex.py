@@ -42,20 +42,29 @@ class ConvexBody:
 
 
 def box_hits_body(transform: np.ndarray, extents: np.ndarray, body: ConvexBody) -> bool:
-    """Separating-axis test of an oriented box (world transform, full extents) and a body."""
+    """Separating-axis test of an oriented box (world transform, full extents) and a body. The
+    axes are tried cheapest first (the box's 3 face normals, the body's face normals, then the
+    cross products of their edges): the first that separates answers."""
     rot, centre, half = transform[:3, :3], transform[:3, 3], np.asarray(extents) / 2
     reach = np.abs(rot) @ half
     if np.any(centre + reach < body.bounds[0]) or np.any(centre - reach > body.bounds[1]):
         return False
+    if _separated(rot.T, rot, centre, half, body.vertices):
+        return False
+    if _separated(body.normals, rot, centre, half, body.vertices):
+        return False
     cross = np.cross(rot.T[:, None, :], body.edges[None, :, :]).reshape(-1, 3)
-    axes = np.concatenate([rot.T, body.normals, cross])
-    norms = np.linalg.norm(axes, axis=1)
-    axes = axes[norms > 1e-9] / norms[norms > 1e-9, None]
-    proj = body.vertices @ axes.T
+    norms = np.linalg.norm(cross, axis=1)
+    cross = cross[norms > 1e-9] / norms[norms > 1e-9, None]
+    return not _separated(cross, rot, centre, half, body.vertices)
+
+
+def _separated(axes, rot, centre, half, vertices) -> bool:
+    """Whether one of ``axes`` (unit vectors, (A, 3)) separates the box from ``vertices``."""
+    proj = vertices @ axes.T
     box_c = axes @ centre
     box_r = np.abs(axes @ rot) @ half
-    separated = (box_c + box_r < proj.min(axis=0)) | (box_c - box_r > proj.max(axis=0))
-    return not separated.any()
+    return bool(((box_c + box_r < proj.min(axis=0)) | (box_c - box_r > proj.max(axis=0))).any())
 
 
 def bodies_meet(a: ConvexBody, b: ConvexBody, clearance: float = 0.0) -> bool:

@@ -306,6 +306,7 @@ FAMILIES: Registry[SceneFamily] = Registry("scene family", "datagen.families", [
 SAMPLERS: Registry[Plugin] = Registry("grasp sampler", "datagen.samplers", [
     Plugin("antipodal", "datagen.grasping.samplers.antipodal:AntipodalSampler"),
     Plugin("random", "datagen.grasping.samplers.random_pose:RandomSampler"),
+    Plugin("learned", "datagen.grasping.samplers.learned:LearnedSampler"),
 ])  # fmt: skip
 
 # webdataset shards are the store every build writes; these are exported from them

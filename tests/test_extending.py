@@ -153,7 +153,7 @@ def test_plugin_names_are_choices_of_the_config_and_the_cli():
     assert ran.stdout.strip() == "top_down", ran.stderr
     helped = datagen("campaign", "grasp", "x.yaml", "--out", "x", "--sampler", "nope")
     assert helped.returncode == 2
-    assert "expected one of ['antipodal', 'random', 'top_down']" in helped.stderr
+    assert "expected one of ['antipodal', 'random', 'learned', 'top_down']" in helped.stderr
 
 
 def test_the_example_sampler_grasps_a_box_from_above():

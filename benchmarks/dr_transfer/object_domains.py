@@ -64,9 +64,16 @@ SET_LABELS = (
 
 def wrist_view(width: int, height: int) -> dict:
     """Every camera at ``width`` x ``height``, the wrist camera on, the arm holding it over the
-    tray (the defaults), one view per scene."""
+    tray (the defaults), one view per scene. A path-traced view holds the GIL for its whole
+    render (about 24 s on 2 cores; far longer when a run of hours yields the CPU to other work
+    at ``nice 19``), so a worker may stay silent for an hour before it is taken for hung."""
     render = {"width": width, "height": height, "views": 1, "shadow_map_size": 512}
-    return {"render": render | {"wrist_camera": True}, "robot": {"pose": "look"}}
+    patient = {"worker_timeout_s": 3600.0, "sample_timeout_s": 7200.0}
+    return {
+        "render": render | {"wrist_camera": True},
+        "robot": {"pose": "look"},
+        "build": patient,
+    }
 
 
 def wrist_training_sets(width: int, height: int, frames: int) -> dict[str, dict]:

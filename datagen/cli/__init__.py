@@ -16,20 +16,24 @@ from pathlib import Path
 
 from datagen.cli import (
     build_commands,
+    campaign_commands,
     dataset_commands,
     library_commands,
     monitor_commands,
     service_commands,
+    train_commands,
 )
 from datagen.cli.common import EXIT_INTERRUPTED, EXIT_USER_ERROR, one_line
 from datagen.errors import ConfigError, UserInputError
 
 COMMAND_MODULES = (
     build_commands,
+    campaign_commands,
     service_commands,
     dataset_commands,
     monitor_commands,
     library_commands,
+    train_commands,
 )
 
 

@@ -5,7 +5,6 @@ from __future__ import annotations
 import argparse
 import contextlib
 import dataclasses
-import json
 import os
 import shlex
 import sys
@@ -25,7 +24,7 @@ from datagen.cli.monitor_commands import build_monitor
 from datagen.cli.progress import progress
 from datagen.config import BuildConfig, load_config
 from datagen.engines.transfer.broker_url import BROKER_URL_ENV, WORKER_BROKER_URL_ENV
-from datagen.registries import EXECUTORS, FAMILIES, SAMPLERS, choices
+from datagen.registries import EXECUTORS, FAMILIES, choices
 
 _SAMPLES = {f.name: f for f in dataclasses.fields(BuildConfig)}["num_samples"].metadata
 NUM_SAMPLES = whole_number(_SAMPLES["min"], _SAMPLES["max"])
@@ -127,51 +126,6 @@ def add_parsers(commands) -> None:
 
     build.set_defaults(run=run_build_command, command_parser=build)
 
-    campaign = commands.add_parser(
-        "campaign",
-        help="record physically executed grasp attempts with success labels",
-        description="Grasp-attempt campaigns: one executed Panda grasp per sample, same workers, "
-        "MQTT transport and writers as every build.",
-    )
-    kinds = campaign.add_subparsers(dest="kind", metavar="KIND", required=True)
-    grasp = kinds.add_parser("grasp", help="grasp attempts in randomised tray scenes")
-    grasp.add_argument("config", help="YAML config, e.g. configs/grasp_campaign.yaml")
-    grasp.add_argument(
-        "--attempts",
-        dest="num_samples",
-        metavar="N",
-        type=NUM_SAMPLES,
-        help="attempts to record (overrides num_samples; 1 .. 10^9-1)",
-    )
-    grasp.add_argument("--out", required=True, help="output directory")
-    grasp.add_argument("--sampler", type=choices(SAMPLERS), help="override campaign.sampler")
-    grasp.add_argument(
-        "--workers",
-        type=WORKERS,
-        default=DEFAULT_WORKERS,
-        help=f"scene worker processes (1 .. {MAX_WORKERS}; default: number of cores)",
-    )
-    grasp.add_argument("--seed", type=seed, help="override the config's seed")
-    grasp.add_argument(
-        "--resume", action="store_true", help="finish an interrupted campaign in --out"
-    )
-    grasp.add_argument("--overwrite", action="store_true", help=OVERWRITE_HELP)
-    grasp.add_argument("--check", action="store_true", help=CHECK_HELP)
-    grasp.add_argument("--monitor", action="store_true", help=MONITOR_HELP)
-    # a campaign is a build: the build options it does not expose take their defaults
-    grasp.set_defaults(
-        broker=None,
-        worker_broker=None,
-        writers=None,
-        build_id=None,
-        ca_file=None,
-        no_preview=False,
-        executor="local",
-        ray_address=None,
-    )
-
-    grasp.set_defaults(run=run_campaign, command_parser=grasp)
-
 
 # options a resumed build must not repeat; options repeated even at their default
 _NOT_RESUMED = {"help", "resume", "overwrite"}
@@ -205,28 +159,6 @@ def resume_command(args: argparse.Namespace) -> str:
             value, note = redact(value), " (put the broker's password back in place of ***)"
         words += [flag, shlex.quote(str(value))]
     return " ".join([*words, "--resume"]) + note
-
-
-def run_campaign(args: argparse.Namespace) -> int:
-    config = load_config(args.config)
-    campaign = config.campaign
-    if args.sampler:
-        campaign = dataclasses.replace(campaign, sampler=args.sampler)
-    config = config.replace(scene="grasp_attempts", campaign=campaign)
-    result = run_build_command(args, config)
-    if result == 0 and not args.check:
-        _print_campaign(Path(args.out))
-    return result
-
-
-def _print_campaign(out: Path) -> None:
-    stats = json.loads((out / "manifest.json").read_text()).get("campaign", {})
-    if not stats:
-        return
-    print(f"datagen: {stats['attempts']} grasp attempts, success rate {stats['success_rate']:.1%}")
-    for name, row in {**stats["per_sampler"], **stats["per_family"]}.items():
-        print(f"  {name:<10} {row['attempts']:>6} attempts  {row['success_rate']:>6.1%} success")
-    print(f"  failures: {stats['failure_modes']}")
 
 
 def run_build_command(args: argparse.Namespace, config=None) -> int:

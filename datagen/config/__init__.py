@@ -25,6 +25,7 @@ from datagen.config.appearance import (
     DistractorsConfig,
     PhotosConfig,
 )
+from datagen.config.campaign import check_campaign_model
 from datagen.config.pictures import check_photos, check_pictures, resolve_picture_folders
 from datagen.config.robot import RobotConfig, robot_spec
 from datagen.config.sections import (
@@ -141,12 +142,16 @@ def config_from_dict(data: Any, source: str = "<config>") -> BuildConfig:
         }
         robot = dataclasses.replace(config.robot, urdf=dataclasses.replace(urdf, **files))
         config = dataclasses.replace(config, robot=robot)
+    if config.campaign.model and not Path(config.campaign.model).is_absolute():
+        model = _resolved(config.campaign.model, source, "campaign.model")
+        campaign = dataclasses.replace(config.campaign, model=model)
+        config = dataclasses.replace(config, campaign=campaign)
     config = resolve_picture_folders(config, source)
     _check_ranges(config, source, prefix="")
     _check_semantics(config, source)
     check_pictures(config, source)
     check_photos(config, source)
-    return config
+    return check_campaign_model(config, source)
 
 
 def _resolved(assets_dir: str, source: str, key: str = "objects.assets_dir") -> str:

@@ -225,6 +225,14 @@ class CampaignConfig:
         default=0.0,
         metadata=_range(0.0, 1000.0, "Hz: colour frames while executing (0: none)"),
     )
+    # the learned sampler (docs/campaigns.md, "Learning to grasp"): the model scores this many
+    # antipodal candidates from the named camera's depth and the best is executed
+    model: str | None = None  # ONNX file, relative to the config file
+    model_sha256: str | None = None  # filled in from the file when absent; a given one must match
+    candidates: int = field(
+        default=16, metadata=_range(1, 256, "antipodal candidates the learned sampler scores")
+    )
+    model_camera: str = "wrist"  # whose depth the model sees: wrist or workspace
 
 
 # Degrees off straight ahead a robot's camera view may reach (pitch + half the vertical field of

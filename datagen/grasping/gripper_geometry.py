@@ -118,18 +118,29 @@ class GripperGeometry:
         bodies: Sequence[ConvexBody | trimesh.Trimesh],
         table_z: float | None = None,
         approach_distance: float = 0.0,
+        boxes: list[Box] | None = None,
     ) -> bool:
         """Whether the gripper at ``pose_world`` (the grasp frame, 4x4), opened to ``width``,
         hits a body or reaches below ``table_z``; with ``approach_distance``, anywhere on the
-        straight approach from ``approach_distance`` metres back along -z to the pose."""
+        straight approach from ``approach_distance`` metres back along -z to the pose.
+        ``boxes``: ``self.boxes(width, approach_distance)`` when the caller has them (a sampler
+        trying many poses at one width)."""
         bodies = [b if isinstance(b, ConvexBody) else ConvexBody.from_mesh(b) for b in bodies]
-        for local, extents in self.boxes(width, approach_distance):
+        if not bodies and table_z is None:
+            return False
+        lows = np.array([b.bounds[0] for b in bodies]).reshape(-1, 3)
+        highs = np.array([b.bounds[1] for b in bodies]).reshape(-1, 3)
+        for local, extents in boxes or self.boxes(width, approach_distance):
             transform = pose_world @ local
             if table_z is not None:
                 lowest = transform[2, 3] - np.abs(transform[2, :3]) @ (extents / 2)
                 if lowest < table_z:
                     return True
-            if any(box_hits_body(transform, extents, body) for body in bodies):
+            # box_hits_body's own first test, for every body at once: only bodies whose bounds
+            # the box's reach overlaps get the separating-axis test (the same answer, sooner)
+            centre, reach = transform[:3, 3], np.abs(transform[:3, :3]) @ (extents / 2)
+            near = np.flatnonzero(np.all((centre + reach >= lows) & (centre - reach <= highs), 1))
+            if any(box_hits_body(transform, extents, bodies[k]) for k in near):
                 return True
         return False
 

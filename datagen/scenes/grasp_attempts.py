@@ -24,6 +24,7 @@ from datagen.engines.sim.encode import png_bytes
 from datagen.engines.sim.picture_conversion import rgb_from_colour
 from datagen.engines.sim.render import keep_renderer_alive
 from datagen.geometry import pose_record
+from datagen.grasp_model.inputs import DepthView
 from datagen.grasping import GraspOutcome
 from datagen.grasping.contacts import sat_twin
 from datagen.grasping.execute import ExecutionParams, execute_grasp
@@ -35,7 +36,7 @@ from datagen.outcomes import sample_outcome
 from datagen.randomisers.workspace import scaled_to_robot
 from datagen.registries import SAMPLERS
 from datagen.sample import Sample
-from datagen.scenes.grasp_tabletop import annotate_scene, to_sample
+from datagen.scenes.grasp_tabletop import AnnotatedSample, annotate_scene, to_sample
 from datagen.seeding import sample_rng
 from datagen.worlds.tabletop import GraspScene, SceneObject, build_scene
 
@@ -117,6 +118,12 @@ def _approach_plane_through(scene: GraspScene) -> tuple[float, float] | None:
     return float(axis[0]), float(axis[1])
 
 
+def _model_view(pre: AnnotatedSample, camera: str) -> DepthView:
+    """The pre-grasp depth of ``camera`` as it is stored, with its calibration: what a model
+    trained on the campaign's records sees."""
+    return DepthView.from_record(pre.views[camera].depth, pre.metadata["views"][camera]["camera"])
+
+
 def produce(config: BuildConfig, seed: int, index: int, attempt: int = 0) -> Sample:
     keep_renderer_alive()
     campaign = scaled_to_robot(config).campaign  # pre-grasp and lift distances for a small arm
@@ -142,6 +149,7 @@ def produce(config: BuildConfig, seed: int, index: int, attempt: int = 0) -> Sam
         ),
         obstacles,
         max_tries=campaign.sampler_tries,
+        view=_model_view(pre, campaign.model_camera) if campaign.sampler == "learned" else None,
     )
     candidate = result.candidate
     recorded: dict[str, bytes] = {}  # the trajectory part and the frames
@@ -186,6 +194,8 @@ def produce(config: BuildConfig, seed: int, index: int, attempt: int = 0) -> Sam
         "grasp": grasp,
         "outcome": outcome.to_json(),
     }
+    if campaign.sampler == "learned":
+        record["model"] = {"sha256": campaign.model_sha256, "camera": campaign.model_camera}
     pre.metadata["attempt"] = record
     if campaign.post_grasp_frame:
         post = annotate_scene(scene, config, seed, index, ("workspace",), attempt)

@@ -18,6 +18,7 @@ import numpy as np
 
 from datagen.config.sections import CampaignConfig
 from datagen.convex import ConvexBody
+from datagen.grasp_model.inputs import DepthView
 from datagen.grasping import GraspCandidate
 from datagen.grasping.gripper_geometry import GripperGeometry
 from datagen.grasping.samplers.base import GraspTarget, Obstacles, SampleResult
@@ -91,6 +92,7 @@ class AntipodalSampler:
         target: GraspTarget,
         obstacles: Obstacles,
         max_tries: int = 200,
+        view: DepthView | None = None,
     ) -> SampleResult:
         parts, bodies = target.parts_world, target.bodies
         areas = np.concatenate([part.area_faces for part in parts])
@@ -195,6 +197,7 @@ class AntipodalSampler:
         order = [*rng.permutation(np.flatnonzero(down))]
         if self.allow_side:
             order += [*rng.permutation(np.flatnonzero(~down))]
+        boxes = self.gripper.boxes(width, self.pregrasp_distance)
         for k in order:
             pose = np.eye(4)
             pose[:3, :3] = np.column_stack(
@@ -202,7 +205,7 @@ class AntipodalSampler:
             )
             pose[:3, 3] = centre
             if not self.gripper.collides(
-                pose, width, blocking, obstacles.table_z, self.pregrasp_distance
+                pose, width, blocking, obstacles.table_z, self.pregrasp_distance, boxes
             ):
                 return pose
         return None

@@ -12,6 +12,7 @@ import trimesh
 from datagen.assets.shapes import ObjectGeometry
 from datagen.config.sections import CampaignConfig
 from datagen.convex import ConvexBody
+from datagen.grasp_model.inputs import DepthView
 from datagen.grasping import GraspCandidate
 from datagen.grasping.gripper_geometry import GripperGeometry
 
@@ -63,7 +64,9 @@ class SampleResult:
 
 class GraspSampler(Protocol):
     """What ``datagen.registries.SAMPLERS`` names: a class built from the campaign section and
-    the robot's gripper (its opening and collision boxes)."""
+    the robot's gripper (its opening and collision boxes). ``view`` is the pre-grasp depth of
+    the campaign's ``model_camera``, for samplers that look (the learned one); the others
+    ignore it."""
 
     name: str
 
@@ -76,4 +79,5 @@ class GraspSampler(Protocol):
         target: GraspTarget,
         obstacles: Obstacles,
         max_tries: int = 200,
+        view: DepthView | None = None,
     ) -> SampleResult: ...

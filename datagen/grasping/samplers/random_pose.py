@@ -8,6 +8,7 @@ import numpy as np
 import trimesh
 
 from datagen.config.sections import CampaignConfig
+from datagen.grasp_model.inputs import DepthView
 from datagen.grasping import GraspCandidate
 from datagen.grasping.gripper_geometry import GripperGeometry
 from datagen.grasping.samplers.base import GraspTarget, Obstacles, SampleResult
@@ -35,6 +36,7 @@ class RandomSampler:
         target: GraspTarget,
         obstacles: Obstacles,
         max_tries: int = 200,
+        view: DepthView | None = None,
     ) -> SampleResult:
         lo = np.min([part.bounds[0] for part in target.parts_world], axis=0) - self.margin
         hi = np.max([part.bounds[1] for part in target.parts_world], axis=0) + self.margin

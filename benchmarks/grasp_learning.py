@@ -1,0 +1,283 @@
+"""Learning to grasp, measured in the loop: a grasp-quality model trained on an antipodal
+campaign chooses among antipodal candidates, on scenes and on objects it never saw.
+
+    .venv/bin/python benchmarks/grasp_learning.py --quick   # minutes: panda, a few dozen attempts
+    .venv/bin/python benchmarks/grasp_learning.py           # panda and iiwa14, hours, in parts
+
+Per arm: a training campaign (the antipodal sampler, ``configs/grasp_campaign.yaml`` with the
+arm, seed 0, the default procedural objects); models (``datagen.learning``, the code behind
+``datagen train grasp``) trained on its first 250, 1,000 and 2,000 attempts (``--curve``); then
+evaluation campaigns, seed 1000, in two domains: ``scenes`` (held-out scenes of the default
+objects) and ``objects`` (held-out objects: the picture library's real robosuite meshes through
+``objects.source: folder``, shapes no training scene drew). In each domain the antipodal sampler
+and the learned one run on the same seed and indices, so the same scenes and the same targets;
+the learned sampler's first candidate is the antipodal sampler's own. The learning curve (every
+model size) is measured on held-out objects; held-out scenes with the largest model.
+
+Printed per arm and domain: success ± binomial standard error per sampler, the paired
+difference learned − antipodal ± its standard error over the same attempts, failure modes, and
+attempts/s with their ratio; each model's held-out accuracy, ROC AUC and calibration error on
+training attempts it never saw. Everything is kept under ``--out`` (campaigns, models,
+``results.json``, ``grasp_learning.png``): a rerun continues an interrupted campaign and keeps
+what is finished, so a run of hours can be done in parts.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import os
+import statistics
+import sys
+import time
+from collections import Counter
+from pathlib import Path
+
+from dr_transfer.building import build
+from dr_transfer.hardware import commit
+from machine import cpu_model
+
+REPO = Path(__file__).resolve().parents[1]
+EVAL_SEED = 1000
+FULL = {
+    "arms": ["panda", "iiwa14"],
+    "curve": [250, 1000, 2000],
+    "eval_attempts": 150,
+    "epochs": 40,
+    "size": "640x480",
+}
+QUICK = {"arms": ["panda"], "curve": [16, 32], "eval_attempts": 12, "epochs": 20, "size": "160x120"}
+DOMAINS = {"scenes": "held-out scenes", "objects": "held-out objects (real meshes)"}
+
+
+def arguments() -> argparse.Namespace:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--quick", action="store_true", help=f"minutes, not hours: {QUICK}")
+    parser.add_argument("--arms", nargs="+", help=f"arms ({FULL['arms']})")
+    parser.add_argument(
+        "--curve", type=int, nargs="+", help=f"training attempts per model ({FULL['curve']})"
+    )
+    parser.add_argument(
+        "--eval-attempts",
+        type=int,
+        help=f"attempts per sampler and domain ({FULL['eval_attempts']})",
+    )
+    parser.add_argument("--epochs", type=int, help=f"training epochs ({FULL['epochs']})")
+    parser.add_argument("--size", help=f"camera width x height ({FULL['size']})")
+    parser.add_argument("--candidates", type=int, default=16, help="K, candidates scored (16)")
+    parser.add_argument("--workers", type=int, default=2, help="campaign workers (2)")
+    parser.add_argument("--out", type=Path, default=REPO / "benchmarks/results/grasp_learning")
+    args = parser.parse_args()
+    for name, value in (QUICK if args.quick else FULL).items():
+        if getattr(args, name) is None:
+            setattr(args, name, value)
+    args.curve = sorted(set(args.curve))
+    return args
+
+
+def campaign_data(args, arm: str, seed: int, attempts: int, domain: str | None, model=None):
+    """The config dict of one campaign: ``configs/grasp_campaign.yaml`` with the arm, the
+    camera size, no post-grasp frame and no step-by-step recording (not needed here)."""
+    from datagen.config.yaml_file import read_yaml
+
+    data = read_yaml(REPO / "configs/grasp_campaign.yaml")
+    width, height = (int(v) for v in args.size.split("x"))
+    campaign = data["campaign"] | {"post_grasp_frame": False, "record_hz": 0}
+    if model is not None:
+        campaign |= {"sampler": "learned", "model": str(model), "candidates": args.candidates}
+    data |= {
+        "num_samples": attempts,
+        "seed": seed,
+        "robot": {"name": arm},
+        "render": {"width": width, "height": height, "wrist_camera": True},
+        "campaign": campaign,
+    }
+    if domain == "objects":
+        from datagen.library.catalogue import library_root
+
+        folder = library_root() / "robosuite-objects"
+        data["objects"] = {"source": "folder", "assets_dir": str(folder)}
+    return data
+
+
+def run_campaign(name: str, data: dict, args) -> dict:
+    """The campaign ``name`` under ``--out/campaigns`` (built, continued or read): per attempt
+    success and failure mode in index order, and attempts/s of the run that built it."""
+    from datagen.dataset.loader import load
+    from datagen.outcomes import sample_outcome
+
+    out = args.out / "campaigns" / name
+    print(f"  campaign {name}: {data['num_samples']} attempts", flush=True)
+    built = build(f"grasp_learning:{name}", data, out, args.workers)
+    timing = out / "timing.json"
+    if built is not None:
+        timing.write_text(
+            json.dumps({"seconds": built.seconds, "steady": built.steady_s_per_frame})
+        )
+    seconds = json.loads(timing.read_text()) if timing.is_file() else {}
+    dataset = load(out)
+    outcomes = [sample_outcome(dataset.metadata(i)) for i in range(len(dataset))]
+    dataset.close()
+    steady = seconds.get("steady")
+    return {
+        "success": [bool(o["success"]) for o in outcomes],
+        "failure_modes": dict(
+            sorted(Counter(o["failure_mode"] for o in outcomes if not o["success"]).items())
+        ),
+        "attempts_per_s": round(1 / steady, 4) if steady else None,
+    }
+
+
+def train_model(arm: str, attempts: int, campaign: Path, args) -> dict:
+    """The model trained on the first ``attempts`` of ``campaign`` (kept under --out/models)."""
+    from datagen.learning.examples import campaign_examples
+    from datagen.learning.fit import fit, write_model
+    from datagen.learning.report import write_report
+
+    path = args.out / "models" / f"{arm}-{attempts}.onnx"
+    report = path.with_suffix(".json")
+    if path.is_file() and report.is_file():
+        return json.loads(report.read_text()) | {"path": str(path)}
+    start = time.perf_counter()
+    examples = campaign_examples([campaign], "wrist", limit=attempts)
+    fitted = fit(examples, args.epochs, seed=0)
+    write_model(fitted.net, path)
+    facts = {"attempts": attempts, "examples": len(examples), "epochs": args.epochs}
+    write_report(fitted, path, facts | {"train_s": round(time.perf_counter() - start, 1)})
+    print(f"  model {path.name}: held-out ROC AUC {fitted.scores['roc_auc']}", flush=True)
+    return json.loads(report.read_text()) | {"path": str(path)}
+
+
+def rate(success: list[bool]) -> tuple[float, float]:
+    """Success rate and its binomial standard error, in percent."""
+    n = len(success)
+    p = sum(success) / n
+    return 100 * p, 100 * math.sqrt(p * (1 - p) / n)
+
+
+def paired_gain(learned: list[bool], antipodal: list[bool]) -> tuple[float, float]:
+    """Mean of learned - antipodal over the same attempts, and its standard error, in points."""
+    diff = [int(a) - int(b) for a, b in zip(learned, antipodal, strict=True)]
+    se = statistics.stdev(diff) / math.sqrt(len(diff)) if len(diff) > 1 else float("nan")
+    return 100 * statistics.fmean(diff), 100 * se
+
+
+def run_arm(arm: str, args) -> dict:
+    print(f"{arm}:", flush=True)
+    largest = args.curve[-1]
+    train_name = f"{arm}-train-{largest}"
+    run_campaign(train_name, campaign_data(args, arm, 0, largest, None), args)
+    campaign = args.out / "campaigns" / train_name
+    models = {n: train_model(arm, n, campaign, args) for n in args.curve}
+    result: dict = {"models": {n: _model_summary(m) for n, m in models.items()}, "domains": {}}
+    for domain in DOMAINS:
+        sizes = args.curve if domain == "objects" else [largest]
+        samplers = {"antipodal": None} | {f"learned-{n}": models[n]["path"] for n in sizes}
+        runs = {}
+        for sampler, model in samplers.items():
+            data = campaign_data(args, arm, EVAL_SEED, args.eval_attempts, domain, model)
+            name = f"{arm}-{domain}-{sampler}-{args.eval_attempts}"
+            runs[sampler] = run_campaign(name, data, args)
+        result["domains"][domain] = runs
+    return result
+
+
+def _model_summary(report: dict) -> dict:
+    held = report["held_out"]
+    return {
+        "examples": report.get("examples"),
+        "sha256": report.get("model_sha256") or _sha(report["path"]),
+        "accuracy": held["accuracy"],
+        "roc_auc": held["roc_auc"],
+        "ece": held["calibration"]["ece"],
+        "train_s": report.get("train_s"),
+    }
+
+
+def _sha(path: str) -> str:
+    from datagen.grasp_model.model_file import file_sha256
+
+    return file_sha256(path)
+
+
+def table(result: dict) -> str:
+    lines = [
+        f"{result['cpu']}; {result['command']}; commit {result['commit']}",
+        "arm     domain   sampler          success %        learned - antipodal   attempts/s  "
+        "failures",
+    ]
+    for arm, arm_result in result["arms"].items():
+        for domain, runs in arm_result["domains"].items():
+            base = runs["antipodal"]
+            for sampler, run in runs.items():
+                p, se = rate(run["success"])
+                gain = ""
+                if sampler != "antipodal":
+                    g, gse = paired_gain(run["success"], base["success"])
+                    gain = f"{g:+6.1f} ± {gse:4.1f}"
+                speed = run["attempts_per_s"]
+                lines.append(
+                    f"{arm:7} {domain:8} {sampler:15} {p:5.1f} ± {se:4.1f} (n {len(run['success'])})"
+                    f"  {gain:20}  {speed if speed is not None else '-':>10}  {run['failure_modes']}"
+                )
+        lines.append(f"{arm} models (held-out training attempts):")
+        for n, m in arm_result["models"].items():
+            lines.append(
+                f"  {n:>5} attempts: {m['examples']} examples, accuracy {m['accuracy']}, "
+                f"ROC AUC {m['roc_auc']}, calibration error {m['ece']}, trained in {m['train_s']} s"
+            )
+    return "\n".join(lines)
+
+
+def draw(result: dict, path: Path) -> None:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    figure, axes = plt.subplots(1, len(result["arms"]), figsize=(5 * len(result["arms"]), 3.6))
+    for ax, (arm, arm_result) in zip(
+        [axes] if len(result["arms"]) == 1 else axes, result["arms"].items(), strict=True
+    ):
+        runs = arm_result["domains"]["objects"]
+        sizes = [int(s.split("-")[1]) for s in runs if s.startswith("learned-")]
+        rates = [rate(runs[f"learned-{n}"]["success"]) for n in sizes]
+        ax.errorbar(
+            sizes, [r[0] for r in rates], [r[1] for r in rates], marker="o", label="learned"
+        )
+        base, se = rate(runs["antipodal"]["success"])
+        ax.axhspan(base - se, base + se, color="grey", alpha=0.3, label="antipodal ± SE")
+        ax.set(title=f"{arm}, held-out objects", xlabel="training attempts", ylabel="success %")
+        ax.set_xscale("log")
+        ax.legend()
+    figure.tight_layout()
+    figure.savefig(path, dpi=80)
+    plt.close(figure)
+
+
+def main() -> int:
+    args = arguments()
+    os.environ.setdefault("OMP_NUM_THREADS", "1")
+    python = os.path.relpath(sys.executable) if sys.executable.startswith(os.getcwd()) else "python"
+    result = {
+        "command": " ".join([python, *sys.argv]),
+        "commit": commit(REPO),
+        "cpu": f"{cpu_model()}, {len(os.sched_getaffinity(0))} cores",
+        "settings": {k: getattr(args, k) for k in ("curve", "eval_attempts", "epochs", "size")}
+        | {"candidates": args.candidates, "workers": args.workers},
+        "arms": {},
+    }
+    print(result["cpu"], flush=True)
+    for arm in args.arms:
+        result["arms"][arm] = run_arm(arm, args)
+    args.out.mkdir(parents=True, exist_ok=True)
+    (args.out / "results.json").write_text(json.dumps(result, indent=1) + "\n")
+    draw(result, args.out / "grasp_learning.png")
+    print("\n" + table(result), flush=True)
+    print(f"\nresults: {args.out / 'results.json'}, picture: {args.out / 'grasp_learning.png'}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

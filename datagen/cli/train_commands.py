@@ -1,0 +1,119 @@
+"""``datagen train grasp``: a grasp-quality model trained on grasp campaigns, scored on attempts
+it never saw and written as the ONNX file ``datagen campaign grasp --sampler learned --model``
+loads (docs/campaigns.md, "Learning to grasp")."""
+
+from __future__ import annotations
+
+import argparse
+import time
+from pathlib import Path
+
+from datagen.cli.common import one_line, whole_number
+from datagen.cli.progress import progress
+
+CAMERAS = ("wrist", "workspace")
+
+
+def add_parsers(commands) -> None:
+    train = commands.add_parser(
+        "train",
+        help="train a model on datasets (a grasp-quality model on grasp campaigns)",
+        description="Learn from datasets datagen made.",
+    )
+    kinds = train.add_subparsers(dest="kind", metavar="KIND", required=True)
+    grasp = kinds.add_parser(
+        "grasp",
+        help="a grasp-quality model from grasp campaigns, for the learned sampler",
+        description="Turns each attempt of the campaigns into a depth crop around the executed "
+        "grasp and its success, trains a small net on all but a held-out share, prints its "
+        "held-out accuracy, ROC AUC and calibration, and writes the ONNX model with a report "
+        "(.json) and a picture (.png) beside it.",
+    )
+    grasp.add_argument("campaigns", nargs="+", metavar="CAMPAIGN", help="campaign folders")
+    grasp.add_argument("--out", required=True, help="the model file to write (.onnx)")
+    grasp.add_argument(
+        "--camera",
+        choices=CAMERAS,
+        default="wrist",
+        help="whose depth the model sees (campaign.model_camera when it is used; default wrist)",
+    )
+    grasp.add_argument(
+        "--epochs", type=whole_number(1, 10000), default=40, help="training epochs (40)"
+    )
+    grasp.add_argument(
+        "--attempts",
+        type=whole_number(1, 10**9),
+        help="use only the first N attempts of each campaign (default: all)",
+    )
+    grasp.add_argument("--seed", type=whole_number(0, 2**31 - 1), default=0, help="seed (0)")
+    grasp.add_argument(
+        "--held-out",
+        type=float,
+        default=0.2,
+        help="share of the attempts kept out of training and scored (0.2)",
+    )
+    grasp.set_defaults(run=run_train_grasp, command_parser=grasp)
+
+
+def run_train_grasp(args: argparse.Namespace) -> int:
+    from datagen.errors import UserInputError
+    from datagen.grasp_model.model_file import load_model
+    from datagen.learning.examples import campaign_examples
+    from datagen.learning.fit import fit, write_model
+    from datagen.learning.report import write_report
+
+    out = Path(args.out)
+    if out.suffix != ".onnx":
+        raise UserInputError(f"--out {one_line(args.out)}: expected a file name ending in .onnx")
+    if not 0.05 <= args.held_out <= 0.5:
+        raise UserInputError(f"--held-out {args.held_out}: expected a share from 0.05 to 0.5")
+    bar = None
+
+    def read(done: int, total: int) -> None:
+        nonlocal bar
+        bar = bar or progress(total, "attempts read", unit="attempts")
+        bar.update_to(done)
+
+    examples = campaign_examples(args.campaigns, args.camera, limit=args.attempts, on_progress=read)
+    if bar:
+        bar.close()
+    skipped = ", ".join(f"{n} {mode}" for mode, n in examples.left_out.items()) or "none"
+    print(
+        f"datagen: {len(examples)} examples ({int(examples.success.sum())} successes) from "
+        f"{len(args.campaigns)} campaign(s); left out: {skipped}"
+    )
+    start = time.perf_counter()
+
+    def epoch(done: int, loss: float) -> None:
+        if done == 1 or done % 10 == 0 or done == args.epochs:
+            print(f"datagen: epoch {done}/{args.epochs}, training loss {loss:.4f}", flush=True)
+
+    try:
+        fitted = fit(examples, args.epochs, args.seed, args.held_out, on_epoch=epoch)
+    except ValueError as exc:
+        raise UserInputError(f"{', '.join(map(one_line, args.campaigns))}: {exc}") from None
+    write_model(fitted.net, out)
+    model = load_model(out)  # the file as the sampler will read it
+    facts = {
+        "model_sha256": model.sha256,
+        "campaigns": [Path(c).name for c in args.campaigns],
+        "camera": args.camera,
+        "crop_size": model.crop_size,
+        "epochs": args.epochs,
+        "seed": args.seed,
+        "train_s": round(time.perf_counter() - start, 1),
+    }
+    report, picture = write_report(fitted, out, facts)
+    s = fitted.scores
+    auc = "n/a" if s["roc_auc"] is None else f"{s['roc_auc']:.3f}"
+    print(
+        f"datagen: held out {s['examples']} attempts (success rate {s['success_rate']:.1%}): "
+        f"accuracy {s['accuracy']:.1%}, ROC AUC {auc}, calibration error "
+        f"{s['calibration']['ece']:.3f}, Brier {s['calibration']['brier']:.3f}"
+    )
+    print(f"datagen: wrote {out} (sha256 {model.sha256[:12]}), {report}, {picture}")
+    print(
+        f"datagen: use it: datagen campaign grasp CONFIG --sampler learned --model {out}"
+        + ("" if args.camera == "wrist" else " (with campaign.model_camera: workspace)")
+    )
+    return 0

@@ -1,0 +1,122 @@
+"""Training a grasp-quality net on campaign examples, scoring it on attempts it never saw, and
+writing it as the ONNX file the learned sampler loads."""
+
+from __future__ import annotations
+
+import io
+import warnings
+from collections.abc import Callable
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+import torch
+from torch import nn
+
+from datagen.grasp_model.model_file import CROP_INPUT, GRASP_INPUT
+from datagen.learning.examples import GraspExamples
+from datagen.learning.grasp_net import GraspQualityNet, SuccessProbability
+from datagen.learning.metrics import scores_of
+from datagen.seeding import sample_rng
+
+BATCH = 64
+LEARNING_RATE = 1e-3
+WEIGHT_DECAY = 1e-4
+
+
+@dataclass
+class Fitted:
+    net: GraspQualityNet
+    held_out: GraspExamples
+    probabilities: np.ndarray  # (held-out N,) the net's success probability on each
+    scores: dict  # metrics.scores_of on the held-out examples
+    losses: list[float]  # mean training loss per epoch
+
+
+def split(count: int, held_out: float, seed: int) -> tuple[np.ndarray, np.ndarray]:
+    """(training rows, held-out rows): a ``held_out`` share of ``count`` examples, drawn from
+    the ``grasp_model.split`` stream of ``seed``."""
+    order = sample_rng(seed, 0, "grasp_model.split").permutation(count)
+    cut = round(held_out * count)
+    return np.sort(order[cut:]), np.sort(order[:cut])
+
+
+def fit(
+    examples: GraspExamples,
+    epochs: int = 40,
+    seed: int = 0,
+    held_out: float = 0.2,
+    on_epoch: Callable[[int, float], None] | None = None,
+) -> Fitted:
+    """A net trained on all but a ``held_out`` share of ``examples`` for ``epochs`` (AdamW,
+    cosine schedule, failures and successes weighed equally), scored on that share."""
+    if len(examples) < 2 or len(set(examples.success.tolist())) < 2:
+        raise ValueError(
+            f"{len(examples)} examples, {int(examples.success.sum())} of them successes: "
+            "a model needs both successes and failures to learn from"
+        )
+    train_rows, test_rows = split(len(examples), held_out, seed)
+    torch.manual_seed(seed)
+    net = GraspQualityNet(examples.crops.shape[-1])
+    crops = torch.from_numpy(examples.crops[train_rows])
+    features = torch.from_numpy(examples.features[train_rows])
+    labels = torch.from_numpy(examples.success[train_rows].astype(np.float32))
+    positive = float(labels.mean())
+    weight = torch.tensor((1 - positive) / max(positive, 1e-6))  # balances the two classes
+    loss_of = nn.BCEWithLogitsLoss(pos_weight=weight)
+    optimiser = torch.optim.AdamW(net.parameters(), LEARNING_RATE, weight_decay=WEIGHT_DECAY)
+    steps = epochs * max(1, -(-len(train_rows) // BATCH))
+    schedule = torch.optim.lr_scheduler.CosineAnnealingLR(optimiser, steps)
+    shuffle = torch.Generator().manual_seed(seed)
+    losses = []
+    for epoch in range(epochs):
+        net.train()
+        total = 0.0
+        for rows in torch.randperm(len(labels), generator=shuffle).split(BATCH):
+            optimiser.zero_grad()
+            loss = loss_of(net(crops[rows], features[rows]), labels[rows])
+            loss.backward()
+            optimiser.step()
+            schedule.step()
+            total += float(loss.detach()) * len(rows)
+        losses.append(total / len(labels))
+        if on_epoch:
+            on_epoch(epoch + 1, losses[-1])
+    test = examples.subset(test_rows)
+    probabilities = predict(net, test.crops, test.features)
+    return Fitted(net, test, probabilities, scores_of(probabilities, test.success), losses)
+
+
+def predict(net: GraspQualityNet, crops: np.ndarray, features: np.ndarray) -> np.ndarray:
+    net.eval()
+    with torch.no_grad():
+        logits = net(torch.from_numpy(crops), torch.from_numpy(features))
+    return torch.sigmoid(logits).numpy().astype(np.float64)
+
+
+def onnx_bytes(net: GraspQualityNet) -> bytes:
+    """The net as an ONNX graph of the learned sampler's contract (any batch size)."""
+    size = net.size
+    example = (torch.zeros(2, 1, size, size), torch.zeros(2, 8))
+    buffer = io.BytesIO()
+    net.eval()
+    with warnings.catch_warnings():  # the TorchScript-based exporter says it is the legacy one
+        warnings.simplefilter("ignore")
+        torch.onnx.export(
+            SuccessProbability(net),
+            example,
+            buffer,  # type: ignore[arg-type]  # a file object is accepted (torch.onnx docs)
+            dynamo=False,
+            input_names=[CROP_INPUT, GRASP_INPUT],
+            output_names=["success"],
+            dynamic_axes={CROP_INPUT: {0: "n"}, GRASP_INPUT: {0: "n"}, "success": {0: "n"}},
+        )
+    return buffer.getvalue()
+
+
+def write_model(net: GraspQualityNet, path: Path) -> None:
+    """The ONNX file, written beside ``path`` and renamed over it (never half written)."""
+    path.parent.mkdir(parents=True, exist_ok=True)
+    partial = path.with_name(path.name + ".partial")
+    partial.write_bytes(onnx_bytes(net))
+    partial.replace(path)

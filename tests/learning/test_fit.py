@@ -1,0 +1,78 @@
+"""Training a grasp-quality net and scoring it: the metrics against their definitions, a net
+that learns a rule planted in the examples, and the same seed giving the same model."""
+
+from __future__ import annotations
+
+import itertools
+
+import numpy as np
+import pytest
+
+from datagen.grasp_model.model_file import load_model
+from datagen.learning.examples import GraspExamples
+from datagen.learning.fit import fit, onnx_bytes, split, write_model
+from datagen.learning.metrics import calibration, roc_auc, roc_curve
+
+
+def test_roc_auc_is_the_share_of_success_failure_pairs_in_order():
+    rng = np.random.default_rng(0)
+    scores = rng.integers(0, 5, 60).astype(float)  # many ties
+    labels = rng.random(60) < 0.4
+    pairs = [
+        1.0 if s > f else 0.5 if s == f else 0.0
+        for s, f in itertools.product(scores[labels], scores[~labels])
+    ]
+    assert roc_auc(scores, labels) == pytest.approx(np.mean(pairs))
+    assert roc_auc(scores, np.ones(60, bool)) is None
+    fpr, tpr = roc_curve(scores, labels)
+    assert (fpr[0], tpr[0], fpr[-1], tpr[-1]) == (0, 0, 1, 1)
+
+
+def test_calibration_of_honest_and_of_overconfident_predictions():
+    rng = np.random.default_rng(1)
+    p = rng.random(20000)
+    honest = calibration(p, rng.random(20000) < p)
+    assert honest["ece"] < 0.02
+    overconfident = calibration(np.where(p > 0.5, 1.0, 0.0), rng.random(20000) < p)
+    assert overconfident["ece"] > 0.2
+    assert sum(b["count"] for b in honest["bins"]) == 20000
+
+
+def planted(count: int, seed: int = 0) -> GraspExamples:
+    """Examples whose success is whether the crop's left half is higher than the grasp and the
+    approach points away from the camera's x: a rule of both inputs."""
+    rng = np.random.default_rng(seed)
+    crops = rng.normal(0.0, 0.01, (count, 1, 16, 16)).astype(np.float32)
+    lifted = rng.random(count) < 0.5
+    crops[lifted, 0, :, :8] -= 0.05
+    features = rng.normal(0.0, 1.0, (count, 8)).astype(np.float32)
+    success = lifted & (features[:, 2] > -0.5)
+    return GraspExamples(
+        crops, features, success, [f"a/{i}" for i in range(count)], ["box"] * count
+    )
+
+
+def test_a_net_learns_a_planted_rule_and_scores_attempts_it_never_saw():
+    fitted = fit(planted(400), epochs=20, seed=0)
+    assert fitted.scores["examples"] == 80  # the held-out fifth
+    assert fitted.scores["roc_auc"] > 0.85 and fitted.scores["accuracy"] > 0.75
+    assert len(fitted.losses) == 20 and fitted.losses[-1] < fitted.losses[0]
+
+
+def test_the_same_seed_gives_the_same_model_and_the_file_scores_as_the_net(tmp_path):
+    examples = planted(200)
+    one, two = fit(examples, epochs=3, seed=4), fit(examples, epochs=3, seed=4)
+    assert onnx_bytes(one.net) == onnx_bytes(two.net)
+    write_model(one.net, tmp_path / "m.onnx")
+    model = load_model(tmp_path / "m.onnx")
+    held = one.held_out
+    assert model.score(held.crops, held.features) == pytest.approx(one.probabilities, abs=1e-5)
+    train, test = split(200, 0.2, 4)
+    assert len(test) == 40 and not set(train) & set(test)
+
+
+def test_one_class_only_is_refused():
+    examples = planted(50)
+    examples.success[:] = True
+    with pytest.raises(ValueError, match="both successes and failures"):
+        fit(examples, epochs=1)
