@@ -20,6 +20,7 @@ from datagen.cli.build_commands import (
 from datagen.cli.common import MAX_WORKERS, seed
 from datagen.config import config_from_dict
 from datagen.config.yaml_file import read_yaml
+from datagen.errors import UserInputError
 from datagen.registries import SAMPLERS, choices
 
 
@@ -88,6 +89,11 @@ def run_campaign(args: argparse.Namespace) -> int:
             data = data | {"campaign": (campaign or {}) | overrides}
         data = data | {"scene": "grasp_attempts"}
     config = config_from_dict(data, source=args.config)
+    if args.model and config.campaign.sampler != "learned":
+        raise UserInputError(
+            f"--model is the learned sampler's model, but the sampler is "
+            f"{config.campaign.sampler!r}: add --sampler learned"
+        )
     result = run_build_command(args, config)
     if result == 0 and not args.check:
         _print_campaign(Path(args.out))

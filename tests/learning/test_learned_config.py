@@ -47,6 +47,11 @@ def test_check_refuses_a_learned_sampler_without_a_model(tmp_path):
     refused(check(tmp_path, "--sampler", "learned"), "campaign.model", "--model FILE")
 
 
+def test_a_model_for_another_sampler_is_refused_not_ignored(tmp_path):
+    prefers_feature(tmp_path / "m.onnx", column=0)
+    refused(check(tmp_path, "--model", "m.onnx"), "--model", "'antipodal'", "--sampler learned")
+
+
 @pytest.mark.parametrize(
     ("make", "needle"),
     [
