@@ -132,19 +132,19 @@ def run_campaign(name: str, data: dict, args) -> dict:
 def train_model(arm: str, attempts: int, campaign: Path, args) -> dict:
     """The model trained on the first ``attempts`` of ``campaign`` (kept under --out/models)."""
     from datagen.learning.examples import campaign_examples
-    from datagen.learning.fit import fit, write_model
-    from datagen.learning.report import write_report
+    from datagen.learning.fit import fit
+    from datagen.learning.report import save_model
 
-    path = args.out / "models" / f"{arm}-{attempts}.onnx"
+    # kept by what makes it: a rerun with other epochs trains anew
+    path = args.out / "models" / f"{arm}-{attempts}-{args.epochs}epochs.onnx"
     report = path.with_suffix(".json")
     if path.is_file() and report.is_file():
         return json.loads(report.read_text()) | {"path": str(path)}
     start = time.perf_counter()
     examples = campaign_examples([campaign], "wrist", limit=attempts)
     fitted = fit(examples, args.epochs, seed=0)
-    write_model(fitted.net, path)
     facts = {"attempts": attempts, "examples": len(examples), "epochs": args.epochs}
-    write_report(fitted, path, facts | {"train_s": round(time.perf_counter() - start, 1)})
+    save_model(fitted, path, facts | {"train_s": round(time.perf_counter() - start, 1)})
     print(f"  model {path.name}: held-out ROC AUC {fitted.scores['roc_auc']}", flush=True)
     return json.loads(report.read_text()) | {"path": str(path)}
 
@@ -173,11 +173,13 @@ def run_arm(arm: str, args) -> dict:
     result: dict = {"models": {n: _model_summary(m) for n, m in models.items()}, "domains": {}}
     for domain in DOMAINS:
         sizes = args.curve if domain == "objects" else [largest]
-        samplers = {"antipodal": None} | {f"learned-{n}": models[n]["path"] for n in sizes}
+        samplers = {"antipodal": None} | {f"learned-{n}": models[n] for n in sizes}
         runs = {}
         for sampler, model in samplers.items():
-            data = campaign_data(args, arm, EVAL_SEED, args.eval_attempts, domain, model)
-            name = f"{arm}-{domain}-{sampler}-{args.eval_attempts}"
+            path = model and model["path"]
+            data = campaign_data(args, arm, EVAL_SEED, args.eval_attempts, domain, path)
+            scored_by = f"-{model['model_sha256'][:12]}" if model else ""  # a new model, anew
+            name = f"{arm}-{domain}-{sampler}{scored_by}-{args.eval_attempts}"
             runs[sampler] = run_campaign(name, data, args)
         result["domains"][domain] = runs
     return result
@@ -187,18 +189,12 @@ def _model_summary(report: dict) -> dict:
     held = report["held_out"]
     return {
         "examples": report.get("examples"),
-        "sha256": report.get("model_sha256") or _sha(report["path"]),
+        "sha256": report["model_sha256"],
         "accuracy": held["accuracy"],
         "roc_auc": held["roc_auc"],
         "ece": held["calibration"]["ece"],
         "train_s": report.get("train_s"),
     }
-
-
-def _sha(path: str) -> str:
-    from datagen.grasp_model.model_file import file_sha256
-
-    return file_sha256(path)
 
 
 def table(result: dict) -> str:

@@ -9,6 +9,7 @@ objects as their convex parts. The gripper's boxes: :mod:`datagen.grasping.gripp
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import cached_property
 
 import numpy as np
 import trimesh
@@ -39,6 +40,29 @@ class ConvexBody:
     def depth(self, points: np.ndarray) -> np.ndarray:
         """Signed distance-like value per point: max over planes of n . p - offset (< 0 inside)."""
         return (np.atleast_2d(points) @ self.normals.T - self.offsets).max(axis=1)
+
+
+@dataclass(frozen=True)
+class BodySet:
+    """Bodies tested together: their bounds stacked once, so that one box is checked against
+    every body's bounds in one step and only the bodies it may touch get the full test."""
+
+    bodies: tuple[ConvexBody, ...]
+
+    @cached_property
+    def lows(self) -> np.ndarray:  # (B, 3)
+        return np.array([b.bounds[0] for b in self.bodies]).reshape(-1, 3)
+
+    @cached_property
+    def highs(self) -> np.ndarray:  # (B, 3)
+        return np.array([b.bounds[1] for b in self.bodies]).reshape(-1, 3)
+
+    def hit_by_box(self, transform: np.ndarray, extents: np.ndarray) -> bool:
+        """Whether the oriented box (world transform, full extents) meets any body: the bounds
+        test of ``box_hits_body`` for all bodies at once, then the full test where it passes."""
+        centre, reach = transform[:3, 3], np.abs(transform[:3, :3]) @ (np.asarray(extents) / 2)
+        near = np.all((centre + reach >= self.lows) & (centre - reach <= self.highs), axis=1)
+        return any(box_hits_body(transform, extents, self.bodies[k]) for k in np.flatnonzero(near))
 
 
 def box_hits_body(transform: np.ndarray, extents: np.ndarray, body: ConvexBody) -> bool:

@@ -57,10 +57,9 @@ def add_parsers(commands) -> None:
 
 def run_train_grasp(args: argparse.Namespace) -> int:
     from datagen.errors import UserInputError
-    from datagen.grasp_model.model_file import load_model
     from datagen.learning.examples import campaign_examples
-    from datagen.learning.fit import fit, write_model
-    from datagen.learning.report import write_report
+    from datagen.learning.fit import fit
+    from datagen.learning.report import save_model
 
     out = Path(args.out)
     if out.suffix != ".onnx":
@@ -92,18 +91,14 @@ def run_train_grasp(args: argparse.Namespace) -> int:
         fitted = fit(examples, args.epochs, args.seed, args.held_out, on_epoch=epoch)
     except ValueError as exc:
         raise UserInputError(f"{', '.join(map(one_line, args.campaigns))}: {exc}") from None
-    write_model(fitted.net, out)
-    model = load_model(out)  # the file as the sampler will read it
     facts = {
-        "model_sha256": model.sha256,
         "campaigns": [Path(c).name for c in args.campaigns],
         "camera": args.camera,
-        "crop_size": model.crop_size,
         "epochs": args.epochs,
         "seed": args.seed,
         "train_s": round(time.perf_counter() - start, 1),
     }
-    report, picture = write_report(fitted, out, facts)
+    sha256, report, picture = save_model(fitted, out, facts)
     s = fitted.scores
     auc = "n/a" if s["roc_auc"] is None else f"{s['roc_auc']:.3f}"
     print(
@@ -111,7 +106,7 @@ def run_train_grasp(args: argparse.Namespace) -> int:
         f"accuracy {s['accuracy']:.1%}, ROC AUC {auc}, calibration error "
         f"{s['calibration']['ece']:.3f}, Brier {s['calibration']['brier']:.3f}"
     )
-    print(f"datagen: wrote {out} (sha256 {model.sha256[:12]}), {report}, {picture}")
+    print(f"datagen: wrote {out} (sha256 {sha256[:12]}), {report}, {picture}")
     print(
         f"datagen: use it: datagen campaign grasp CONFIG --sampler learned --model {out}"
         + ("" if args.camera == "wrist" else " (with campaign.model_camera: workspace)")

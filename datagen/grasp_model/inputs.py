@@ -15,6 +15,7 @@ from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
+from functools import cached_property
 from typing import Any
 
 import cv2
@@ -34,6 +35,14 @@ class DepthView:
     depth_mm: np.ndarray  # (H, W) uint16 millimetres, 0 = no reading
     intrinsics: np.ndarray  # (3, 3) pixels, OpenCV convention
     extrinsics: np.ndarray  # (4, 4) world -> camera, OpenCV convention
+
+    @cached_property
+    def metres(self) -> np.ndarray:
+        """(H, W) float32 depth in metres, +inf where there is no reading: computed once per
+        view, however many candidates are cropped from it."""
+        depth = self.depth_mm.astype(np.float32) * np.float32(DEPTH_SCALE)
+        depth[self.depth_mm == 0] = np.inf
+        return depth
 
     @classmethod
     def from_record(cls, depth_mm: np.ndarray, camera: Mapping[str, Any]) -> DepthView:
@@ -70,10 +79,8 @@ def grasp_inputs(
     warp = np.array(
         [[cos, sin, half - cos * u - sin * v], [-sin, cos, half + sin * u - cos * v]], np.float64
     )
-    depth: np.ndarray = view.depth_mm.astype(np.float32) * np.float32(DEPTH_SCALE)
-    depth[view.depth_mm == 0] = np.inf
     crop = cv2.warpAffine(
-        depth,
+        view.metres,
         warp,
         (size, size),
         flags=cv2.INTER_NEAREST,

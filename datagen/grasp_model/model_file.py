@@ -22,7 +22,6 @@ import hashlib
 import os
 from dataclasses import dataclass
 from functools import lru_cache
-from pathlib import Path
 
 import numpy as np
 
@@ -44,7 +43,7 @@ class GraspModel:
     session: object  # onnxruntime.InferenceSession
     sha256: str
     crop_size: int
-    name: str  # the file's name (no folders: records hold no machine paths)
+    name: str  # the path it was loaded from, for messages (records hold only the sha256)
 
     def score(self, crops: np.ndarray, features: np.ndarray) -> np.ndarray:
         """(N,) float64 scores of N candidates from ``grasp_batch``'s two arrays."""
@@ -82,7 +81,6 @@ def load_model(path: str | os.PathLike[str], sha256: str | None = None) -> Grasp
     import onnxruntime
 
     data = _read(path)
-    name = Path(path).name
     digest = hashlib.sha256(data).hexdigest()
     if sha256 is not None and digest != sha256:
         raise ModelFileError(
@@ -98,11 +96,10 @@ def load_model(path: str | os.PathLike[str], sha256: str | None = None) -> Grasp
     try:
         session = onnxruntime.InferenceSession(data, options, providers=["CPUExecutionProvider"])
     except Exception as exc:  # onnxruntime raises its own classes, one per kind of fault
-        first = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
         raise ModelFileError(
-            f"{path}: not a usable ONNX model (onnxruntime: {first[:300]})"
+            f"{path}: not a usable ONNX model (onnxruntime: {_first_line(exc)})"
         ) from None
-    model = GraspModel(session, digest, _crop_size(session, path), name)
+    model = GraspModel(session, digest, _crop_size(session, path), str(path))
     _probe(model, path)
     return model
 
@@ -178,13 +175,18 @@ def _probe(model: GraspModel, path) -> None:
     features = np.zeros((PROBE_BATCH, GRASP_FEATURES), np.float32)
     try:
         model.score(crops, features)
-    except ModelFileError as exc:  # named by the file's name: here, by the path given
-        raise ModelFileError(f"{path}{str(exc).removeprefix(model.name)}") from None
+    except ModelFileError:
+        raise
     except Exception as exc:  # a graph that fails on a batch of the contract's shape
-        first = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
         raise ModelFileError(
-            f"{path}: fails on a batch of the contract's shapes (onnxruntime: {first[:300]})"
+            f"{path}: fails on a batch of the contract's shapes (onnxruntime: {_first_line(exc)})"
         ) from None
+
+
+def _first_line(exc: Exception) -> str:
+    """onnxruntime's message, cut to its first line and 300 characters."""
+    text = str(exc).strip()
+    return text.splitlines()[0][:300] if text else type(exc).__name__
 
 
 @lru_cache(maxsize=4)

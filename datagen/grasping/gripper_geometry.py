@@ -25,7 +25,7 @@ from dataclasses import dataclass
 import numpy as np
 import trimesh
 
-from datagen.convex import ConvexBody, box_hits_body
+from datagen.convex import BodySet, ConvexBody
 from datagen.robot_specs import GripperSpec, RobotSpec
 from datagen.robot_specs.urdf import Geometry, Joint, Urdf, read_urdf
 
@@ -115,32 +115,27 @@ class GripperGeometry:
         self,
         pose_world: np.ndarray,
         width: float,
-        bodies: Sequence[ConvexBody | trimesh.Trimesh],
+        bodies: Sequence[ConvexBody | trimesh.Trimesh] | BodySet,
         table_z: float | None = None,
         approach_distance: float = 0.0,
         boxes: list[Box] | None = None,
     ) -> bool:
         """Whether the gripper at ``pose_world`` (the grasp frame, 4x4), opened to ``width``,
         hits a body or reaches below ``table_z``; with ``approach_distance``, anywhere on the
-        straight approach from ``approach_distance`` metres back along -z to the pose.
-        ``boxes``: ``self.boxes(width, approach_distance)`` when the caller has them (a sampler
-        trying many poses at one width)."""
-        bodies = [b if isinstance(b, ConvexBody) else ConvexBody.from_mesh(b) for b in bodies]
-        if not bodies and table_z is None:
-            return False
-        lows = np.array([b.bounds[0] for b in bodies]).reshape(-1, 3)
-        highs = np.array([b.bounds[1] for b in bodies]).reshape(-1, 3)
+        straight approach from ``approach_distance`` metres back along -z to the pose. A
+        caller trying many poses passes the bodies as one ``BodySet`` and ``boxes``
+        (``self.boxes(width, approach_distance)``), made once."""
+        if not isinstance(bodies, BodySet):
+            bodies = BodySet(
+                tuple(b if isinstance(b, ConvexBody) else ConvexBody.from_mesh(b) for b in bodies)
+            )
         for local, extents in boxes or self.boxes(width, approach_distance):
             transform = pose_world @ local
             if table_z is not None:
                 lowest = transform[2, 3] - np.abs(transform[2, :3]) @ (extents / 2)
                 if lowest < table_z:
                     return True
-            # box_hits_body's own first test, for every body at once: only bodies whose bounds
-            # the box's reach overlaps get the separating-axis test (the same answer, sooner)
-            centre, reach = transform[:3, 3], np.abs(transform[:3, :3]) @ (extents / 2)
-            near = np.flatnonzero(np.all((centre + reach >= lows) & (centre - reach <= highs), 1))
-            if any(box_hits_body(transform, extents, bodies[k]) for k in near):
+            if bodies.hit_by_box(transform, extents):
                 return True
         return False
 

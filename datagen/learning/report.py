@@ -1,5 +1,5 @@
-"""What a trained grasp model is worth, to read and to look at: the held-out scores as JSON and
-a picture of its ROC curve, its calibration and its training loss."""
+"""A trained grasp model saved with what it is worth, to read and to look at: the ONNX file, its
+held-out scores as JSON and a picture of its ROC curve, its calibration and its training loss."""
 
 from __future__ import annotations
 
@@ -8,8 +8,18 @@ from pathlib import Path
 
 import numpy as np
 
-from datagen.learning.fit import Fitted
+from datagen.grasp_model.model_file import load_model
+from datagen.learning.fit import Fitted, write_model
 from datagen.learning.metrics import roc_curve
+
+
+def save_model(fitted: Fitted, model: Path, facts: dict) -> tuple[str, Path, Path]:
+    """Writes the net to ``model`` (ONNX), reads it back as the learned sampler will (its
+    contract checked), then its report and picture beside it: (sha256, report, picture)."""
+    write_model(fitted.net, model)
+    loaded = load_model(model)
+    facts = facts | {"model_sha256": loaded.sha256, "crop_size": loaded.crop_size}
+    return (loaded.sha256, *write_report(fitted, model, facts))
 
 
 def write_report(fitted: Fitted, model: Path, facts: dict) -> tuple[Path, Path]:

@@ -30,7 +30,7 @@ def one_line_error(path, *needles, sha256=None) -> str:
 def test_a_model_of_the_contract_loads_and_scores(tmp_path):
     path = prefers_feature(tmp_path / "m.onnx", column=0, sign=-1.0)
     model = load_model(path)
-    assert model.crop_size == 32 and model.name == "m.onnx"
+    assert model.crop_size == 32 and model.name == str(path)
     assert model.sha256 == hashlib.sha256(path.read_bytes()).hexdigest()
     features = np.zeros((3, 8), np.float32)
     features[:, 0] = [0.5, 0.3, 0.9]

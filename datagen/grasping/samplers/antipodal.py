@@ -17,7 +17,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from datagen.config.sections import CampaignConfig
-from datagen.convex import ConvexBody
+from datagen.convex import BodySet, ConvexBody
 from datagen.grasp_model.inputs import DepthView
 from datagen.grasping import GraspCandidate
 from datagen.grasping.gripper_geometry import GripperGeometry
@@ -98,7 +98,7 @@ class AntipodalSampler:
         areas = np.concatenate([part.area_faces for part in parts])
         owner = np.concatenate([np.full(len(part.faces), i) for i, part in enumerate(parts)])
         first = np.cumsum([0] + [len(part.faces) for part in parts])
-        blocking = bodies + obstacles.bodies
+        blocking = BodySet(tuple(bodies + obstacles.bodies))
         cos_cone = np.cos(np.arctan(self.friction))
         plane = target.approach_plane_through
         weights = areas

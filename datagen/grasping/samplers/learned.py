@@ -65,7 +65,6 @@ class LearnedSampler:
             "candidates": len(found),
             "scores": [round(float(s), 6) for s in scores],
             "chosen": best,
-            "model_sha256": self.model.sha256,
         }
         chosen = dataclasses.replace(found[best], sampler=self.name, info=info)
         return SampleResult(chosen, tries, f"the best of {len(found)} by the model")
