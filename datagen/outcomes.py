@@ -42,8 +42,12 @@ def agents_outcome(agents: list[Mapping[str, Any]]) -> dict[str, Any]:
     """An episode of several agents (drones, robots) as a whole, from each agent's record: every
     one succeeded; SPL and path lengths averaged over them (``round``: 6 decimals)."""
     mean = lambda key: round(sum(float(a[key]) for a in agents) / len(agents), 6)  # noqa: E731
-    return {"success": all(bool(a["success"]) for a in agents), "spl": mean("spl"),
-            "path_length_m": mean("path_length_m"), "shortest_path_m": mean("shortest_path_m")}  # fmt: skip
+    return {
+        "success": all(bool(a["success"]) for a in agents),
+        "spl": mean("spl"),
+        "path_length_m": mean("path_length_m"),
+        "shortest_path_m": mean("shortest_path_m"),
+    }
 
 
 # the metadata key of each family's record -> its outcome

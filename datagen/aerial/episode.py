@@ -48,18 +48,27 @@ class AerialEpisode:
 
 def volume_params(cfg: AerialConfig, clearance: float) -> VolumeParams:
     return VolumeParams(
-        resolution=cfg.voxel_size, height=cfg.height, pillars=cfg.pillars, beams=cfg.beams,
-        hanging=cfg.hanging, screens=cfg.screens, window_probability=cfg.window_probability,
+        resolution=cfg.voxel_size,
+        height=cfg.height,
+        pillars=cfg.pillars,
+        beams=cfg.beams,
+        hanging=cfg.hanging,
+        screens=cfg.screens,
+        window_probability=cfg.window_probability,
         clearance=clearance,
-    )  # fmt: skip
+    )
 
 
 def flight_limits(cfg: AerialConfig, radius: float) -> FlightLimits:
     return FlightLimits(
-        radius=radius, margin=cfg.margin, max_speed=cfg.max_speed,
-        max_acceleration=cfg.max_acceleration, max_thrust=cfg.max_thrust,
-        min_thrust=cfg.min_thrust, max_body_rate=cfg.max_body_rate,
-    )  # fmt: skip
+        radius=radius,
+        margin=cfg.margin,
+        max_speed=cfg.max_speed,
+        max_acceleration=cfg.max_acceleration,
+        max_thrust=cfg.max_thrust,
+        min_thrust=cfg.min_thrust,
+        max_body_rate=cfg.max_body_rate,
+    )
 
 
 def plan_aerial_episode(cfg: AerialConfig, seed: int, index: int, retry: int = 0) -> AerialEpisode:
@@ -74,16 +83,23 @@ def plan_aerial_episode(cfg: AerialConfig, seed: int, index: int, retry: int = 0
         radii = [max(bounding_radius(s), camera_reach(s, cfg.stereo_baseline)) for s in shapes]
         limits = [flight_limits(cfg, radius) for radius in radii]
         layout = make_layout(
-            cfg.family, sample_rng(seed, index, "nav_layout" + suffix, retry), resolve(LAYOUTS[cfg.family].params)()
-        )  # fmt: skip
+            cfg.family,
+            sample_rng(seed, index, "nav_layout" + suffix, retry),
+            resolve(LAYOUTS[cfg.family].params)(),
+        )
         clearance = max(lim.clearance for lim in limits)
         volume = make_volume(
-            sample_rng(seed, index, "aerial_volume" + suffix, retry), layout, volume_params(cfg, clearance)
-        )  # fmt: skip
+            sample_rng(seed, index, "aerial_volume" + suffix, retry),
+            layout,
+            volume_params(cfg, clearance),
+        )
         try:
             agents = plan_fleet(
-                sample_rng(seed, index, "aerial_task" + suffix, retry), volume, limits, cfg.min_goal_distance
-            )  # fmt: skip
+                sample_rng(seed, index, "aerial_task" + suffix, retry),
+                volume,
+                limits,
+                cfg.min_goal_distance,
+            )
         except FleetError as exc:
             reasons.append(str(exc))
             continue

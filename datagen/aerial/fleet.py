@@ -57,8 +57,15 @@ def closest_approach(a: Agent, b: Agent, duration: float) -> float:
     return float(np.linalg.norm(pa - pb, axis=1).min())
 
 
-def _endpoints(rng, free: np.ndarray, labels: np.ndarray, resolution: float, min_distance: float,
-               taken: list[np.ndarray], separation: float) -> tuple[np.ndarray, np.ndarray] | None:  # fmt: skip
+def _endpoints(
+    rng,
+    free: np.ndarray,
+    labels: np.ndarray,
+    resolution: float,
+    min_distance: float,
+    taken: list[np.ndarray],
+    separation: float,
+) -> tuple[np.ndarray, np.ndarray] | None:
     """A start and a goal: free voxel centres of one component, ``min_distance`` apart, each
     ``separation`` from every start and goal already taken."""
     cells = np.argwhere(free)
@@ -108,7 +115,9 @@ def plan_fleet(
                 agents.append(agent)
                 break
         else:
-            raise FleetError(f"drone {len(agents) + 1} of {len(limits)}: no start, goal, flight and take-off time after {DRAWS} draws")  # fmt: skip
+            raise FleetError(
+                f"drone {len(agents) + 1} of {len(limits)}: no start, goal, flight and take-off time after {DRAWS} draws"
+            )
     return agents
 
 

@@ -16,7 +16,7 @@ from datagen.aerial.fleet import Agent
 from datagen.aerial.volumes import Volume
 
 PIXELS_PER_METRE = 60
-COLOURS = [
+COLOURS = [  # RGB, one per drone
     (230, 25, 75),
     (60, 180, 75),
     (0, 130, 200),
@@ -25,7 +25,7 @@ COLOURS = [
     (70, 240, 240),
     (240, 50, 230),
     (128, 128, 0),
-]  # fmt: skip (RGB, one per drone)
+]
 
 
 def _canvas(fraction: np.ndarray) -> np.ndarray:

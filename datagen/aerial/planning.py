@@ -178,7 +178,9 @@ def trajectory_through(waypoints: np.ndarray, boxes: np.ndarray, limits: FlightL
         if not close.any():
             break
         if splits == MAX_SPLITS:
-            raise FlightError(f"the trajectory stays closer than {limits.trajectory_clearance} m to a solid after {MAX_SPLITS} midpoints")  # fmt: skip
+            raise FlightError(
+                f"the trajectory stays closer than {limits.trajectory_clearance} m to a solid after {MAX_SPLITS} midpoints"
+            )
         splits += 1
         piece = (
             np.searchsorted(path.starts, np.append(time, path.duration)[close], side="right") - 1
@@ -206,7 +208,15 @@ def plan_flight(
     to_index = lambda p: tuple(int(v) for v in np.floor(np.asarray(p)[::-1] / r))  # noqa: E731
     chain = voxel_path(free, to_index(start), to_index(goal))
     if not chain:
-        raise FlightError(f"no path of clearance {limits.clearance} m from {np.round(start, 2).tolist()} to {np.round(goal, 2).tolist()}")  # fmt: skip
+        raise FlightError(
+            f"no path of clearance {limits.clearance} m from {np.round(start, 2).tolist()} to {np.round(goal, 2).tolist()}"
+        )
     boxes = volume.boxes()
-    points = np.array([np.asarray(start, float), *[voxel_centre(c, r) for c in chain[1:-1]], np.asarray(goal, float)])  # fmt: skip
+    points = np.array(
+        [
+            np.asarray(start, float),
+            *[voxel_centre(c, r) for c in chain[1:-1]],
+            np.asarray(goal, float),
+        ]
+    )
     return trajectory_through(pulled_taut(points, boxes, limits.clearance), boxes, limits)

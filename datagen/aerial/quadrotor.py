@@ -70,9 +70,11 @@ def quadrotor_parts(shape: QuadrotorShape) -> dict[str, trimesh.Trimesh]:
             )
         )
     camera = trimesh.util.concatenate(
-        [_box([0.3 * s, 0.04 * s, 0.03 * s], [0.3 * s, 0.0, -0.03 * s]),  # the nose
-         _box([0.08 * s, 0.1 * s, 0.07 * s], [0.46 * s, 0.0, -0.04 * s])]  # the pod
-    )  # fmt: skip
+        [
+            _box([0.3 * s, 0.04 * s, 0.03 * s], [0.3 * s, 0.0, -0.03 * s]),  # the nose
+            _box([0.08 * s, 0.1 * s, 0.07 * s], [0.46 * s, 0.0, -0.04 * s]),
+        ]  # the pod
+    )
     return {
         "body": _box([0.3 * s, 0.22 * s, body_h], [0.0, 0.0, 0.0]),
         "arms": trimesh.util.concatenate(arms),

@@ -72,7 +72,11 @@ class Volume:
         """(nz, ny, nx) voxels."""
         width, depth = self.layout.size_m
         r = self.resolution
-        return math.ceil(self.height / r - 1e-9), math.ceil(depth / r - 1e-9), math.ceil(width / r - 1e-9)  # fmt: skip
+        return (
+            math.ceil(self.height / r - 1e-9),
+            math.ceil(depth / r - 1e-9),
+            math.ceil(width / r - 1e-9),
+        )
 
     @property
     def occupancy(self) -> np.ndarray:
@@ -248,8 +252,12 @@ def make_volume(rng: np.random.Generator, layout: Layout, p: VolumeParams) -> Vo
     volume = Volume(layout, height, p.resolution, solids)
     report: dict[str, Any] = {"height": height}
     if layout.family == "rooms":
-        windows = [w for d in layout.doors if rng.random() < p.window_probability
-                   if (w := _window(rng, layout, d, height, p)) is not None]  # fmt: skip
+        windows = [
+            w
+            for d in layout.doors
+            if rng.random() < p.window_probability
+            if (w := _window(rng, layout, d, height, p)) is not None
+        ]
         for hole in windows:
             volume.solids = [
                 Solid(s.kind, piece)
@@ -259,8 +267,12 @@ def make_volume(rng: np.random.Generator, layout: Layout, p: VolumeParams) -> Vo
         report["windows"] = [list(w) for w in windows]
     free = free_space(volume.occupancy, p.resolution, p.clearance)
     before = components(free)
-    for kind, count in (("pillar", p.pillars), ("beam", p.beams), ("hanging", p.hanging),
-                        ("screen", p.screens)):  # fmt: skip
+    for kind, count in (
+        ("pillar", p.pillars),
+        ("beam", p.beams),
+        ("hanging", p.hanging),
+        ("screen", p.screens),
+    ):
         placed = dropped = 0
         for _ in range(int(rng.integers(count[0], count[1] + 1))):
             for _ in range(p.max_tries):

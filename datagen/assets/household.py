@@ -69,7 +69,12 @@ def _ring_pair_faces(n: int) -> np.ndarray:
     k1 = (k + 1) % n
     sides = np.vstack([np.column_stack([k, k1, n + k1]), np.column_stack([k, n + k1, n + k])])
     fan = np.arange(1, n - 1)
-    ends = np.vstack([np.column_stack([np.zeros_like(fan), fan, fan + 1]), np.column_stack([np.full_like(fan, n), n + fan, n + fan + 1])])  # fmt: skip
+    ends = np.vstack(
+        [
+            np.column_stack([np.zeros_like(fan), fan, fan + 1]),
+            np.column_stack([np.full_like(fan, n), n + fan, n + fan + 1]),
+        ]
+    )
     return np.vstack([sides, ends])
 
 

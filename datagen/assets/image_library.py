@@ -129,7 +129,9 @@ def load_library(root: str) -> ImageLibrary:
         if path.is_file() or path.is_symlink():  # a link is listed, then skipped: never read
             paths.append(path)
         if len(paths) > MAX_FILES:
-            raise ImageFolderError(f"{base}: more than {MAX_FILES} files; name a folder of pictures")  # fmt: skip
+            raise ImageFolderError(
+                f"{base}: more than {MAX_FILES} files; name a folder of pictures"
+            )
     for path in sorted(paths):
         relative = path.relative_to(base).as_posix()
         try:

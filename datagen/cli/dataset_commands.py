@@ -218,9 +218,15 @@ def _skip_reporter(command: str):
         nonlocal seen
         seen += 1
         if seen <= MAX_SKIP_LINES:
-            print(f"datagen {command}: sample {one_line(key)} skipped: {one_line(reason)}", file=sys.stderr)  # fmt: skip
+            print(
+                f"datagen {command}: sample {one_line(key)} skipped: {one_line(reason)}",
+                file=sys.stderr,
+            )
         elif seen == MAX_SKIP_LINES + 1:
-            print(f"datagen {command}: more samples skipped (the first {MAX_SKIP_LINES} are named)", file=sys.stderr)  # fmt: skip
+            print(
+                f"datagen {command}: more samples skipped (the first {MAX_SKIP_LINES} are named)",
+                file=sys.stderr,
+            )
 
     return report
 

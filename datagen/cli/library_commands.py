@@ -47,7 +47,9 @@ def run_list(args: argparse.Namespace) -> int:
     print(f"library: {library_root()}")
     for name, record in LIBRARY_SOURCES.items():
         files = [f for f in manifest["files"] if f["source"] == name]
-        licences = ", ".join(f"{n} {lic}" for lic, n in Counter(f["licence"] for f in files).items())  # fmt: skip
+        licences = ", ".join(
+            f"{n} {lic}" for lic, n in Counter(f["licence"] for f in files).items()
+        )
         state = f"{len(files)} files ({licences})" if files else "not installed"
         print(f"  {name:20} {state:40} {record.summary}")
     return 0

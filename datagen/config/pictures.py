@@ -58,7 +58,9 @@ def check_pictures(config: Any, source: str) -> None:
         except (OSError, ValueError):  # a name too long, a NUL character, ...
             is_dir = False
         if not is_dir:
-            raise ConfigError(f"{source}: {name}: expected a folder of PNG/JPEG pictures, got {folder!r}")  # fmt: skip
+            raise ConfigError(
+                f"{source}: {name}: expected a folder of PNG/JPEG pictures, got {folder!r}"
+            )
         try:
             load_library(folder)
         except ImageFolderError as exc:
@@ -98,12 +100,16 @@ def check_photos(config: Any, source: str) -> None:
         for name in getattr(photos, key):
             LIBRARY_SOURCES.check(name, f"{source}: photos.{key}")
     if both := sorted(set(photos.sources) & set(photos.held_out)):
-        raise ConfigError(f"{source}: photos.held_out: {both} also in photos.sources: a held-out source is never drawn")  # fmt: skip
+        raise ConfigError(
+            f"{source}: photos.held_out: {both} also in photos.sources: a held-out source is never drawn"
+        )
     FAMILIES.check(config.scene, f"{source}: scene")
     if not uses_photos(config):
         return
     if not photos.sources:
-        raise ConfigError(f"{source}: photos.sources: expected at least one source of {list(LIBRARY_SOURCES)} (or photos.enabled: false)")  # fmt: skip
+        raise ConfigError(
+            f"{source}: photos.sources: expected at least one source of {list(LIBRARY_SOURCES)} (or photos.enabled: false)"
+        )
     try:
         if not pictures(photos.sources):
             raise ConfigError(f"{source}: photos.sources: {list(photos.sources)} hold no picture")

@@ -71,19 +71,27 @@ def sample_point_cloud(
     int32 (the view's number)."""
     clouds = []
     for number, view in enumerate(labelled_views(meta)):
-        images = decode_parts({p: raw[view.prefix + p] for p in _IMAGE_PARTS if view.prefix + p in raw})  # fmt: skip
+        images = decode_parts(
+            {p: raw[view.prefix + p] for p in _IMAGE_PARTS if view.prefix + p in raw}
+        )
         camera = view.camera
         world, rows, cols = view_points(
-            images["depth"], camera["intrinsics"], camera["extrinsics_world_to_camera"],
-            camera.get("depth_scale", 0.001), stride, camera.get("distortion"),
-        )  # fmt: skip
-        clouds.append({
-            "positions": world.astype(np.float32),
-            "colors": images["rgb"][rows, cols],
-            "instance": images["seg"][rows, cols].astype(np.int32),
-            "semantic": images["semantic"][rows, cols].astype(np.int32),
-            "view": np.full(len(rows), number, np.int32),
-        })  # fmt: skip
+            images["depth"],
+            camera["intrinsics"],
+            camera["extrinsics_world_to_camera"],
+            camera.get("depth_scale", 0.001),
+            stride,
+            camera.get("distortion"),
+        )
+        clouds.append(
+            {
+                "positions": world.astype(np.float32),
+                "colors": images["rgb"][rows, cols],
+                "instance": images["seg"][rows, cols].astype(np.int32),
+                "semantic": images["semantic"][rows, cols].astype(np.int32),
+                "view": np.full(len(rows), number, np.int32),
+            }
+        )
     if not fuse:
         return clouds
     return {k: np.concatenate([c[k] for c in clouds]) for k in clouds[0]}
@@ -101,8 +109,16 @@ def write_ply(path: str | Path, cloud: dict[str, np.ndarray]) -> None:
         raise OSError(errno.EIO, "Open3D could not write it whole", str(path))
 
 
-_PLY_TYPE_BYTES = {"char": 1, "uchar": 1, "short": 2, "ushort": 2, "int": 4, "uint": 4,
-                   "float": 4, "double": 8}  # fmt: skip
+_PLY_TYPE_BYTES = {
+    "char": 1,
+    "uchar": 1,
+    "short": 2,
+    "ushort": 2,
+    "int": 4,
+    "uint": 4,
+    "float": 4,
+    "double": 8,
+}
 
 
 def _whole_ply(path: Path) -> bool:

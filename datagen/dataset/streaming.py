@@ -77,7 +77,13 @@ class StreamingDataset(IterableDataset):
         if not self.shuffle:
             return list(self._order)
         shards = sorted(set(self._shard_of))
-        rank_of = dict(zip(np.random.default_rng([self.seed, self.epoch]).permutation(shards), range(len(shards)), strict=True))  # fmt: skip
+        rank_of = dict(
+            zip(
+                np.random.default_rng([self.seed, self.epoch]).permutation(shards),
+                range(len(shards)),
+                strict=True,
+            )
+        )
         return sorted(
             self._order, key=lambda i: rank_of[self._shard_of[i]]
         )  # stable: in-shard order kept

@@ -44,13 +44,19 @@ JPEG_QUALITY = 95  # BlenderProc's BOP writer's
 
 
 @functools.lru_cache(maxsize=8)
-def _undistort_maps(K: tuple, D: tuple, K_pinhole: tuple, w: int, h: int) -> tuple[np.ndarray, np.ndarray]:  # fmt: skip
+def _undistort_maps(
+    K: tuple, D: tuple, K_pinhole: tuple, w: int, h: int
+) -> tuple[np.ndarray, np.ndarray]:
     """Per pinhole pixel, the stored (distorted) image's column and row it shows (cv2.remap's
     maps). Pixel centres are (col + .5, row + .5) in K's convention, integers in cv2's."""
     kp = np.asarray(K_pinhole).reshape(3, 3)
     cols, rows = np.meshgrid(np.arange(w) + 0.5, np.arange(h) + 0.5)
-    rays = np.stack([(cols - kp[0, 2]) / kp[0, 0], (rows - kp[1, 2]) / kp[1, 1], np.ones_like(cols)], -1)  # fmt: skip
-    uv, _ = cv2.projectPoints(rays.reshape(-1, 1, 3), np.zeros(3), np.zeros(3), np.asarray(K).reshape(3, 3), np.asarray(D))  # fmt: skip
+    rays = np.stack(
+        [(cols - kp[0, 2]) / kp[0, 0], (rows - kp[1, 2]) / kp[1, 1], np.ones_like(cols)], -1
+    )
+    uv, _ = cv2.projectPoints(
+        rays.reshape(-1, 1, 3), np.zeros(3), np.zeros(3), np.asarray(K).reshape(3, 3), np.asarray(D)
+    )
     uv = (uv.reshape(h, w, 2) - 0.5).astype(np.float32)
     return uv[..., 0].copy(), uv[..., 1].copy()
 
@@ -76,7 +82,9 @@ def _png(path: Path, image: np.ndarray) -> None:
     written(cv2.imwrite(str(path), image), path, "OpenCV")
 
 
-def _view_images(raw: dict[str, bytes], view: LabelledView) -> tuple[np.ndarray, Any, np.ndarray, np.ndarray, np.ndarray]:  # fmt: skip
+def _view_images(
+    raw: dict[str, bytes], view: LabelledView
+) -> tuple[np.ndarray, Any, np.ndarray, np.ndarray, np.ndarray]:
     """(BGR image, the depth image to write: PNG bytes as stored or an array, depth uint16 mm,
     seg ids, K) of a view, undistorted to its pinhole render where it has lens distortion."""
     p, camera = view.prefix, view.camera
@@ -109,8 +117,13 @@ def _object_to_camera(obj: dict[str, Any], view: LabelledView) -> np.ndarray:
 
 
 def _export_view(
-    scene: Path, im_id: int, view: LabelledView, raw: dict[str, bytes], meta: dict[str, Any], models: ModelSet
-) -> tuple[dict[str, Any], list[dict[str, Any]], list[dict[str, Any]]]:  # fmt: skip
+    scene: Path,
+    im_id: int,
+    view: LabelledView,
+    raw: dict[str, bytes],
+    meta: dict[str, Any],
+    models: ModelSet,
+) -> tuple[dict[str, Any], list[dict[str, Any]], list[dict[str, Any]]]:
     """Writes one image's files; returns its scene_camera record and scene_gt, scene_gt_info lists."""
     rgb, depth_image, depth, seg, K = _view_images(raw, view)
     h, w = seg.shape
@@ -123,10 +136,13 @@ def _export_view(
         _png(path, depth_image)
     E = view_camera(view)[1]
     camera = {
-        "cam_K": K.ravel().tolist(), "depth_scale": 1.0,
-        "cam_R_w2c": E[:3, :3].ravel().tolist(), "cam_t_w2c": (E[:3, 3] * 1000).tolist(),
-        "datagen_key": meta["key"], "datagen_view": view.name or "workspace",
-    }  # fmt: skip
+        "cam_K": K.ravel().tolist(),
+        "depth_scale": 1.0,
+        "cam_R_w2c": E[:3, :3].ravel().tolist(),
+        "cam_t_w2c": (E[:3, 3] * 1000).tolist(),
+        "datagen_key": meta["key"],
+        "datagen_view": view.name or "workspace",
+    }
     gts, infos = [], []
     for gt_id, obj in enumerate(meta["objects"]):
         model = models.model(obj, meta["key"])
@@ -141,25 +157,38 @@ def _export_view(
         stem = f"{im_id:06d}_{gt_id:06d}.png"
         _png(inside(scene, "mask", stem), full.astype(np.uint8) * 255)
         _png(inside(scene, "mask_visib", stem), visib.astype(np.uint8) * 255)
-        gts.append({
-            "obj_id": model.obj_id, "cam_R_m2c": pose[:3, :3].ravel().tolist(),
-            "cam_t_m2c": (pose[:3, 3] * 1000).tolist(), "datagen_instance_id": obj["instance_id"],
-        })  # fmt: skip
-        infos.append({
-            "bbox_obj": _xywh(box_all), "bbox_visib": _xywh(box_visib), "px_count_all": count_all,
-            "px_count_valid": int((full & (depth > 0)).sum()), "px_count_visib": count_visib,
-            "visib_fract": count_visib / count_all if count_all else 0.0,
-        })  # fmt: skip
+        gts.append(
+            {
+                "obj_id": model.obj_id,
+                "cam_R_m2c": pose[:3, :3].ravel().tolist(),
+                "cam_t_m2c": (pose[:3, 3] * 1000).tolist(),
+                "datagen_instance_id": obj["instance_id"],
+            }
+        )
+        infos.append(
+            {
+                "bbox_obj": _xywh(box_all),
+                "bbox_visib": _xywh(box_visib),
+                "px_count_all": count_all,
+                "px_count_valid": int((full & (depth > 0)).sum()),
+                "px_count_visib": count_visib,
+                "visib_fract": count_visib / count_all if count_all else 0.0,
+            }
+        )
     return camera, gts, infos
 
 
-def _export_scene(dataset: ExportedDataset, i: int, meta: dict[str, Any], scene: Path, models: ModelSet) -> None:  # fmt: skip
+def _export_scene(
+    dataset: ExportedDataset, i: int, meta: dict[str, Any], scene: Path, models: ModelSet
+) -> None:
     for sub in ("rgb", "depth", "mask", "mask_visib"):
         (scene / sub).mkdir(parents=True)
     cameras, gts, infos = {}, {}, {}
     for im_id, view in enumerate(labelled_views(meta)):
         raw = dataset.raw(i, {f"{view.prefix}{p}" for p in ("rgb.png", "depth.png", "seg.png")})
-        cameras[str(im_id)], gts[str(im_id)], infos[str(im_id)] = _export_view(scene, im_id, view, raw, meta, models)  # fmt: skip
+        cameras[str(im_id)], gts[str(im_id)], infos[str(im_id)] = _export_view(
+            scene, im_id, view, raw, meta, models
+        )
     for name, doc in (("scene_camera", cameras), ("scene_gt", gts), ("scene_gt_info", infos)):
         dump_json(scene / f"{name}.json", doc)
 
@@ -187,8 +216,15 @@ def export(
     files = [out / "models", split]
     if first_camera is not None:  # BOP's sensor record; each image's own K is in scene_camera
         K = np.asarray(first_camera.get("render_intrinsics", first_camera["intrinsics"]), float)
-        doc = {"width": first_camera["width"], "height": first_camera["height"], "fx": K[0, 0],
-               "fy": K[1, 1], "cx": K[0, 2], "cy": K[1, 2], "depth_scale": 1.0}  # fmt: skip
+        doc = {
+            "width": first_camera["width"],
+            "height": first_camera["height"],
+            "fx": K[0, 0],
+            "fy": K[1, 1],
+            "cx": K[0, 2],
+            "cy": K[1, 2],
+            "depth_scale": 1.0,
+        }
         (out / "camera.json").write_text(strict_json(doc, "camera.json", indent=1))
         files.append(out / "camera.json")
     return files

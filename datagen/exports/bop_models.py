@@ -154,7 +154,7 @@ def _info(vertices: np.ndarray) -> dict[str, Any]:
     lo, hi = vertices.min(0), vertices.max(0)
     record: dict[str, Any] = {"diameter": diameter}
     for axis, name in enumerate("xyz"):
-        record[f"min_{name}"], record[f"size_{name}"] = float(lo[axis]), float(hi[axis] - lo[axis])  # fmt: skip
+        record[f"min_{name}"], record[f"size_{name}"] = float(lo[axis]), float(hi[axis] - lo[axis])
     return record | symmetries(vertices, diameter)
 
 
@@ -185,10 +185,11 @@ class ModelSet:
             write_ply(path, vertices, np.asarray(visual.vertex_normals), np.asarray(visual.faces))
             self.info[obj_id] = _info(vertices)
             self.records[obj_id] = {
-                "class": obj["class"], "family": obj["shape"].get("family"),
+                "class": obj["class"],
+                "family": obj["shape"].get("family"),
                 "centre_m": centre.round(9).tolist(),
                 "first_seen": {"key": key, "instance_id": obj["instance_id"]},
-            }  # fmt: skip
+            }
         return Model(obj_id, centre, vertices, np.asarray(visual.faces))
 
     def write_info(self) -> list[Path]:
@@ -242,7 +243,12 @@ def silhouette(
     x1, y1 = min(hi[0], w), min(hi[1], h)
     if x0 < x1 and y0 < y1:
         image[y0:y1, x0:x1] = window[y0 - lo[1] : y1 - lo[1], x0 - lo[0] : x1 - lo[0]]
-    box = [int(cols.min() + lo[0]), int(rows.min() + lo[1]), int(cols.max() + lo[0]), int(rows.max() + lo[1])]  # fmt: skip
+    box = [
+        int(cols.min() + lo[0]),
+        int(rows.min() + lo[1]),
+        int(cols.max() + lo[0]),
+        int(rows.max() + lo[1]),
+    ]
     return Silhouette(image, len(rows), box)
 
 

@@ -54,20 +54,30 @@ def export(
             view_camera(view)  # checked; written as stored
             boxes = view_boxes(view, (seg.shape[1], seg.shape[0]))
             image_id = len(images) + 1
-            images.append({
-                "id": image_id, "file_name": file_name, "width": int(seg.shape[1]),
-                "height": int(seg.shape[0]), "datagen_key": key, "datagen_view": view.name,
-                "intrinsics": view.camera["intrinsics"],
-                "extrinsics_world_to_camera": view.camera["extrinsics_world_to_camera"],
-            })  # fmt: skip
+            images.append(
+                {
+                    "id": image_id,
+                    "file_name": file_name,
+                    "width": int(seg.shape[1]),
+                    "height": int(seg.shape[0]),
+                    "datagen_key": key,
+                    "datagen_view": view.name,
+                    "intrinsics": view.camera["intrinsics"],
+                    "extrinsics_world_to_camera": view.camera["extrinsics_world_to_camera"],
+                }
+            )
             for inst, (x0, y0, x1, y1) in zip(view.instances, boxes, strict=True):
                 mask = seg == inst["instance_id"]
                 annotation = {
-                    "id": len(annotations) + 1, "image_id": image_id,
-                    "category_id": categories[inst["class"]], "iscrowd": 0,
-                    "bbox": [x0, y0, x1 - x0 + 1, y1 - y0 + 1], "area": int(mask.sum()),
-                    "segmentation": _rle(mask), "instance_id": inst["instance_id"],
-                }  # fmt: skip
+                    "id": len(annotations) + 1,
+                    "image_id": image_id,
+                    "category_id": categories[inst["class"]],
+                    "iscrowd": 0,
+                    "bbox": [x0, y0, x1 - x0 + 1, y1 - y0 + 1],
+                    "area": int(mask.sum()),
+                    "segmentation": _rle(mask),
+                    "instance_id": inst["instance_id"],
+                }
                 if "visible_fraction" in inst:
                     annotation["visible_fraction"] = inst["visible_fraction"]
                 annotations.append(annotation)

@@ -113,11 +113,17 @@ def card_facts(manifest: Any) -> dict[str, Any]:
         if isinstance(shard.get("name"), str):
             size = shard.get("bytes")
             digest = shard.get("sha256")
-            shards.append({
-                "name": shard["name"],
-                **({"bytes": size} if isinstance(size, int) and not isinstance(size, bool) else {}),
-                **({"sha256": digest} if isinstance(digest, str) else {}),
-            })  # fmt: skip
+            shards.append(
+                {
+                    "name": shard["name"],
+                    **(
+                        {"bytes": size}
+                        if isinstance(size, int) and not isinstance(size, bool)
+                        else {}
+                    ),
+                    **({"sha256": digest} if isinstance(digest, str) else {}),
+                }
+            )
     samples = manifest.get("num_samples")
     classes = manifest.get("classes")
     return {
@@ -169,23 +175,41 @@ def part_kinds(part_names: list[str]) -> dict[str, list[str]]:
 def _record_set(name: str, file_set: str, data_type: str | None, key: dict | None) -> dict:
     fields = []
     if key:
-        fields.append({
-            "@type": "cr:Field", "@id": f"{name}/key", "name": f"{name}/key",
-            "description": "the sample key (also the tar member's name before the first dot)",
+        fields.append(
+            {
+                "@type": "cr:Field",
+                "@id": f"{name}/key",
+                "name": f"{name}/key",
+                "description": "the sample key (also the tar member's name before the first dot)",
+                "dataType": "sc:Text",
+                "source": {
+                    "fileSet": {"@id": file_set},
+                    "extract": {"fileProperty": "filename"},
+                    "transform": key,
+                },
+            }
+        )
+    fields.append(
+        {
+            "@type": "cr:Field",
+            "@id": f"{name}/name",
+            "name": f"{name}/name",
+            "description": "the file's name",
             "dataType": "sc:Text",
-            "source": {"fileSet": {"@id": file_set}, "extract": {"fileProperty": "filename"}, "transform": key},
-        })  # fmt: skip
-    fields.append({
-        "@type": "cr:Field", "@id": f"{name}/name", "name": f"{name}/name",
-        "description": "the file's name", "dataType": "sc:Text",
-        "source": {"fileSet": {"@id": file_set}, "extract": {"fileProperty": "filename"}},
-    })  # fmt: skip
+            "source": {"fileSet": {"@id": file_set}, "extract": {"fileProperty": "filename"}},
+        }
+    )
     if data_type:
-        fields.append({
-            "@type": "cr:Field", "@id": f"{name}/content", "name": f"{name}/content",
-            "description": "the file's content", "dataType": data_type,
-            "source": {"fileSet": {"@id": file_set}, "extract": {"fileProperty": "content"}},
-        })  # fmt: skip
+        fields.append(
+            {
+                "@type": "cr:Field",
+                "@id": f"{name}/content",
+                "name": f"{name}/content",
+                "description": "the file's content",
+                "dataType": data_type,
+                "source": {"fileSet": {"@id": file_set}, "extract": {"fileProperty": "content"}},
+            }
+        )
     return {"@type": "cr:RecordSet", "@id": name, "name": name, "field": fields}
 
 
@@ -228,9 +252,12 @@ def dataset_croissant(
     distribution: list[dict[str, Any]] = []
     for shard in shards:
         item = {
-            "@type": "cr:FileObject", "@id": _id(shard["name"]), "name": _id(shard["name"]),
-            "contentUrl": shard["name"], "encodingFormat": "application/x-tar",
-        }  # fmt: skip
+            "@type": "cr:FileObject",
+            "@id": _id(shard["name"]),
+            "name": _id(shard["name"]),
+            "contentUrl": shard["name"],
+            "encodingFormat": "application/x-tar",
+        }
         if "bytes" in shard:
             item["contentSize"] = f"{shard['bytes']} B"
         if "sha256" in shard:
@@ -240,12 +267,17 @@ def dataset_croissant(
     for kind, globs in part_kinds(part_names).items():
         mime, data_type = _media(kind)
         file_set = _id(f"{kind.replace('<k>', '_k')}_files")
-        distribution.append({
-            "@type": "cr:FileSet", "@id": file_set, "name": file_set,
-            "description": f"the {kind} part of every sample, inside the shards",
-            "containedIn": [{"@id": _id(s["name"])} for s in shards],
-            "encodingFormat": mime, "includes": globs,
-        })  # fmt: skip
+        distribution.append(
+            {
+                "@type": "cr:FileSet",
+                "@id": file_set,
+                "name": file_set,
+                "description": f"the {kind} part of every sample, inside the shards",
+                "containedIn": [{"@id": _id(s["name"])} for s in shards],
+                "encodingFormat": mime,
+                "includes": globs,
+            }
+        )
         record_set = _id(kind.replace("<k>", "_k"))  # f<k>.rgb.png -> f_k_rgb_png
         record_sets.append(_record_set(record_set, file_set, data_type, {"regex": KEY_REGEX}))
     doc = _document(manifest, name, description, license_)
@@ -267,10 +299,13 @@ def export_croissant(
             if relative.name in ("README.md", "croissant.json"):
                 continue
             item = {
-                "@type": "cr:FileObject", "@id": _id(relative.name), "name": _id(relative.name),
-                "contentUrl": relative.name, "encodingFormat": _media(relative.name)[0],
+                "@type": "cr:FileObject",
+                "@id": _id(relative.name),
+                "name": _id(relative.name),
+                "contentUrl": relative.name,
+                "encodingFormat": _media(relative.name)[0],
                 "contentSize": f"{path.stat().st_size} B",
-            }  # fmt: skip
+            }
             if path.stat().st_size <= HASHED_BYTES:
                 item["sha256"] = file_sha256(path)
             distribution.append(item)
@@ -284,10 +319,15 @@ def export_croissant(
         record_set = _id(f"{top}_{suffix}" if suffix else top)
         file_set = f"{record_set}_files"
         pattern = f"{top}/**/*" if nested else f"{top}/*"
-        distribution.append({
-            "@type": "cr:FileSet", "@id": file_set, "name": file_set,
-            "encodingFormat": mime, "includes": [f"{pattern}.{suffix}" if suffix else pattern],
-        })  # fmt: skip
+        distribution.append(
+            {
+                "@type": "cr:FileSet",
+                "@id": file_set,
+                "name": file_set,
+                "encodingFormat": mime,
+                "includes": [f"{pattern}.{suffix}" if suffix else pattern],
+            }
+        )
         if data_type == "sc:ImageObject":  # mlcroissant parses JSON, YAML, ... as tables
             record_sets.append(_record_set(record_set, file_set, data_type, None))
     doc = _document(manifest, name, description, license_)

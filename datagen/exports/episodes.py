@@ -271,9 +271,14 @@ def _commands(value: Any, where: str) -> np.ndarray:
 
 
 def _ground(
-    meta: dict[str, Any], fps: float, key: str, states: list[dict[str, Any]], success: bool,
-    prefixes: list[str], action: np.ndarray,
-) -> Episode:  # fmt: skip
+    meta: dict[str, Any],
+    fps: float,
+    key: str,
+    states: list[dict[str, Any]],
+    success: bool,
+    prefixes: list[str],
+    action: np.ndarray,
+) -> Episode:
     """A ground robot's episode from its per-frame states, its frames' part prefixes and the
     actions that take each frame to the next."""
     names = list(meta["robot"].get("commands", ["linear_m_s", "angular_rad_s"]))
@@ -312,17 +317,25 @@ def _navigation(meta: dict[str, Any], fps: float) -> Episode:
     trajectory = meta["episode"]["trajectory"]
     action = _frame_actions(trajectory, records, fps, 0.0, "episode.trajectory")
     return _ground(
-        meta, fps, meta["key"], records, bool(meta["episode"]["success"]),
-        [v.prefix for v in views], action,
-    )  # fmt: skip
+        meta,
+        fps,
+        meta["key"],
+        records,
+        bool(meta["episode"]["success"]),
+        [v.prefix for v in views],
+        action,
+    )
 
 
 def _aerial(meta: dict[str, Any], fps: float, k: int) -> Episode:
     records = [meta["frames"][n] for n in _on_grid(meta["frames"], fps)]
     states = [r["agents"][k] for r in records]
     # by role, not by drone: every drone's episode has the same features
-    roles = {c.removeprefix(f"d{k}").lstrip("_") or "forward": c
-             for c, record in meta["cameras"].items() if record["drone"] == k}  # fmt: skip
+    roles = {
+        c.removeprefix(f"d{k}").lstrip("_") or "forward": c
+        for c, record in meta["cameras"].items()
+        if record["drone"] == k
+    }
     frames = [f"f{r['frame']:04d}" for r in records]
     agent = meta["episode"]["agents"][k]
     return Episode(
@@ -365,6 +378,11 @@ def _ground_agent(meta: dict[str, Any], fps: float, k: int) -> Episode:
     where = f"episode.agents[{k}].trajectory"
     action = _frame_actions(agent["trajectory"], records, fps, float(agent["delay_s"]), where)
     return _ground(
-        meta, fps, key, [r["agents"][k] for r in records], bool(agent["success"]),
-        [f"f{r['frame']:04d}.r{k}." for r in records], action,
-    )  # fmt: skip
+        meta,
+        fps,
+        key,
+        [r["agents"][k] for r in records],
+        bool(agent["success"]),
+        [f"f{r['frame']:04d}.r{k}." for r in records],
+        action,
+    )

@@ -49,7 +49,11 @@ def tool_folder(dataset: Path, name: str) -> Path:
         )
     if not path.exists():
         path.mkdir()
-    if path.is_symlink() or not path.is_dir() or not path.resolve().is_relative_to(dataset.resolve()):  # fmt: skip
+    if (
+        path.is_symlink()
+        or not path.is_dir()
+        or not path.resolve().is_relative_to(dataset.resolve())
+    ):
         raise DatasetError(f"{path}: refusing to write into it: not a folder of this dataset")
     return path
 

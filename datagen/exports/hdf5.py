@@ -51,10 +51,15 @@ _IMAGES = (
 )  # the last two: where made
 _IMAGE_PARTS = tuple(f"{n}.png" for n in _IMAGES)
 _FRAME_FIELDS = {  # per-frame record field -> dtype, stacked when every frame has it
-    "pose": np.float64, "command": np.float64, "goal_in_robot": np.float64,
-    "distance_to_goal": np.float64, "collision": np.bool_, "time_s": np.float64,
-    "step": np.int64, "extrinsics_world_to_camera": np.float64,
-}  # fmt: skip
+    "pose": np.float64,
+    "command": np.float64,
+    "goal_in_robot": np.float64,
+    "distance_to_goal": np.float64,
+    "collision": np.bool_,
+    "time_s": np.float64,
+    "step": np.int64,
+    "extrinsics_world_to_camera": np.float64,
+}
 # whole-episode parts beside its frames
 _EPISODE_PICTURES = ("map.png", "side.png", "occupancy.png", "occupancy.npz")
 _EPISODE_FILES = re.compile(r"^(poses|poses_ned)\.[A-Za-z][\w-]*\.txt$|^imu\.d\d+\.npz$")
@@ -68,7 +73,9 @@ def _images(group: h5py.Group, arrays: dict[str, np.ndarray], stacked: bool) -> 
         if name in arrays:
             data = arrays[name]
             chunks = (1, *data.shape[1:]) if stacked else data.shape
-            group.create_dataset(name, data=data, chunks=chunks, compression="gzip", compression_opts=1)  # fmt: skip
+            group.create_dataset(
+                name, data=data, chunks=chunks, compression="gzip", compression_opts=1
+            )
 
 
 def _view_images(raw: dict[str, bytes], prefix: str) -> dict[str, Any]:
@@ -79,7 +86,7 @@ def _sequence(group: h5py.Group, raw: dict[str, bytes], views: list[LabelledView
     """The views stacked along a time axis, their optical flow, and the per-frame fields of
     their records and cameras; returns the parts written."""
     decoded = [_view_images(raw, view.prefix) for view in views]
-    stacks = {n: np.stack([d[n] for d in decoded]) for n in _IMAGES if all(n in d for d in decoded)}  # fmt: skip
+    stacks = {n: np.stack([d[n] for d in decoded]) for n in _IMAGES if all(n in d for d in decoded)}
     _images(group, stacks, stacked=True)
     records: list[Mapping[str, Any]] = [  # a field by its name; extrinsics: the view's camera's
         {**view.record, "extrinsics_world_to_camera": view.camera.get("extrinsics_world_to_camera")}

@@ -140,9 +140,12 @@ def _low_dim(episode: Episode) -> tuple[dict[str, np.ndarray], np.ndarray, list[
     if episode.kind == "aerial":
         state = episode.state  # position, quaternion x y z w, velocity
         obs = {
-            "position": state[:, :3], "quaternion_xyzw": state[:, 3:7], "velocity": state[:, 7:],
-            "goal_in_body": episode.extras["goal_in_body"], "imu": episode.extras["imu"],
-        }  # fmt: skip
+            "position": state[:, :3],
+            "quaternion_xyzw": state[:, 3:7],
+            "velocity": state[:, 7:],
+            "goal_in_body": episode.extras["goal_in_body"],
+            "imu": episode.extras["imu"],
+        }
         return obs, state.astype(np.float64), list(episode.state_names)
     state, qvel = episode.state, episode.extras["qvel"]
     arm = [k for k, n in enumerate(episode.state_names) if n in episode.action_names]
@@ -168,7 +171,9 @@ def _low_dim(episode: Episode) -> tuple[dict[str, np.ndarray], np.ndarray, list[
 
 def _put(group: h5py.Group, name: str, values: np.ndarray) -> None:
     if values.ndim >= 3:  # images: one frame per chunk
-        group.create_dataset(name, data=values, chunks=(1, *values.shape[1:]), compression="gzip", compression_opts=1)  # fmt: skip
+        group.create_dataset(
+            name, data=values, chunks=(1, *values.shape[1:]), compression="gzip", compression_opts=1
+        )
     else:
         group.create_dataset(name, data=values)
 

@@ -39,8 +39,14 @@ ExportProgress = Callable[[str, int, int], None]  # (format name, samples done, 
 # what an export meets in a sample whose metadata is not what datagen writes (RuntimeError:
 # USD's Tf.ErrorException and Qhull's errors, on a name or a shape they refuse)
 _CONTENT_ERRORS = (
-    KeyError, IndexError, TypeError, AttributeError, ValueError, ArithmeticError, RuntimeError,
-)  # fmt: skip
+    KeyError,
+    IndexError,
+    TypeError,
+    AttributeError,
+    ValueError,
+    ArithmeticError,
+    RuntimeError,
+)
 # what names the part or the key that is wrong: the user is told it as it is
 _NAMED = (DatasetError, ImageInputError, BadSample)
 
@@ -143,7 +149,11 @@ def _export(
     if final.exists() or final.is_symlink():
         os.replace(final, aside)
     os.replace(tmp, final)
-    record: ExportRecord = {"path": fmt.path, "bytes": _size(final), "seconds": round(time.monotonic() - start, 3)}  # fmt: skip
+    record: ExportRecord = {
+        "path": fmt.path,
+        "bytes": _size(final),
+        "seconds": round(time.monotonic() - start, 3),
+    }
     try:
         write_manifest(root, read_manifest(root) | {"exports": done | {fmt.name: record}})
     except BaseException as exc:  # as it was: the older copy back in place

@@ -111,8 +111,10 @@ def _mesh(stage, path: str, part: Part) -> UsdGeom.Mesh:
     usd_mesh = UsdGeom.Mesh.Define(stage, path)
     points = np.round(part.vertices, POINT_DECIMALS).astype(np.float32)
     usd_mesh.CreatePointsAttr(Vt.Vec3fArray.FromNumpy(points))
-    usd_mesh.CreateFaceVertexCountsAttr(Vt.IntArray.FromNumpy(np.full(len(part.faces), 3, np.int32)))  # fmt: skip
-    usd_mesh.CreateFaceVertexIndicesAttr(Vt.IntArray.FromNumpy(part.faces.astype(np.int32).ravel()))  # fmt: skip
+    usd_mesh.CreateFaceVertexCountsAttr(
+        Vt.IntArray.FromNumpy(np.full(len(part.faces), 3, np.int32))
+    )
+    usd_mesh.CreateFaceVertexIndicesAttr(Vt.IntArray.FromNumpy(part.faces.astype(np.int32).ravel()))
     usd_mesh.CreateSubdivisionSchemeAttr(UsdGeom.Tokens.none)
     lo, hi = points.min(axis=0), points.max(axis=0)
     usd_mesh.CreateExtentAttr(Vt.Vec3fArray([Gf.Vec3f(*map(float, lo)), Gf.Vec3f(*map(float, hi))]))
@@ -158,7 +160,9 @@ def _joint(
     if driven:
         define_drive(prim, joint, position)
     if joint.mimic is not None:
-        prim.SetCustomDataByKey("datagen:mimic", f"{joint.mimic[0]} * {joint.mimic[1]:g} + {joint.mimic[2]:g}")  # fmt: skip
+        prim.SetCustomDataByKey(
+            "datagen:mimic", f"{joint.mimic[0]} * {joint.mimic[1]:g} + {joint.mimic[2]:g}"
+        )
 
 
 def _position(joint: Joint, values: dict[str, float]) -> float:

@@ -101,7 +101,9 @@ def _camera(stage, name: str, camera: dict[str, Any]) -> None:
 
 
 def _box_mesh(half, centre) -> trimesh.Trimesh:
-    return trimesh.creation.box(extents=2 * np.asarray(half), transform=trimesh.transformations.translation_matrix(centre))  # fmt: skip
+    return trimesh.creation.box(
+        extents=2 * np.asarray(half), transform=trimesh.transformations.translation_matrix(centre)
+    )
 
 
 def _centred(centre) -> np.ndarray:
@@ -121,14 +123,23 @@ def _static_parts(
     looks = {}
     for part in static_parts(ws):
         if part.surface not in looks:
-            looks[part.surface] = usd_looks.material(stage, key, part.surface, materials[part.surface], out_dir)  # fmt: skip
+            looks[part.surface] = usd_looks.material(
+                stage, key, part.surface, materials[part.surface], out_dir
+            )
         path = f"/World/{part.surface.capitalize()}"
         if part.name:
             _xform(stage, path)
             path = f"{path}/{part.name}"
         _xform(stage, path, trimesh.transformations.translation_matrix(part.position))
         for j, (half, offset) in enumerate(part.boxes):
-            usd_looks.mesh(stage, f"{path}/part_{j}", _box_mesh(half, offset), looks[part.surface], materials[part.surface], _centred(offset))  # fmt: skip
+            usd_looks.mesh(
+                stage,
+                f"{path}/part_{j}",
+                _box_mesh(half, offset),
+                looks[part.surface],
+                materials[part.surface],
+                _centred(offset),
+            )
 
 
 def _background(stage, key: str, values: dict[str, Any], out_dir: Path | None) -> None:
@@ -137,7 +148,14 @@ def _background(stage, key: str, values: dict[str, Any], out_dir: Path | None) -
     for name, (half, centre) in wall_boxes(values).items():
         look = usd_looks.material(stage, key, f"wall_{name}", values["walls"][name], out_dir)
         box = _box_mesh(half, centre)
-        usd_looks.mesh(stage, f"/World/Background/wall_{name}", box, look, values["walls"][name], _centred(centre))  # fmt: skip
+        usd_looks.mesh(
+            stage,
+            f"/World/Background/wall_{name}",
+            box,
+            look,
+            values["walls"][name],
+            _centred(centre),
+        )
     for i, light in enumerate(values["lights"]):
         usd_light = UsdLux.SphereLight.Define(stage, f"/World/Background/light_{i}")
         usd_light.CreateRadiusAttr(0.05)

@@ -143,7 +143,9 @@ def polygon(mask: np.ndarray) -> np.ndarray | None:
     (``cv2.fillPoly``), it gives back the mask's pixels, its holes left empty, plus the bridges'
     pixels. A contour of 1 or 2 points (a lone pixel, a 1-pixel line) is walked there and back.
     """
-    contours, hierarchy = cv2.findContours(mask.astype(np.uint8), cv2.RETR_CCOMP, cv2.CHAIN_APPROX_SIMPLE)  # fmt: skip
+    contours, hierarchy = cv2.findContours(
+        mask.astype(np.uint8), cv2.RETR_CCOMP, cv2.CHAIN_APPROX_SIMPLE
+    )
     if not contours:
         return None
     parents = hierarchy[0, :, 3]

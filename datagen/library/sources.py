@@ -66,8 +66,18 @@ ROBOSUITE_OBJECTS = Source(
 )
 
 _SKIMAGE = "skimage/data/"
-SKIMAGE_PICTURES = ("astronaut.png", "brick.png", "camera.png", "chelsea.png", "coffee.png",
-                    "grass.png", "gravel.png", "hubble_deep_field.jpg", "retina.jpg", "rocket.jpg")  # fmt: skip
+SKIMAGE_PICTURES = (
+    "astronaut.png",
+    "brick.png",
+    "camera.png",
+    "chelsea.png",
+    "coffee.png",
+    "grass.png",
+    "gravel.png",
+    "hubble_deep_field.jpg",
+    "retina.jpg",
+    "rocket.jpg",
+)
 SKIMAGE_DATA = Source(  # licences as scikit-image's skimage/data/_fetchers.py states them
     registry="pip",
     package="scikit-image==0.25.2",

@@ -83,6 +83,13 @@ def follow_ackermann(path_world, params: CarParams, layout: Layout | None = None
         return (v, steer), bicycle_step(x, y, yaw, v, steer, p.wheelbase, p.rear, dt)
 
     return pursue(
-        path_world, None, p.lookahead, p.max_linear, p.rate_hz, p.goal_tolerance,
-        p.robot_radius, bicycle, layout,
-    )  # fmt: skip
+        path_world,
+        None,
+        p.lookahead,
+        p.max_linear,
+        p.rate_hz,
+        p.goal_tolerance,
+        p.robot_radius,
+        bicycle,
+        layout,
+    )

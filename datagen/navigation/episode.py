@@ -126,10 +126,14 @@ CAR_WHEELBASE, CAR_REAR = 1.04, 0.5
 def car_params(cfg: NavigationConfig) -> CarParams:
     r = cfg.robot_radius
     return CarParams(
-        wheelbase=CAR_WHEELBASE * r, max_steer=math.radians(cfg.max_steering_deg),
-        rear=CAR_REAR * r, lookahead=cfg.lookahead, max_linear=cfg.max_linear,
-        rate_hz=cfg.control_rate_hz, robot_radius=r,
-    )  # fmt: skip
+        wheelbase=CAR_WHEELBASE * r,
+        max_steer=math.radians(cfg.max_steering_deg),
+        rear=CAR_REAR * r,
+        lookahead=cfg.lookahead,
+        max_linear=cfg.max_linear,
+        rate_hz=cfg.control_rate_hz,
+        robot_radius=r,
+    )
 
 
 def _arm_ends(rng: np.random.Generator, layout: Layout) -> tuple[tuple[int, int], tuple[int, int]]:

@@ -43,9 +43,15 @@ class Trajectory:
 
     def to_dict(self) -> dict:
         r = lambda a: np.round(a, 6).tolist()  # noqa: E731
-        return {"poses": r(self.poses), "commands": r(self.commands),
-                "distance_to_goal": r(self.distance_to_goal), "goal_in_robot": r(self.goal_in_robot),
-                "collision": self.collision.tolist(), "success": self.success, "dt": self.dt}  # fmt: skip
+        return {
+            "poses": r(self.poses),
+            "commands": r(self.commands),
+            "distance_to_goal": r(self.distance_to_goal),
+            "goal_in_robot": r(self.goal_in_robot),
+            "collision": self.collision.tolist(),
+            "success": self.success,
+            "dt": self.dt,
+        }
 
 
 def wrap_angle(a: float) -> float:
@@ -110,7 +116,10 @@ class Recorder:
         self.rel.append(
             (math.cos(yaw) * dx + math.sin(yaw) * dy, -math.sin(yaw) * dx + math.cos(yaw) * dy)
         )
-        self.coll.append(self.layout is not None and footprint_collides(self.layout.grid, self.layout.resolution, x, y, self.radius))  # fmt: skip
+        self.coll.append(
+            self.layout is not None
+            and footprint_collides(self.layout.grid, self.layout.resolution, x, y, self.radius)
+        )
         return self.dist[-1]
 
     def trajectory(self, success: bool, dt: float) -> Trajectory:
@@ -207,6 +216,14 @@ def follow(
         return (v, w), unicycle_step(x, y, yaw, v, w, dt)
 
     return pursue(
-        path_world, start_yaw, p.lookahead, p.max_linear, p.rate_hz, p.goal_tolerance,
-        p.robot_radius, unicycle, layout, p.max_steps,
-    )  # fmt: skip
+        path_world,
+        start_yaw,
+        p.lookahead,
+        p.max_linear,
+        p.rate_hz,
+        p.goal_tolerance,
+        p.robot_radius,
+        unicycle,
+        layout,
+        p.max_steps,
+    )

@@ -132,8 +132,12 @@ def rooms(rng: np.random.Generator, params: RoomsParams | None = None) -> Layout
         fill(grid, w, res, True)
     for d in doors:
         fill(grid, d, res, False)
-    sampled = {"width": _r(width), "depth": _r(depth), "rooms_target": target,
-               "rooms": [[_r(v) for v in c] for c in cells]}  # fmt: skip
+    sampled = {
+        "width": _r(width),
+        "depth": _r(depth),
+        "rooms_target": target,
+        "rooms": [[_r(v) for v in c] for c in cells],
+    }
     return _finish(rng, "rooms", grid, res, doors, p, sampled)
 
 
@@ -188,10 +192,14 @@ def corridor(rng: np.random.Generator, params: CorridorParams | None = None) -> 
         alcoves.append(rect)
         free.append(rect)
     grid, _ = _carve(free, p.resolution, p.wall_thickness)
-    sampled = {"width": _r(width), "bends": bends,
-               "centreline": [[_r(v) for v in q - np.array(free).min(axis=0)[:2] + p.wall_thickness]
-                              for q in points],
-               "alcoves": len(alcoves)}  # fmt: skip
+    sampled = {
+        "width": _r(width),
+        "bends": bends,
+        "centreline": [
+            [_r(v) for v in q - np.array(free).min(axis=0)[:2] + p.wall_thickness] for q in points
+        ],
+        "alcoves": len(alcoves),
+    }
     return _finish(rng, "corridor", grid, p.resolution, [], p, sampled)
 
 

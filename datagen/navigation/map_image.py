@@ -86,4 +86,6 @@ def _draw_episode(image: np.ndarray, episode: Episode, scale: int, frame_steps: 
     tip = to_px([x + 0.5 * math.cos(yaw), y + 0.5 * math.sin(yaw)])[0]
     cv2.circle(image, tuple(start), max(3, int(0.2 * px)), START, -1, cv2.LINE_AA)
     cv2.arrowedLine(image, tuple(start), tuple(tip), START, 2, cv2.LINE_AA, tipLength=0.3)
-    cv2.drawMarker(image, tuple(to_px(episode.goal)[0]), GOAL, cv2.MARKER_STAR, max(9, int(0.5 * px)), 2)  # fmt: skip
+    cv2.drawMarker(
+        image, tuple(to_px(episode.goal)[0]), GOAL, cv2.MARKER_STAR, max(9, int(0.5 * px)), 2
+    )

@@ -86,7 +86,7 @@ def _decoded(png: bytes, name: str) -> np.ndarray:
 def _scaled(image: np.ndarray, width: int) -> np.ndarray:
     scale = width / image.shape[1]
     size = (width, max(1, round(image.shape[0] * scale)))
-    return cv2.resize(image, size, interpolation=cv2.INTER_AREA if scale < 1 else cv2.INTER_NEAREST)  # fmt: skip
+    return cv2.resize(image, size, interpolation=cv2.INTER_AREA if scale < 1 else cv2.INTER_NEAREST)
 
 
 def _colour(instance_id: int) -> tuple[int, int, int]:

@@ -75,7 +75,9 @@ class LiveStatus:
             if event == "worker":
                 self._worker(details["id"])
             elif event == "restart" and details.get("what") == "worker":
-                self._worker(details["id"]).update(state="lost", last_error=str(details.get("why", ""))[:300])  # fmt: skip
+                self._worker(details["id"]).update(
+                    state="lost", last_error=str(details.get("why", ""))[:300]
+                )
             observer(event, details)
 
         return observe
@@ -129,7 +131,9 @@ class LiveStatus:
             return
         c = self.coordinator
         all_durable = c is not None and c.schedule is not None and c.schedule.done
-        if time.monotonic() - self.last_sent >= STATUS_PERIOD_S or (all_durable and not self.told_all_durable):  # fmt: skip
+        if time.monotonic() - self.last_sent >= STATUS_PERIOD_S or (
+            all_durable and not self.told_all_durable
+        ):
             self.told_all_durable = all_durable
             self._send(qos=0)
 

@@ -24,16 +24,26 @@ class LocalWriter:
         """Starts the writer process; returns its pid."""
         max_bytes = int(self.config.transfer.max_sample_mb * 2**20) + 2**16
         command = [
-            sys.executable, "-m", "datagen.cli", "writer",
-            "--build-id", self.build_id,
-            "--out", str(self.out_dir),
-            "--writer-id", LOCAL_WRITER_ID,
-            "--shard-size", str(self.config.output.shard_size),
-            "--max-message-bytes", str(max_bytes),
+            sys.executable,
+            "-m",
+            "datagen.cli",
+            "writer",
+            "--build-id",
+            self.build_id,
+            "--out",
+            str(self.out_dir),
+            "--writer-id",
+            LOCAL_WRITER_ID,
+            "--shard-size",
+            str(self.config.output.shard_size),
+            "--max-message-bytes",
+            str(max_bytes),
             # a dead writer's session holds its share only until re-issue would cover it anyway
-            "--session-expiry", str(round(self.config.transfer.ack_timeout_s)),
-            "--log-level", os.environ.get("DATAGEN_LOG_LEVEL", "WARNING"),
-        ]  # fmt: skip
+            "--session-expiry",
+            str(round(self.config.transfer.ack_timeout_s)),
+            "--log-level",
+            os.environ.get("DATAGEN_LOG_LEVEL", "WARNING"),
+        ]
         # the broker URL carries the build's password: the environment, not argv, carries it;
         # own session: a terminal's Ctrl-C reaches only the coordinator, which stops the writer
         self.process = subprocess.Popen(

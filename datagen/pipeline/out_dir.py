@@ -27,13 +27,24 @@ BUILD_STATE = "build.json"
 # What datagen writes in a dataset directory (names, or shell patterns), and so all that
 # --overwrite deletes; a folder among them (an export, inspect/) is datagen's as a whole.
 DATAGEN_FILES = (
-    MANIFEST, BUILD_STATE, "shard-*.tar", "preview.png", "replay-*.png", "inspect",
-    "README.md", "croissant.json",  # the dataset card
-    ".writer-*.journal", ".writer-*.lock", "writer-*.json",  # the writers' journals, locks, parts
+    MANIFEST,
+    BUILD_STATE,
+    "shard-*.tar",
+    "preview.png",
+    "replay-*.png",
+    "inspect",
+    "README.md",
+    "croissant.json",  # the dataset card
+    ".writer-*.journal",
+    ".writer-*.lock",
+    "writer-*.json",  # the writers' journals, locks, parts
     # written, then renamed into place or removed
-    f"{MANIFEST}.tmp", f"{BUILD_STATE}.tmp", "writer-*.json.tmp", ".shard-*.tar.rewrite",
+    f"{MANIFEST}.tmp",
+    f"{BUILD_STATE}.tmp",
+    "writer-*.json.tmp",
+    ".shard-*.tar.rewrite",
     ".datagen-write-test-*",
-)  # fmt: skip
+)
 MAX_MANIFEST_BYTES = 2**30  # 89 bytes a sample (docs/dataset-format.md): 10^7 samples fit
 SHOWN = 5  # names listed in a message; the count says how many more there are
 

@@ -135,7 +135,9 @@ def worker_main(
                 start = time.perf_counter()
 
                 def started(attempt: int, failures: list[str], index: int = index) -> None:
-                    channel.send("started", {"index": index, "attempt": attempt, "failures": failures})  # fmt: skip
+                    channel.send(
+                        "started", {"index": index, "attempt": attempt, "failures": failures}
+                    )
 
                 try:
                     produced = produce_with_policy(config, task, on_attempt=started)
@@ -155,7 +157,14 @@ def worker_main(
                 if (outcome := sample_outcome(produced.sample)) is not None:
                     channel.send("outcome", outcome)
                 if produced.failures:
-                    channel.send("retried", {"index": index, "attempt": produced.attempt, "failures": produced.failures})  # fmt: skip
+                    channel.send(
+                        "retried",
+                        {
+                            "index": index,
+                            "attempt": produced.attempt,
+                            "failures": produced.failures,
+                        },
+                    )
                 channel.send("published", index)
                 previews.offer(produced.sample)  # after: the coordinator need not wait for it
             previews.close()

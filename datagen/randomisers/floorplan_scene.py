@@ -119,10 +119,16 @@ def sample_nav_scene(
     if nav.robots > 1:  # the other robots' cameras, from a stream of their own
         fleet_rng = sample_rng(seed, index, "nav_fleet_cameras", attempt)
         others = [
-            {name: _u(fleet_rng, bounds) for name, bounds in
-             (("torso_lift", nav.torso_lift), ("pitch_deg", nav.camera_pitch_deg), ("fovy_deg", nav.camera_fovy_deg))}
+            {
+                name: _u(fleet_rng, bounds)
+                for name, bounds in (
+                    ("torso_lift", nav.torso_lift),
+                    ("pitch_deg", nav.camera_pitch_deg),
+                    ("fovy_deg", nav.camera_fovy_deg),
+                )
+            }
             for _ in range(nav.robots - 1)
-        ]  # fmt: skip
+        ]
         fleet = {"cameras": [camera, *others]}
     return {
         "wall_height": wall_height,

@@ -46,7 +46,12 @@ def _can(rng: np.random.Generator, size: float) -> list[dict[str, Any]]:
     height = size * rng.uniform(0.8, 1.0)
     radius = min(size * rng.uniform(0.2, 0.4), size / 2)
     rim, half = height * 0.05, height / 2
-    profile = [[radius * 0.88, -half], [radius, rim - half], [radius, half - rim], [radius * 0.9, half]]  # fmt: skip
+    profile = [
+        [radius * 0.88, -half],
+        [radius, rim - half],
+        [radius, half - rim],
+        [radius * 0.9, half],
+    ]
     return [{"kind": "revolve", "profile": _round(profile)}]
 
 

@@ -19,11 +19,14 @@ WHITE_K = 6500.0  # kelvin: the black body whose colour is white ([1, 1, 1])
 # of Wyman, Sloan and Shirley, "Simple Analytic Approximations to the CIE XYZ Color Matching
 # Functions", JCGT 2(2), 2013. Rows: (weight, mean nm, 1/sigma below the mean, 1/sigma above).
 _CMF_LOBES = {
-    "x": ((1.056, 599.8, 0.0264, 0.0323), (0.362, 442.0, 0.0624, 0.0374),
-          (-0.065, 501.1, 0.0490, 0.0382)),
+    "x": (
+        (1.056, 599.8, 0.0264, 0.0323),
+        (0.362, 442.0, 0.0624, 0.0374),
+        (-0.065, 501.1, 0.0490, 0.0382),
+    ),
     "y": ((0.821, 568.8, 0.0213, 0.0247), (0.286, 530.9, 0.0613, 0.0322)),
     "z": ((1.217, 437.0, 0.0845, 0.0278), (0.681, 459.0, 0.0385, 0.0725)),
-}  # fmt: skip
+}
 # CIE XYZ -> linear sRGB (IEC 61966-2-1, D65 white)
 _XYZ_TO_SRGB = np.array(
     [[3.2406, -1.5372, -0.4986], [-0.9689, 1.8758, 0.0415], [0.0557, -0.2040, 1.0570]]

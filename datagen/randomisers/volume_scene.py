@@ -26,8 +26,14 @@ SURFACES = {"floor": (0.2, 0.75), "walls": (0.5, 0.95), "ceiling": (0.6, 0.95)} 
 OBSTACLE_KINDS = ("obstacle", "pillar", "beam", "hanging", "screen")
 TEXTURED = ("floor", "walls", "ceiling", *OBSTACLE_KINDS)
 # drone parts: dark frames, light or bright bodies, grey motors, translucent-looking rotors
-_DRONE_VALUE = {"body": (0.3, 1.0), "arms": (0.05, 0.35), "motors": (0.2, 0.5),
-                "rotors": (0.1, 0.6), "legs": (0.05, 0.4), "camera": (0.0, 0.2)}  # fmt: skip
+_DRONE_VALUE = {
+    "body": (0.3, 1.0),
+    "arms": (0.05, 0.35),
+    "motors": (0.2, 0.5),
+    "rotors": (0.1, 0.6),
+    "legs": (0.05, 0.4),
+    "camera": (0.0, 0.2),
+}
 
 
 def _u(rng: np.random.Generator, bounds: tuple[float, float]) -> float:
@@ -35,16 +41,24 @@ def _u(rng: np.random.Generator, bounds: tuple[float, float]) -> float:
 
 
 def _cameras(rng: np.random.Generator, cfg) -> dict[str, Any]:
-    forward = {"fovy_deg": _u(rng, cfg.camera_fovy_deg), "pitch_deg": _u(rng, cfg.camera_pitch_deg),
-               # the mount on the pod's face, left and up, fractions of quadrotor.MOUNT_SHIFT
-               "shift": [_u(rng, (-1.0, 1.0)), _u(rng, (-1.0, 1.0))]}  # fmt: skip
+    forward = {
+        "fovy_deg": _u(rng, cfg.camera_fovy_deg),
+        "pitch_deg": _u(rng, cfg.camera_pitch_deg),
+        # the mount on the pod's face, left and up, fractions of quadrotor.MOUNT_SHIFT
+        "shift": [_u(rng, (-1.0, 1.0)), _u(rng, (-1.0, 1.0))],
+    }
     return {"forward": forward, "down": {"fovy_deg": _u(rng, cfg.down_fovy_deg)}}
 
 
 def sample_aerial_scene(
-    config: BuildConfig, seed: int, index: int, layout: Layout, height: float, drones: int,
+    config: BuildConfig,
+    seed: int,
+    index: int,
+    layout: Layout,
+    height: float,
+    drones: int,
     attempt: int = 0,
-) -> dict[str, Any]:  # fmt: skip
+) -> dict[str, Any]:
     """Every randomised appearance value of one episode; stored in its metadata."""
     cfg, materials_cfg = config.aerial, config.materials
     rng = sample_rng(seed, index, "aerial_materials", attempt)
@@ -56,8 +70,11 @@ def sample_aerial_scene(
         materials[kind] = random_material(
             rng, materials_cfg, materials_cfg.saturation, materials_cfg.value
         )
-    materials["goal_marker"] = {"base_color": random_colour(rng, (0.8, 1.0), (0.8, 1.0)),
-                                "roughness": 0.5, "metallic": 0.0}  # fmt: skip
+    materials["goal_marker"] = {
+        "base_color": random_colour(rng, (0.8, 1.0), (0.8, 1.0)),
+        "roughness": 0.5,
+        "metallic": 0.0,
+    }
     drone_materials = [
         {
             part: random_material(rng, materials_cfg, (0.0, 0.9), _DRONE_VALUE[part])

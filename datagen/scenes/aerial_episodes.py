@@ -65,20 +65,29 @@ def _pose(position: np.ndarray, rotation: np.ndarray) -> np.ndarray:
     return matrix
 
 
-def _agent_record(episode: AerialEpisode, k: int, states, index: int, boxes: np.ndarray, tolerance: float) -> dict[str, Any]:  # fmt: skip
+def _agent_record(
+    episode: AerialEpisode, k: int, states, index: int, boxes: np.ndarray, tolerance: float
+) -> dict[str, Any]:
     agent, limits = episode.agents[k], episode.limits[k]
     p, rotation = states.position[index], states.rotation[index]
     gap = float(box_distance(p[None], boxes)[0]) - limits.radius
     return {
-        "position": rounded(p), "quaternion_xyzw": rounded(quaternion_xyzw(rotation[None])[0]),
-        "velocity": rounded(states.velocity[index]), "acceleration": rounded(states.acceleration[index]),
-        "body_rates": rounded(states.body_rates[index]), "thrust": round(float(states.thrust[index]), 6),
-        "imu": {"accelerometer": rounded(states.specific_force[index]), "gyroscope": rounded(states.body_rates[index])},
+        "position": rounded(p),
+        "quaternion_xyzw": rounded(quaternion_xyzw(rotation[None])[0]),
+        "velocity": rounded(states.velocity[index]),
+        "acceleration": rounded(states.acceleration[index]),
+        "body_rates": rounded(states.body_rates[index]),
+        "thrust": round(float(states.thrust[index]), 6),
+        "imu": {
+            "accelerometer": rounded(states.specific_force[index]),
+            "gyroscope": rounded(states.body_rates[index]),
+        },
         "distance_to_goal": round(float(np.linalg.norm(agent.goal - p)), 6),
         "goal_in_body": rounded(rotation.T @ (agent.goal - p)),
-        "obstacle_gap": round(gap, 6), "collision": gap < 0.0,
+        "obstacle_gap": round(gap, 6),
+        "collision": gap < 0.0,
         "arrived": bool(np.linalg.norm(agent.goal - p) <= tolerance),
-    }  # fmt: skip
+    }
 
 
 def _stereo(camera: str, baseline: float) -> dict[str, Any]:
@@ -126,18 +135,26 @@ def render_frames(
                 View(frame.rgb, frame.depth, instance, semantic), f"f{f:04d}.{name}.", level
             )
             poses[name].append(frame.extrinsics)
-            record["cameras"][name] = {"extrinsics_world_to_camera": rounded(frame.extrinsics, 7),
-                                       "things": things_in_view(scene.things, instance)}  # fmt: skip
+            record["cameras"][name] = {
+                "extrinsics_world_to_camera": rounded(frame.extrinsics, 7),
+                "things": things_in_view(scene.things, instance),
+            }
             if config.aerial.optical_flow and name in previous:
                 before, before_instance = previous[name]
                 motions = {
-                    instance_of[k]: _pose(s.position[f], s.rotation[f]) @ np.linalg.inv(_pose(s.position[f - 1], s.rotation[f - 1]))
+                    instance_of[k]: _pose(s.position[f], s.rotation[f])
+                    @ np.linalg.inv(_pose(s.position[f - 1], s.rotation[f - 1]))
                     for k, s in enumerate(states)
-                }  # fmt: skip
+                }
                 flow, valid = flow_to_next(
-                    before.depth * DEPTH_SCALE, before.intrinsics, before.extrinsics, frame.extrinsics,
-                    frame.depth * DEPTH_SCALE, before_instance, motions,
-                )  # fmt: skip
+                    before.depth * DEPTH_SCALE,
+                    before.intrinsics,
+                    before.extrinsics,
+                    frame.extrinsics,
+                    frame.depth * DEPTH_SCALE,
+                    before_instance,
+                    motions,
+                )
                 parts[f"f{f - 1:04d}.{name}.flow.png"] = png_bytes(encode_kitti(flow, valid), level)
             previous[name] = (frame, instance)
         records.append(record)
@@ -159,8 +176,12 @@ def produce(config: BuildConfig, seed: int, index: int, attempt: int = 0) -> Sam
     parts["map.png"] = png_bytes(top_down(volume, episode.agents)[..., ::-1].copy(), level)
     parts["side.png"] = png_bytes(side_view(volume, episode.agents)[..., ::-1].copy(), level)
     buffer = io.BytesIO()
-    np.savez_compressed(buffer, occupancy=np.packbits(volume.occupancy, axis=None),
-                        shape=np.asarray(volume.shape), resolution=np.float64(volume.resolution))  # fmt: skip
+    np.savez_compressed(
+        buffer,
+        occupancy=np.packbits(volume.occupancy, axis=None),
+        shape=np.asarray(volume.shape),
+        resolution=np.float64(volume.resolution),
+    )
     parts["occupancy.npz"] = buffer.getvalue()
     for name, extrinsics in poses.items():
         parts[f"poses.{name}.txt"] = pose_file(extrinsics)
@@ -177,42 +198,84 @@ def produce(config: BuildConfig, seed: int, index: int, attempt: int = 0) -> Sam
             frames[-1]["agents"][k]["arrived"]
             and not any(r["agents"][k]["collision"] for r in frames)
         )
-        agents.append({
-            "span_m": episode.shapes[k].span, "radius_m": round(limits.radius, 6),
-            "start": rounded(agent.start), "goal": rounded(agent.goal), "take_off_s": round(agent.take_off, 6),
-            "flight_s": round(agent.flight.duration, 6), "waypoints": rounded(agent.flight.waypoints, 5),
-            "slow_down": round(agent.flight.slow_down, 6), "midpoints": agent.flight.splits,
-            "success": success, "path_length_m": round(flown, 6), "shortest_path_m": round(shortest, 6),
-            "spl": spl(success, shortest, flown),
-            "max_speed": round(float(np.linalg.norm(states[k].velocity, axis=1).max()), 6),
-            "altitude_m": [round(float(states[k].position[:, 2].min()), 6), round(float(states[k].position[:, 2].max()), 6)],
-        })  # fmt: skip
+        agents.append(
+            {
+                "span_m": episode.shapes[k].span,
+                "radius_m": round(limits.radius, 6),
+                "start": rounded(agent.start),
+                "goal": rounded(agent.goal),
+                "take_off_s": round(agent.take_off, 6),
+                "flight_s": round(agent.flight.duration, 6),
+                "waypoints": rounded(agent.flight.waypoints, 5),
+                "slow_down": round(agent.flight.slow_down, 6),
+                "midpoints": agent.flight.splits,
+                "success": success,
+                "path_length_m": round(flown, 6),
+                "shortest_path_m": round(shortest, 6),
+                "spl": spl(success, shortest, flown),
+                "max_speed": round(float(np.linalg.norm(states[k].velocity, axis=1).max()), 6),
+                "altitude_m": [
+                    round(float(states[k].position[:, 2].min()), 6),
+                    round(float(states[k].position[:, 2].max()), 6),
+                ],
+            }
+        )
     r = config.render
     metadata = {
-        "format": AERIAL_FORMAT, "key": sample_key(index), "index": index, "seed": seed,
-        "scene": config.scene, "family": cfg.family, "classes": list(AERIAL_CLASSES),
-        "things": [{"instance_id": t.instance_id, "class": t.class_name, "name": t.name} for t in scene.things],
+        "format": AERIAL_FORMAT,
+        "key": sample_key(index),
+        "index": index,
+        "seed": seed,
+        "scene": config.scene,
+        "family": cfg.family,
+        "classes": list(AERIAL_CLASSES),
+        "things": [
+            {"instance_id": t.instance_id, "class": t.class_name, "name": t.name}
+            for t in scene.things
+        ],
         "episode": {
             # the episode as a whole (what inspect, the monitor and the exports read)
             **agents_outcome(agents),
-            "duration_s": round(episode.duration, 6), "frames": len(times), "attempt": episode.attempt,
+            "duration_s": round(episode.duration, 6),
+            "frames": len(times),
+            "attempt": episode.attempt,
             "agents": agents,
-            "volume": {"height": volume.height, "resolution": volume.resolution, "shape": list(volume.shape),
-                       "solids": [{"kind": s.kind, "box": list(s.box)} for s in volume.solids],
-                       "params": volume.params,
-                       "layout": {"family": volume.layout.family, "walls": [list(w) for w in volume.layout.walls],
-                                  "params": volume.layout.params}},
+            "volume": {
+                "height": volume.height,
+                "resolution": volume.resolution,
+                "shape": list(volume.shape),
+                "solids": [{"kind": s.kind, "box": list(s.box)} for s in volume.solids],
+                "params": volume.params,
+                "layout": {
+                    "family": volume.layout.family,
+                    "walls": [list(w) for w in volume.layout.walls],
+                    "params": volume.layout.params,
+                },
+            },
         },
-        "cameras": {name: {"width": r.width, "height": r.height, "fovy_deg": round(math.degrees(cam.fovy), 6),
-                           "near": r.near, "far": r.far, "intrinsics": rounded(cam.get_intrinsic_matrix()),
-                           "camera_in_body": rounded(scene.camera_in_body[name], 7), "convention": "opencv",
-                           "depth_scale": DEPTH_SCALE, "drone": int(name[1:].split("_")[0]),
-                           **_stereo(name, cfg.stereo_baseline)}
-                    for name, cam in scene.cameras.items()},
-        "poses_convention": {"poses.<camera>.txt": POSE_CONVENTION, "poses_ned.<camera>.txt": NED_POSE_CONVENTION},
+        "cameras": {
+            name: {
+                "width": r.width,
+                "height": r.height,
+                "fovy_deg": round(math.degrees(cam.fovy), 6),
+                "near": r.near,
+                "far": r.far,
+                "intrinsics": rounded(cam.get_intrinsic_matrix()),
+                "camera_in_body": rounded(scene.camera_in_body[name], 7),
+                "convention": "opencv",
+                "depth_scale": DEPTH_SCALE,
+                "drone": int(name[1:].split("_")[0]),
+                **_stereo(name, cfg.stereo_baseline),
+            }
+            for name, cam in scene.cameras.items()
+        },
+        "poses_convention": {
+            "poses.<camera>.txt": POSE_CONVENTION,
+            "poses_ned.<camera>.txt": NED_POSE_CONVENTION,
+        },
         "imu": imu_metadata(cfg.imu_hz, cfg.imu_noise),
         "frames": frames,
         "randomisation": values,
-    }  # fmt: skip
+    }
     parts["json"] = metadata_bytes(metadata)
     return Sample(index, parts)

@@ -62,13 +62,15 @@ def things_in_view(
         if box is None or thing.class_name in skip:
             continue
         rows, cols = box
-        out.append({
-            "instance_id": thing.instance_id,
-            "class": thing.class_name,
-            "name": thing.name,
-            "bbox_xyxy": [cols.start, rows.start, cols.stop - 1, rows.stop - 1],  # inclusive
-            "pixels": int((instance[box] == thing.instance_id).sum()),
-        })  # fmt: skip
+        out.append(
+            {
+                "instance_id": thing.instance_id,
+                "class": thing.class_name,
+                "name": thing.name,
+                "bbox_xyxy": [cols.start, rows.start, cols.stop - 1, rows.stop - 1],  # inclusive
+                "pixels": int((instance[box] == thing.instance_id).sum()),
+            }
+        )
     return out
 
 
@@ -101,21 +103,27 @@ def render_episode(
                 frame.extrinsics
             )
             intrinsics = frame.intrinsics
-        records.append({
-            "frame": k,
-            "step": step,
-            "time_s": round(step * traj.dt, 6),
-            "pose": rounded([x, y, yaw]),
-            "command": rounded(command),
-            "action": rounded(held_commands(traj.commands, step, every)),  # to the next frame
-            "goal_in_robot": rounded(traj.goal_in_robot[step]),
-            "distance_to_goal": round(float(traj.distance_to_goal[step]), 6),
-            # metres between the robot's footprint disk and the nearest wall or obstacle
-            "obstacle_gap": round(clearance(episode.layout.grid, episode.layout.resolution, x, y) - config.navigation.robot_radius, 6),
-            "collision": bool(traj.collision[step]),
-            "extrinsics_world_to_camera": rounded(frame.extrinsics, 7),
-            "things": things_in_view(scene.things, instance, skip=("robot", "car")),
-        })  # fmt: skip
+        records.append(
+            {
+                "frame": k,
+                "step": step,
+                "time_s": round(step * traj.dt, 6),
+                "pose": rounded([x, y, yaw]),
+                "command": rounded(command),
+                "action": rounded(held_commands(traj.commands, step, every)),  # to the next frame
+                "goal_in_robot": rounded(traj.goal_in_robot[step]),
+                "distance_to_goal": round(float(traj.distance_to_goal[step]), 6),
+                # metres between the robot's footprint disk and the nearest wall or obstacle
+                "obstacle_gap": round(
+                    clearance(episode.layout.grid, episode.layout.resolution, x, y)
+                    - config.navigation.robot_radius,
+                    6,
+                ),
+                "collision": bool(traj.collision[step]),
+                "extrinsics_world_to_camera": rounded(frame.extrinsics, 7),
+                "things": things_in_view(scene.things, instance, skip=("robot", "car")),
+            }
+        )
     camera = camera_record(config.render, scene.camera.fovy, camera_in_robot, intrinsics)
     parts["poses.head.txt"] = pose_file(extrinsics)
     return parts, records, camera
@@ -184,14 +192,16 @@ def robot_record(config: BuildConfig, scene: NavScene) -> dict[str, Any]:
     if nav.robot == "car":
         params = car_params(nav)
         return {
-            "name": "car", "radius": nav.robot_radius, "wheelbase_m": round(params.wheelbase, 6),
+            "name": "car",
+            "radius": nav.robot_radius,
+            "wheelbase_m": round(params.wheelbase, 6),
             # the pose is the body's centre (the footprint disk's); the rear axle is behind it
             "rear_axle_behind_m": round(params.rear, 6),
             "max_steering_deg": nav.max_steering_deg,
             "min_turning_radius_m": round(params.min_turning_radius, 6),  # the rear axle's
             "min_centre_turning_radius_m": round(params.min_centre_turning_radius, 6),
             "commands": ["linear_m_s", "steering_rad"],
-        }  # fmt: skip
+        }
     return {
         "name": "fetch",
         "description": f"mani_skill/assets/{FETCH}",

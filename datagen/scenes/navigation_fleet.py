@@ -56,13 +56,20 @@ def _agent_states(
     for agent in fleet.agents:
         traj, row = agent.episode.trajectory, int(agent.step_index(step))
         held = held_commands(traj.commands, step - agent.delay, every)
-        out.append({
-            "pose": rounded(traj.poses[row]), "command": rounded(held[0]), "action": rounded(held),
-            "goal_in_robot": rounded(traj.goal_in_robot[row]),
-            "distance_to_goal": round(float(traj.distance_to_goal[row]), 6),
-            "obstacle_gap": round(clearance(layout.grid, layout.resolution, *traj.poses[row, :2]) - radius, 6),
-            "collision": bool(traj.collision[row]), "arrived": step >= agent.arrival,
-        })  # fmt: skip
+        out.append(
+            {
+                "pose": rounded(traj.poses[row]),
+                "command": rounded(held[0]),
+                "action": rounded(held),
+                "goal_in_robot": rounded(traj.goal_in_robot[row]),
+                "distance_to_goal": round(float(traj.distance_to_goal[row]), 6),
+                "obstacle_gap": round(
+                    clearance(layout.grid, layout.resolution, *traj.poses[row, :2]) - radius, 6
+                ),
+                "collision": bool(traj.collision[row]),
+                "arrived": step >= agent.arrival,
+            }
+        )
     return out
 
 
@@ -70,13 +77,18 @@ def _agent_record(agent, dt: float) -> dict[str, Any]:
     episode, traj = agent.episode, agent.episode.trajectory
     shortest, travelled = episode.shortest_path_m, episode.travelled_m
     return {
-        "start": rounded(episode.start), "goal": rounded(episode.goal), "delay_s": round(agent.delay * dt, 6),
-        "success": bool(traj.success), "path_length_m": round(travelled, 6),
-        "shortest_path_m": round(shortest, 6), "planned_path_m": round(episode.planned_path_m, 6),
+        "start": rounded(episode.start),
+        "goal": rounded(episode.goal),
+        "delay_s": round(agent.delay * dt, 6),
+        "success": bool(traj.success),
+        "path_length_m": round(travelled, 6),
+        "shortest_path_m": round(shortest, 6),
+        "planned_path_m": round(episode.planned_path_m, 6),
         "spl": spl(traj.success, shortest, travelled),
-        "collision_steps": int(traj.collision.sum()), "planned_path": rounded(episode.path, 5),
+        "collision_steps": int(traj.collision.sum()),
+        "planned_path": rounded(episode.path, 5),
         "trajectory": traj.to_dict(),
-    }  # fmt: skip
+    }
 
 
 def produce(config: BuildConfig, seed: int, index: int, attempt: int = 0) -> Sample:
@@ -149,13 +161,23 @@ def produce_fleet(config: BuildConfig, seed: int, index: int, attempt: int = 0) 
     }
     agents = [_agent_record(a, fleet.dt) for a in fleet.agents]
     metadata = {
-        "format": FLEET_FORMAT, "key": sample_key(index), "index": index, "seed": seed,
-        "scene": config.scene, "family": nav.family, "classes": list(NAV_CLASSES),
-        "things": [{"instance_id": t.instance_id, "class": t.class_name, "name": t.name} for t in scene.things],
+        "format": FLEET_FORMAT,
+        "key": sample_key(index),
+        "index": index,
+        "seed": seed,
+        "scene": config.scene,
+        "family": nav.family,
+        "classes": list(NAV_CLASSES),
+        "things": [
+            {"instance_id": t.instance_id, "class": t.class_name, "name": t.name}
+            for t in scene.things
+        ],
         "episode": {
             # the episode as a whole (what inspect, the monitor and the exports read)
             **agents_outcome(agents),
-            "steps": fleet.steps, "duration_s": round(fleet.steps * fleet.dt, 6), "frames": len(steps),
+            "steps": fleet.steps,
+            "duration_s": round(fleet.steps * fleet.dt, 6),
+            "frames": len(steps),
             "agents": agents,
             "layout": layout_record(layout),
         },
@@ -164,6 +186,6 @@ def produce_fleet(config: BuildConfig, seed: int, index: int, attempt: int = 0) 
         "poses_convention": POSE_CONVENTION,
         "robot": robot_record(config, scene),
         "randomisation": values,
-    }  # fmt: skip
+    }
     parts["json"] = metadata_bytes(metadata)
     return Sample(index, parts)

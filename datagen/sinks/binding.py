@@ -31,9 +31,13 @@ class WriterBinding:
     bound (at most ``hold_max``: the rest of the receive window stays free for the bind)."""
 
     def __init__(
-        self, secret: bytes | None, sealer: Sealer, opener: Opener, status: WriterStatus,
+        self,
+        secret: bytes | None,
+        sealer: Sealer,
+        opener: Opener,
+        status: WriterStatus,
         hold_max: int,
-    ):  # fmt: skip
+    ):
         self.needed = bool(secret)
         self.sealer, self.opener, self.status = sealer, opener, status
         self.run: RunBinding | None = None
@@ -72,8 +76,11 @@ class WriterBinding:
             return False  # one we already answered, again (QoS 1, or a retry)
         if challenge != self.status.tags["challenge"]:
             self.opener.reject("stale_bind")
-            log.warning("refused a bind to run %r: it does not echo this writer's challenge "
-                        "(a recording of another run?)", run)  # fmt: skip
+            log.warning(
+                "refused a bind to run %r: it does not echo this writer's challenge "
+                "(a recording of another run?)",
+                run,
+            )
             return False
         binding = RunBinding.from_fields(cmd, "bind")  # ValueError: logged by the caller
         if binding.run != run:

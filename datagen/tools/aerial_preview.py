@@ -59,8 +59,16 @@ def aerial_tile(item: dict[str, Any]) -> np.ndarray:
     top = np.hstack([image, depth_colour(images["depth"]), motion])
     episode = meta["episode"]
     outcome = "success" if episode["success"] else "failure"
-    plan = np.hstack([fit(cv2.cvtColor(item["map"], cv2.COLOR_RGB2BGR), 2 * h, top.shape[1] // 2),
-                      fit(cv2.cvtColor(item["side"], cv2.COLOR_RGB2BGR), 2 * h, top.shape[1] - top.shape[1] // 2)])  # fmt: skip
+    plan = np.hstack(
+        [
+            fit(cv2.cvtColor(item["map"], cv2.COLOR_RGB2BGR), 2 * h, top.shape[1] // 2),
+            fit(
+                cv2.cvtColor(item["side"], cv2.COLOR_RGB2BGR),
+                2 * h,
+                top.shape[1] - top.shape[1] // 2,
+            ),
+        ]
+    )
     put_label(
         plan,
         f"{outcome}: {len(episode['agents'])} drone(s), SPL {episode['spl']:.2f}",

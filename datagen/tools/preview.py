@@ -75,7 +75,9 @@ def draw_annotations(
         for i, j in _BOX_EDGES if corners is not None else ():
             cv2.line(image, tuple(corners[i]), tuple(corners[j]), colour, 1, cv2.LINE_AA)
         if "pose_camera" in obj and K is not None:
-            pose = finite_matrix(obj["pose_camera"]["matrix"], (4, 4), f"{where}.objects[{k}].pose_camera.matrix")  # fmt: skip
+            pose = finite_matrix(
+                obj["pose_camera"]["matrix"], (4, 4), f"{where}.objects[{k}].pose_camera.matrix"
+            )
             draw_axes(image, pose, K)
         x0, y0, x1, y1 = pixel_box(obj["bbox_xyxy"], f"{where}.objects[{k}].bbox_xyxy")
         cv2.rectangle(image, (x0, y0), (x1, y1), (255, 255, 255), 1)
@@ -116,7 +118,11 @@ def draw_grasp(image: np.ndarray, attempt: dict[str, Any], camera: CameraRecord)
         [*tips, *(t - finger * approach for t in tips), centre - (finger + 0.06) * approach]
     )
     K = intrinsics(camera, "views.workspace.camera")
-    E = finite_matrix(camera["extrinsics_world_to_camera"], (4, 4), "views.workspace.camera.extrinsics_world_to_camera")  # fmt: skip
+    E = finite_matrix(
+        camera["extrinsics_world_to_camera"],
+        (4, 4),
+        "views.workspace.camera.extrinsics_world_to_camera",
+    )
     uv = pixels(project(points, K, E)[0])
     if uv is None:
         return
@@ -160,13 +166,22 @@ def draw_navigation_frame(
             [np.interp(t, s, path_xy[:, 0]), np.interp(t, s, path_xy[:, 1]), 0 * t], 1
         )
         K = intrinsics(camera, "camera")
-        E = finite_matrix(meta["extrinsics_world_to_camera"], (4, 4), "frames[].extrinsics_world_to_camera")  # fmt: skip
+        E = finite_matrix(
+            meta["extrinsics_world_to_camera"], (4, 4), "frames[].extrinsics_world_to_camera"
+        )
         uv, depth = project(points, K, E)
         ahead = (depth > 0.05) & (np.abs(uv) < 1e4).all(axis=1)
         for a, b in zip(
             uv[:-1][ahead[:-1] & ahead[1:]], uv[1:][ahead[:-1] & ahead[1:]], strict=True
         ):
-            cv2.line(image, tuple(np.rint(a).astype(int)), tuple(np.rint(b).astype(int)), (230, 140, 30), 2, cv2.LINE_AA)  # fmt: skip
+            cv2.line(
+                image,
+                tuple(np.rint(a).astype(int)),
+                tuple(np.rint(b).astype(int)),
+                (230, 140, 30),
+                2,
+                cv2.LINE_AA,
+            )
     for thing in meta["things"]:
         x0, y0, x1, y1 = pixel_box(thing["bbox_xyxy"], "frames[].things[].bbox_xyxy")
         cv2.rectangle(image, (x0, y0), (x1, y1), (255, 255, 255), 1)
@@ -299,13 +314,19 @@ def write_preview(
     dataset = load(dataset_dir)
     skipped = Skipped(on_skip)
     indices = range(min(count, len(dataset)))
-    tiles = list(each_sample(dataset, indices, lambda i: sample_tile(read_item(dataset, i)), skipped).values())  # fmt: skip
+    tiles = list(
+        each_sample(
+            dataset, indices, lambda i: sample_tile(read_item(dataset, i)), skipped
+        ).values()
+    )
     if not tiles:
         raise no_sample_left(dataset_dir, skipped, "preview")
     grid = tile_grid(tiles, columns)
     if out_path is None:
         out_path = inside(Path(dataset_dir), "preview.png")
-        return replace_file(out_path, lambda tmp: written(cv2.imwrite(str(tmp), grid), out_path, "OpenCV"))  # fmt: skip
+        return replace_file(
+            out_path, lambda tmp: written(cv2.imwrite(str(tmp), grid), out_path, "OpenCV")
+        )
     out_path.parent.mkdir(parents=True, exist_ok=True)
     written(cv2.imwrite(str(out_path), grid), out_path, "OpenCV")
     return out_path

@@ -91,7 +91,9 @@ def _read_description(usd_path: Path, randomisation: dict[str, Any] | None):
                 f"{usd_path}: /World/Objects/object_{k}: expected a finite pose within "
                 f"{MAX_REACH:g} m of the origin, got translation {matrix[:3, 3].tolist()}"
             )
-        poses.append({"position": matrix[:3, 3].tolist(), "quat_wxyz": mat2quat(matrix[:3, :3]).tolist()})  # fmt: skip
+        poses.append(
+            {"position": matrix[:3, 3].tolist(), "quat_wxyz": mat2quat(matrix[:3, :3]).tolist()}
+        )
     robot = stage.GetPrimAtPath(Sdf.Path("/World/Robot"))
     return params, poses, _joint_positions(usd_path, robot)
 
@@ -253,5 +255,7 @@ def comparison_report(
             f"mean difference {diff.mean():.3f}, largest {diff.max()} (0-255)"
         )
         heat = cv2.applyColorMap(np.clip(diff * 8, 0, 255).astype(np.uint8), cv2.COLORMAP_INFERNO)
-        rows.append(np.hstack([*(cv2.cvtColor(a, cv2.COLOR_RGB2BGR) for a in (stored, replayed)), heat]))  # fmt: skip
+        rows.append(
+            np.hstack([*(cv2.cvtColor(a, cv2.COLOR_RGB2BGR) for a in (stored, replayed)), heat])
+        )
     return lines, np.vstack(rows)

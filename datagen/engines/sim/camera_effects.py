@@ -106,20 +106,31 @@ def sample_camera_effects(rng: np.random.Generator, cfg: CameraEffectsConfig) ->
     on, value = chance(cfg.gamma_probability), rng.uniform(*cfg.gamma)
     if on:
         effects["gamma"] = _r(value)
-    on, length, angle = chance(cfg.motion_blur_probability), rng.uniform(*cfg.motion_blur_px), rng.uniform(0, 180)  # fmt: skip
+    on, length, angle = (
+        chance(cfg.motion_blur_probability),
+        rng.uniform(*cfg.motion_blur_px),
+        rng.uniform(0, 180),
+    )
     if on:
         effects["motion_blur"] = {"length_px": _r(length), "angle_deg": _r(angle)}
     on, value = chance(cfg.defocus_blur_probability), rng.uniform(*cfg.defocus_radius_px)
     if on:
         effects["defocus_blur"] = {"radius_px": _r(value)}
-    on, shot, read = chance(cfg.noise_probability), rng.uniform(*cfg.shot_noise), rng.uniform(*cfg.read_noise)  # fmt: skip
+    on, shot, read = (
+        chance(cfg.noise_probability),
+        rng.uniform(*cfg.shot_noise),
+        rng.uniform(*cfg.read_noise),
+    )
     noise_seed = int(rng.integers(2**31))
     if on:
         effects["noise"] = {"shot": _r(shot), "read": _r(read), "seed": noise_seed}
     on, value = chance(cfg.vignetting_probability), rng.uniform(*cfg.vignetting)
     if on:
         effects["vignetting"] = _r(value)
-    on, quality = chance(cfg.jpeg_probability), rng.integers(cfg.jpeg_quality[0], cfg.jpeg_quality[1] + 1)  # fmt: skip
+    on, quality = (
+        chance(cfg.jpeg_probability),
+        rng.integers(cfg.jpeg_quality[0], cfg.jpeg_quality[1] + 1),
+    )
     if on:
         effects["jpeg_quality"] = int(quality)
     on = chance(cfg.distortion_probability)

@@ -54,10 +54,14 @@ def _render_points(
 def _smallest_zoom(render_k, coefficients, width: int, height: int) -> float:
     """The smallest zoom for which the distorted image's border lies inside the render."""
     cols, rows = np.linspace(0, width, 65), np.linspace(0, height, 49)
-    border = np.concatenate([
-        np.stack([cols, np.zeros_like(cols)], 1), np.stack([cols, np.full_like(cols, height)], 1),
-        np.stack([np.zeros_like(rows), rows], 1), np.stack([np.full_like(rows, width), rows], 1),
-    ])  # fmt: skip
+    border = np.concatenate(
+        [
+            np.stack([cols, np.zeros_like(cols)], 1),
+            np.stack([cols, np.full_like(cols, height)], 1),
+            np.stack([np.zeros_like(rows), rows], 1),
+            np.stack([np.full_like(rows, width), rows], 1),
+        ]
+    )
 
     def inside(zoom: float) -> bool:
         source = _render_points(border, render_k, coefficients, zoom)

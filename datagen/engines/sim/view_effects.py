@@ -76,9 +76,13 @@ def apply_view_effects(
     with timed("effects"):
         if sensor is not None:
             depth = sensor_depth(
-                view.depth, view.rgb, view.instance, intrinsics, sensor,
+                view.depth,
+                view.rgb,
+                view.instance,
+                intrinsics,
+                sensor,
                 view_meta["camera"]["depth_scale"],
-            )  # fmt: skip
+            )
             view = replace(view, depth_sensor=depth)
             meta["depth_sensor"] = sensor
         if effects is None:

@@ -113,10 +113,16 @@ class Sealer:
             run = self.run
             key = self._keys.key(purpose, run, keep=True)
         fields = {
-            "v": VERSION, "build": self.topics.build_id, "run": run, "topic": topic,
-            "role": self.role, "sender": self.sender, "session": session or self.session,
-            "seq": seq, "body": body,
-        }  # fmt: skip
+            "v": VERSION,
+            "build": self.topics.build_id,
+            "run": run,
+            "topic": topic,
+            "role": self.role,
+            "sender": self.sender,
+            "session": session or self.session,
+            "seq": seq,
+            "body": body,
+        }
         mac = hmac.new(key, canonical(fields), hashlib.sha256).hexdigest()
         return canonical(fields | {"mac": mac})
 

@@ -75,7 +75,13 @@ class SceneWorker:
         self.working = None
         self.previews.offer(produced.sample)
         outcome = sample_outcome(produced.sample)
-        return {"index": index, "attempt": produced.attempt, "failures": produced.failures, "published": True, "outcome": outcome}  # fmt: skip
+        return {
+            "index": index,
+            "attempt": produced.attempt,
+            "failures": produced.failures,
+            "published": True,
+            "outcome": outcome,
+        }
 
     @ray.method(concurrency_group="liveness")
     def ping(self) -> AttemptRecord | None:
@@ -160,7 +166,9 @@ class RayExecutor:
                 continue
             except RayTaskError as exc:
                 cause = exc.cause if exc.cause is not None else exc
-                events.append((worker_id, "error", f"worker {worker_id} failed at sample {index}: {cause}"))  # fmt: skip
+                events.append(
+                    (worker_id, "error", f"worker {worker_id} failed at sample {index}: {cause}")
+                )
                 continue
             if call == "produce":
                 events.extend((worker_id, kind, payload) for kind, payload in _produced(result))
@@ -182,7 +190,9 @@ class RayExecutor:
 
     def _pinged(self, worker_id: int, working: AttemptRecord | None) -> list[Event]:
         # the first answer comes once the constructor (the actor's start-up) is over
-        events: list[Event] = [(worker_id, "heartbeat" if worker_id in self.reported else "ready", None)]  # fmt: skip
+        events: list[Event] = [
+            (worker_id, "heartbeat" if worker_id in self.reported else "ready", None)
+        ]
         self.reported.setdefault(worker_id, (-1, -1))
         held = {i for w, call, i in self.pending.values() if w == worker_id and call == "produce"}
         if working is not None and working["index"] in held:
@@ -224,6 +234,8 @@ def _produced(result: ProducedRecord) -> list[WorkerMessage]:
     index, failures = result["index"], result["failures"]
     if not result["published"]:
         return [("failed", {"index": index, "failures": failures})]
-    retried: list[WorkerMessage] = [("retried", {"index": index, "attempt": result["attempt"], "failures": failures})]  # fmt: skip
-    outcome: list[WorkerMessage] = [("outcome", result["outcome"])] if result.get("outcome") else []  # fmt: skip
+    retried: list[WorkerMessage] = [
+        ("retried", {"index": index, "attempt": result["attempt"], "failures": failures})
+    ]
+    outcome: list[WorkerMessage] = [("outcome", result["outcome"])] if result.get("outcome") else []
     return [*outcome, *(retried if failures else []), ("published", index)]
