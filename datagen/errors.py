@@ -19,6 +19,10 @@ class OutDirError(UserInputError):
     """The output directory cannot be used as asked; the message says what was found there."""
 
 
+class DatasetError(ValueError):
+    """The directory is not a (valid) datagen dataset; the text says why, naming the file."""
+
+
 class BuildError(RuntimeError):
     """The build cannot finish; the message says what is missing and why."""
 

@@ -11,7 +11,8 @@ from pathlib import Path
 
 import pytest
 
-from datagen.registries import EXECUTORS, EXPORTS, FAMILIES, LAYOUTS, SAMPLERS, Registry, resolve
+from datagen.registries import EXECUTORS, EXPORTS, FAMILIES, LAYOUTS, SAMPLERS
+from datagen.registry import Registry, resolve
 
 REPO = Path(__file__).resolve().parents[1]
 MAX_MODULE_LINES = 400

@@ -22,7 +22,8 @@ from datagen.aerial.volumes import Volume, VolumeParams, make_volume, voxelise
 from datagen.config.aerial import AerialConfig
 from datagen.navigation.geodesic import lower_bound_grid, shortest_length
 from datagen.navigation.layouts import make_layout
-from datagen.registries import LAYOUTS, resolve
+from datagen.registries import LAYOUTS
+from datagen.registry import resolve
 from datagen.seeding import sample_rng
 
 ATTEMPTS = 8

@@ -24,7 +24,8 @@ from datagen.cli.monitor_commands import build_monitor
 from datagen.cli.progress import progress
 from datagen.config import BuildConfig, load_config
 from datagen.engines.transfer.broker_url import BROKER_URL_ENV, WORKER_BROKER_URL_ENV
-from datagen.registries import EXECUTORS, FAMILIES, choices
+from datagen.registries import EXECUTORS, FAMILIES
+from datagen.registry import choices
 
 _SAMPLES = {f.name: f for f in dataclasses.fields(BuildConfig)}["num_samples"].metadata
 NUM_SAMPLES = whole_number(_SAMPLES["min"], _SAMPLES["max"])

@@ -21,7 +21,8 @@ from datagen.cli.common import MAX_WORKERS, seed
 from datagen.config import config_from_dict
 from datagen.config.yaml_file import read_yaml
 from datagen.errors import UserInputError
-from datagen.registries import SAMPLERS, choices
+from datagen.registries import SAMPLERS
+from datagen.registry import choices
 
 
 def add_parsers(commands) -> None:

@@ -10,7 +10,8 @@ from pathlib import Path
 
 from datagen.cli.common import whole_number
 from datagen.errors import UserInputError
-from datagen.registries import EXPORTS, choices
+from datagen.registries import EXPORTS
+from datagen.registry import choices
 
 log = logging.getLogger(__name__)
 MAX_PREVIEW = 256  # samples in a preview grid

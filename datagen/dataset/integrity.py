@@ -18,7 +18,8 @@ from pathlib import Path
 from datagen.dataset.manifest import DatasetError, read_manifest
 from datagen.records import Manifest, ShardRecord
 from datagen.sample import sample_key
-from datagen.shards import MAX_MEMBER_BYTES, keys_sha256, read_shard, shards_by_writer
+from datagen.shard_members import MAX_MEMBER_BYTES
+from datagen.shards import keys_sha256, read_shard, shards_by_writer
 
 SHOWN = 10  # keys named per kind of problem; the count says how many there are
 MAX_KEYS_WITHOUT_DIGESTS = 10**7  # samples 0..N-1 checked by key when the manifest has no digests

@@ -30,7 +30,8 @@ from datagen.dataset.trajectory import decode_trajectory
 from datagen.images import ImageInputError, decode_image
 from datagen.records import SampleMetadata
 from datagen.safe_json import JsonInputError, loads_bounded
-from datagen.shards import member_key, open_regular, read_members
+from datagen.shard_members import open_regular, read_members
+from datagen.shards import member_key
 
 # part name -> item field, for the parts decoded as images (depth_sensor.png: the sensor
 # model's depth, rgb_clean.png: colour before the camera effects; only where the build made them)

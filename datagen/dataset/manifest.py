@@ -9,6 +9,7 @@ import unicodedata
 from pathlib import Path
 from typing import Any, cast
 
+from datagen.errors import DatasetError
 from datagen.records import Manifest
 from datagen.safe_json import JsonInputError, loads_bounded
 from datagen.sample import BUILD_ID_RULE, valid_build_id
@@ -17,7 +18,6 @@ from datagen.shards import (
     DATASET_FORMAT_NAME,
     DATASET_FORMAT_VERSION,
     MANIFEST,
-    DatasetError,
 )
 
 _FORMAT = re.compile(rf"^{re.escape(DATASET_FORMAT_NAME)}/(\d{{1,9}})$")

@@ -23,6 +23,14 @@ import yaml
 
 from datagen.dataset.loader import ShardDataset, load
 from datagen.dataset.manifest import DatasetError
+from datagen.exports.card_header import (
+    EXPORT_DATA_FILES,
+    EXPORT_TASKS,
+    LICENSE,
+    front_matter,
+    licence_text,
+    yaml_header,
+)
 from datagen.exports.card_text import code, fenced, text
 from datagen.exports.checks import strict_json
 from datagen.exports.croissant import (
@@ -35,21 +43,9 @@ from datagen.exports.croissant import (
 )
 from datagen.exports.files import inside, replace_file
 from datagen.records import ExportedDataset
-from datagen.registries import EXPORTS, FAMILIES, ROBOTS, ExportFormat
+from datagen.registries import EXPORTS, FAMILIES, ExportFormat
 
 CARD, CROISSANT = "README.md", "croissant.json"
-LICENSE = "other"  # no config key names one: the user states it before publishing
-SIZE_BUCKETS = (  # the Hub's size_categories, by upper bound of the sample count
-    (10**3, "n<1K"), (10**4, "1K<n<10K"), (10**5, "10K<n<100K"), (10**6, "100K<n<1M"),
-    (10**7, "1M<n<10M"), (10**8, "10M<n<100M"), (10**9, "100M<n<1B"), (10**10, "1B<n<10B"),
-    (10**11, "10B<n<100B"), (10**12, "100B<n<1T"),
-)  # fmt: skip
-# an image part -> the Hub task it serves (the metadata holds the boxes beside seg.png)
-TASKS = {
-    "seg.png": ("object-detection", "image-segmentation"),
-    "semantic.png": ("image-segmentation",),
-    "depth.png": ("depth-estimation",),
-}
 PARTS = {  # a part's last two name pieces -> what it holds
     "rgb.png": "colour image (8-bit RGB)",
     "rgb_clean.png": "colour image before the photometric camera effects",
@@ -62,17 +58,6 @@ PARTS = {  # a part's last two name pieces -> what it holds
     "map.png": "top-down map of the layout with the paths",
     "occupancy.png": "occupancy grid of the layout",
 }
-# export format -> (split, files) its folder's Hub config reads, where files match (else none)
-EXPORT_DATA_FILES = {
-    "coco": [("train", "images/*.png")],
-    "lerobot": [("train", "data/*/*.parquet")],
-    "yolo": [("train", "detect/images/train/*"), ("validation", "detect/images/val/*")],
-}
-EXPORT_TASKS = {"coco": ("object-detection", "image-segmentation"), "yolo": ("object-detection",), "bop": ("object-detection",)}  # fmt: skip
-
-
-def size_category(samples: int) -> str:
-    return next((name for bound, name in SIZE_BUCKETS if samples < bound), "n>1T")
 
 
 def _first_metadata(dataset: ExportedDataset) -> dict[str, Any]:
@@ -97,81 +82,6 @@ def _robot(described: str, manifest: dict[str, Any]) -> str:
         path = Path(described)
         return path.parent.name or path.stem
     return str(as_scalar(as_dict(manifest["config"].get("robot")).get("name")))
-
-
-def _licence_text(manifest: dict[str, Any], described: str) -> str:
-    """``described``: the robot description the samples name (their metadata's ``robot``)."""
-    config = manifest["config"]
-    objects, robot = as_dict(config.get("objects")), as_dict(config.get("robot"))
-    urdf = as_dict(robot.get("urdf"))
-    lines = [
-        "datagen does not choose a licence for the data it generates, so `license` is `other`: "
-        "set it in the front matter before publishing. What datagen can state:",
-        "",
-        "- the images, depth, masks and labels are rendered and computed by datagen; no "
-        "recorded data is in them;",
-    ]
-    if objects.get("source") == "folder":
-        lines.append(
-            "- the objects are meshes of the user's folder `objects.assets_dir` "
-            "(their licences apply to the renders);"
-        )
-    else:
-        lines.append("- the objects are procedural shapes made by datagen from the seed;")
-    if as_dict(config.get("background")).get("images_dir"):
-        lines.append("- background pictures come from the user's `background.images_dir`;")
-    if as_dict(config.get("materials")).get("textures_dir"):
-        lines.append("- surface textures come from the user's `materials.textures_dir`;")
-    photos = as_dict(as_dict(manifest.get("pictures")).get("photos"))
-    if photos.get("files"):
-        licences: dict[str, set[str]] = {}
-        for entry in photos["files"]:
-            if isinstance(entry, dict):
-                licences.setdefault(str(entry.get("source")), set()).add(str(entry.get("licence")))
-        shown = "; ".join(
-            f"{text(s)} ({text(', '.join(sorted(v)))})" for s, v in sorted(licences.items())
-        )
-        lines.append(
-            f"- pictures of datagen's picture library appear on surfaces and walls: {shown}; "
-            "the manifest's `pictures.photos.files` credits each file (docs/photo-library.md);"
-        )
-    name, family = robot.get("name"), FAMILIES.get(manifest["scene"])
-    if family and family.world == "tabletop" and urdf.get("file"):
-        lines.append("- the arm is rendered from the user's description (`robot.urdf.file`).")
-    elif family and family.world == "tabletop" and isinstance(name, str) and name in ROBOTS:
-        licence = ROBOTS[name].load().licence
-        lines.append(f"- the arm {code(name)} is rendered from its description ({licence}).")
-    elif described:
-        lines.append(f"- the robot is rendered from {code(described)} (its licence applies).")
-    return "\n".join(lines)
-
-
-def front_matter(
-    manifest: dict[str, Any], parts: list[str], robot: str, data_files: list[dict], tasks=()
-) -> dict[str, Any]:
-    """The card's YAML header (Hugging Face dataset-card keys; ``data_files``: the Hub's
-    ``{split, path}`` records of the default config)."""
-    scene = manifest["scene"]
-    found = ["robotics"]
-    for part in parts:
-        found += TASKS.get(".".join(part.split(".")[-2:]), ())
-    found += tasks
-    header: dict[str, Any] = {
-        "license": LICENSE,
-        "license_name": "user-defined",
-        "license_link": "README.md#licence",
-        "pretty_name": f"datagen {scene} {manifest['build_id']}".strip(),
-        "task_categories": list(dict.fromkeys(found)),
-        "size_categories": [size_category(manifest["num_samples"])],
-        "tags": [t for t in dict.fromkeys(["synthetic", "datagen", scene, robot]) if t],
-    }
-    if data_files:
-        header["configs"] = [{"config_name": "default", "data_files": data_files}]
-    return header
-
-
-def _header(doc: dict[str, Any]) -> str:
-    return "---\n" + yaml.safe_dump(doc, sort_keys=False, allow_unicode=True) + "---\n"
 
 
 # a statistic whose name alone would mislead -> what it counts
@@ -201,7 +111,12 @@ def _statistics(summary: dict[str, Any]) -> list[str]:
     return lines
 
 
-PREFIXES = {"frame<k>": "frame k", "f<k>": "frame k", "wrist": "wrist camera", "post": "after the hold"}  # fmt: skip
+PREFIXES = {
+    "frame<k>": "frame k",
+    "f<k>": "frame k",
+    "wrist": "wrist camera",
+    "post": "after the hold",
+}
 
 
 def _describe_part(kind: str) -> str:
@@ -249,33 +164,56 @@ def dataset_card(
     if (root / "preview.png").is_file():
         body += ["![samples with their annotations drawn](preview.png)", ""]
     body += [
-        "## Files", "",
+        "## Files",
+        "",
         f"- `shard-*.tar`: {len(shards)} WebDataset shard{'' if len(shards) == 1 else 's'} "
         f"({size:.1f} MiB); a sample is the "
-        "tar members `KEY.PART` of one key (9 digits). Its parts:", "",
-        "| part | holds |", "|---|---|",
+        "tar members `KEY.PART` of one key (9 digits). Its parts:",
+        "",
+        "| part | holds |",
+        "|---|---|",
         *(f"| `{kind}` | {_describe_part(kind)} |" for kind in part_kinds(parts)),
         "",
         "- `manifest.json`: how it was made, every shard's and sample's sha256;",
         f"- `{CROISSANT}`: the same files described in Croissant 1.0 (MLCommons) for catalogues "
-        "and `mlcroissant`.", "",
+        "and `mlcroissant`.",
+        "",
         "Load it with datagen (`datagen.load(DIR)`), with the `webdataset` "
-        "package, or with Hugging Face `datasets` (the `configs` above read the shards).", "",
-        "## Classes", "",
-        "The id is the value in `semantic.png` (and COCO's `category_id`).", "",
-        "| id | class |", "|---|---|", *(f"| {i} | {text(name)} |" for i, name in enumerate(classes)),
-        "", "## Statistics", "",
-        "Computed from the samples' metadata (as `datagen inspect` reports them).", "",
-        *_statistics(summary), "",
-        "## Exports", "", *_exports_section(root, manifest), "",
-        "## Licence", "", _licence_text(manifest, described), "",
-        "## How it was made", "",
+        "package, or with Hugging Face `datasets` (the `configs` above read the shards).",
+        "",
+        "## Classes",
+        "",
+        "The id is the value in `semantic.png` (and COCO's `category_id`).",
+        "",
+        "| id | class |",
+        "|---|---|",
+        *(f"| {i} | {text(name)} |" for i, name in enumerate(classes)),
+        "",
+        "## Statistics",
+        "",
+        "Computed from the samples' metadata (as `datagen inspect` reports them).",
+        "",
+        *_statistics(summary),
+        "",
+        "## Exports",
+        "",
+        *_exports_section(root, manifest),
+        "",
+        "## Licence",
+        "",
+        licence_text(manifest, described),
+        "",
+        "## How it was made",
+        "",
         f"`datagen build CONFIG --out DIR` with this config and seed {manifest['seed']} "
-        "makes the same samples again.", "",
-        *fenced(yaml.safe_dump(config, sort_keys=True).rstrip(), "yaml"), "",
-        "| software | version |", "|---|---|",
+        "makes the same samples again.",
+        "",
+        *fenced(yaml.safe_dump(config, sort_keys=True).rstrip(), "yaml"),
+        "",
+        "| software | version |",
+        "|---|---|",
         *(f"| {text(k)} | {text(v)} |" for k, v in manifest["versions"].items() if k != "platform"),
-    ]  # fmt: skip
+    ]
     return "\n".join(body) + "\n"
 
 
@@ -302,7 +240,7 @@ def write_dataset_card(root: str | Path, summary: dict[str, Any] | None = None) 
     described = _described(_first_metadata(dataset))
     robot = _robot(described, manifest)
     header = front_matter(manifest, parts, robot, [{"split": "train", "path": "shard-*.tar"}])
-    card = _header(header) + dataset_card(root, manifest, parts, described, summary or {})
+    card = yaml_header(header) + dataset_card(root, manifest, parts, described, summary or {})
     description = f"Synthetic {manifest['scene']} data made by datagen (seed {manifest['seed']})"
     doc = dataset_croissant(manifest, parts, _slug(header["pretty_name"]), description, LICENSE)
     return [
@@ -345,7 +283,7 @@ def write_export_card(folder: Path, fmt: ExportFormat, dataset: ExportedDataset)
     ]
     description = f"The {fmt.name} export of datagen build {manifest['build_id']}"
     doc = export_croissant(folder, manifest, _slug(header["pretty_name"]), description, LICENSE)
-    card = _header(header) + "\n".join(body) + "\n"
+    card = yaml_header(header) + "\n".join(body) + "\n"
     return [
         _write(folder, CARD, card),
         _write(folder, CROISSANT, strict_json(doc, CROISSANT, indent=1)),

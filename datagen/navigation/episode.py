@@ -27,7 +27,8 @@ from datagen.navigation.planning import (
     shortest_path_length_m,
     smooth_path,
 )
-from datagen.registries import LAYOUTS, resolve
+from datagen.registries import LAYOUTS
+from datagen.registry import resolve
 from datagen.seeding import sample_rng
 
 

@@ -12,7 +12,8 @@ from dataclasses import asdict, dataclass, field
 import numpy as np
 
 from datagen.navigation.grid import ClutterParams, Layout, Rect, add_clutter, fill, grid_to_rects
-from datagen.registries import LAYOUTS, resolve
+from datagen.registries import LAYOUTS
+from datagen.registry import resolve
 
 
 @dataclass

@@ -18,7 +18,6 @@ names the build, so an interrupted build (Ctrl-C, or the coordinator killed) con
 
 from __future__ import annotations
 
-import contextlib
 import logging
 import time
 from collections import deque
@@ -44,8 +43,6 @@ from datagen.pipeline.supervise import (
     MAX_RESTARTS,
     WRITER_READY_TIMEOUT_S,
     Supervisor,
-    unsigned_hint,
-    writer_ended,
 )
 from datagen.registries import EXECUTORS
 
@@ -115,9 +112,16 @@ class Coordinator:
         self.executor = EXECUTORS[self.executor_name].load()(spec, **self.executor_options)
         total = self.config.num_samples
         self.supervisor = Supervisor(
-            self.config, self.build_id, url, broker, self.writer, self.writer_ids,
-            self.observer, self.restarts, self._missing,
-        )  # fmt: skip
+            self.config,
+            self.build_id,
+            url,
+            broker,
+            self.writer,
+            self.writer_ids,
+            self.observer,
+            self.restarts,
+            self._missing,
+        )
         with (
             self.supervisor,
             AckCollector(
@@ -140,7 +144,7 @@ class Coordinator:
                     self.supervisor.start_writer()
                 # workers start up (imports, renderer) while the writers get ready
                 starting = [self._spawn_worker() for _ in range(min(self.num_workers, total))]
-                self._wait_writers_ready()
+                self.supervisor.wait_writers_ready(self.result.note_changed)
                 if self.external_writers is not None:
                     # writers started earlier re-announce what is durable; ours did before "ready"
                     try:
@@ -342,28 +346,6 @@ class Coordinator:
         self.workers.clear()
 
     # --- writers and the broker (restarts and reports: supervise.py) ---------------------------
-    def _wait_writers_ready(self) -> None:
-        for writer_id in self.writer_ids:
-            deadline = time.monotonic() + WRITER_READY_TIMEOUT_S
-            while True:
-                self.supervisor.check(writers=False)
-                if self.writer is not None and self.writer.exit_code is not None:
-                    raise BuildError(
-                        f"the dataset writer {writer_ended(self.writer)} before it was ready"
-                    )
-                with contextlib.suppress(TimeoutError):
-                    ready = self.collector.wait_status("ready", writer=writer_id, timeout_s=0.5)
-                    self.result.note_changed(ready)
-                    break
-                if time.monotonic() > deadline:
-                    raise BuildError(
-                        f"writer {writer_id!r} is not ready on the broker after "
-                        f"{WRITER_READY_TIMEOUT_S:.0f} s; start it with: datagen writer "
-                        f"--build-id {self.build_id} --writer-id {writer_id} --out DIR, with "
-                        f"$DATAGEN_BROKER_URL set to the broker's URL and $DATAGEN_BUILD_SECRET "
-                        f"to the secret in DIR/build.json" + unsigned_hint(self.collector.rejected)
-                    )
-
     def _stop_writer(self) -> None:
         if self.writer is None:
             return

@@ -20,7 +20,8 @@ from datagen.pipeline.coordinator import Coordinator
 from datagen.pipeline.out_dir import prepare_out_dir
 from datagen.pipeline.result import BuildResult, Observer, ProgressCallback
 from datagen.pipeline.worker import die_with_parent
-from datagen.registries import FAMILIES, resolve
+from datagen.registries import FAMILIES
+from datagen.registry import resolve
 from datagen.shards import MANIFEST, write_manifest
 
 

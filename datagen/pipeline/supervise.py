@@ -58,7 +58,7 @@ class Supervisor:
         restarts: dict[str, int],
         missing: Callable[[str], str],
     ):
-        self.limits = config.build
+        self.limits, self.build_id = config.build, build_id
         self.url, self.broker, self.writer, self.writer_ids = url, broker, writer, writer_ids
         self.observer, self.restarts, self.missing = observer, restarts, missing
         self.collector: AckCollector | None = None  # set once it is connected
@@ -140,6 +140,30 @@ class Supervisor:
         for silence in self.writer_silence.values():
             silence.since = max(silence.since, now)
             silence.grace = max(silence.grace, RECONNECT_S)
+
+    def wait_writers_ready(self, on_ready: Callable[[dict[str, Any]], None]) -> None:
+        """Waits for each writer's ``ready`` status (``on_ready`` gets it), our own writer's
+        exit and a silent writer each ending the build with what to do."""
+        assert self.collector is not None
+        for writer_id in self.writer_ids:
+            deadline = time.monotonic() + WRITER_READY_TIMEOUT_S
+            while True:
+                self.check(writers=False)
+                if self.writer is not None and self.writer.exit_code is not None:
+                    raise BuildError(
+                        f"the dataset writer {writer_ended(self.writer)} before it was ready"
+                    )
+                with contextlib.suppress(TimeoutError):
+                    on_ready(self.collector.wait_status("ready", writer=writer_id, timeout_s=0.5))
+                    break
+                if time.monotonic() > deadline:
+                    raise BuildError(
+                        f"writer {writer_id!r} is not ready on the broker after "
+                        f"{WRITER_READY_TIMEOUT_S:.0f} s; start it with: datagen writer "
+                        f"--build-id {self.build_id} --writer-id {writer_id} --out DIR, with "
+                        f"$DATAGEN_BROKER_URL set to the broker's URL and $DATAGEN_BUILD_SECRET "
+                        f"to the secret in DIR/build.json" + unsigned_hint(self.collector.rejected)
+                    )
 
     def start_writer(self) -> None:
         assert self.writer is not None

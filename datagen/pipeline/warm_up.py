@@ -29,7 +29,8 @@ import sapien
 from datagen.config import BuildConfig
 from datagen.engines.sim import path_tracing
 from datagen.engines.sim.render import keep_renderer_alive
-from datagen.registries import FAMILIES, resolve
+from datagen.registries import FAMILIES
+from datagen.registry import resolve
 
 log = logging.getLogger(__name__)
 BUILT_IN = "datagen."  # the module prefix of datagen's own families

@@ -24,13 +24,13 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TextIO
 
+from datagen.shard_members import scan_members
 from datagen.shards import (
     SHARD_RE,
     ShardInfo,
     fsync_dir,
     keys_of_members,
     read_shard,
-    scan_members,
     shards_by_writer,
 )
 from datagen.sinks.journal_lines import check_within_shards, journal_entries

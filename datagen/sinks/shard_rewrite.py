@@ -7,7 +7,8 @@ from __future__ import annotations
 import os
 from pathlib import Path
 
-from datagen.shards import ShardInfo, fsync_dir, member_key, read_shard, scan_members
+from datagen.shard_members import scan_members
+from datagen.shards import ShardInfo, fsync_dir, member_key, read_shard
 from datagen.sinks.tar_end import end_of_archive, zip_clear_padding
 
 

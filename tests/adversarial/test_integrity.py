@@ -30,7 +30,7 @@ from datagen.engines.transfer.topics import topics
 from datagen.engines.transfer.wire import SECRET_ENV, encode_sample
 from datagen.pipeline.run import run_build
 from datagen.sample import Sample
-from datagen.shards import scan_members
+from datagen.shard_members import scan_members
 
 pytestmark = [pytest.mark.adversarial]
 REPO = Path(__file__).resolve().parents[2]

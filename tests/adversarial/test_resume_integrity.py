@@ -20,7 +20,8 @@ from datagen.dataset.loader import load, verify
 from datagen.engines.transfer.collector import AckCollector
 from datagen.engines.transfer.publisher import SamplePublisher
 from datagen.engines.transfer.wire import SECRET_ENV
-from datagen.shards import MANIFEST, scan_members
+from datagen.shard_members import scan_members
+from datagen.shards import MANIFEST
 from datagen.sinks.journal import journal_path, recover
 from datagen.sinks.shard_writer import ShardWriter
 from datagen.sinks.writer import EXIT_FINALIZE_MISMATCH

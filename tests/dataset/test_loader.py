@@ -11,7 +11,8 @@ import pytest
 
 from datagen.dataset.loader import DatasetError, load, verify
 from datagen.sample import Sample
-from datagen.shards import file_sha256, keys_sha256, read_keys, scan_members
+from datagen.shard_members import scan_members
+from datagen.shards import file_sha256, keys_sha256, read_keys
 from datagen.sinks.finalize import (
     FinalizeError,
     combine,

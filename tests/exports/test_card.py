@@ -16,7 +16,7 @@ from pathlib import Path
 import pytest
 import yaml
 
-from datagen.exports.card import size_category
+from datagen.exports.card_header import size_category
 from datagen.exports.croissant import part_kinds
 
 pytestmark = pytest.mark.sim
