@@ -224,7 +224,8 @@ def test_ctrl_c_while_waiting_for_a_writer_hides_the_urls_in_the_resume_hint(
     assert "--worker-broker 'mqtt://worker-user:***@127.0.0.1:" in hint and "--resume" in hint
     forms = secret_forms([PASSWORD], SECRET)
     assert_nothing_leaks(run, out, forms, argv_ok=True)
-    assert [pid for pid, _ in run.processes.leaking(forms)] == [run.pid]  # the watcher sees argv
+    # the watcher does see the user's argv (other pids with it: children between fork and exec)
+    assert run.pid in {pid for pid, _ in run.processes.leaking(forms)}
 
 
 @pytest.mark.sim
