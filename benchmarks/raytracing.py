@@ -71,7 +71,7 @@ def picture(camera) -> None:
 def one_time_and_per_picture(repeats: int) -> dict:
     from datagen.engines.sim import path_tracing
 
-    _scene, camera = path_tracing.probe_scene()  # held while its camera renders
+    scene, camera = path_tracing.probe_scene()
     tiny = path_tracing.PathTracing(samples_per_pixel=1, path_depth=0)
     first = seconds(lambda: path_tracing.raytraced_rgb(camera, tiny))
     again = seconds(lambda: path_tracing.raytraced_rgb(camera, tiny))
@@ -80,6 +80,7 @@ def one_time_and_per_picture(repeats: int) -> dict:
         with path_tracing.traced_twin(camera, tiny) as twin:
             fresh.append(seconds(lambda twin=twin: picture(twin)))
             traced.append(seconds(lambda twin=twin: picture(twin)))
+    del scene  # held until its camera has rendered
     return {
         "first_picture_s": first,
         "second_picture_s": again,

@@ -6,9 +6,18 @@ import errno
 import os
 
 
-class UserInputError(ValueError):
+class DatagenError(Exception):
+    """Every error datagen reports to its user, the one class the CLI catches: the message says
+    what went wrong, naming the file, key or what is missing; ``exit_status`` is the CLI's."""
+
+    exit_status = 1
+
+
+class UserInputError(DatagenError, ValueError):
     """The user's input (a config, an option, a path) is wrong; the message says where and why.
     The CLI prints it on one line and exits with status 2, before anything starts."""
+
+    exit_status = 2
 
 
 class ConfigError(UserInputError):
@@ -19,11 +28,11 @@ class OutDirError(UserInputError):
     """The output directory cannot be used as asked; the message says what was found there."""
 
 
-class DatasetError(ValueError):
+class DatasetError(DatagenError, ValueError):
     """The directory is not a (valid) datagen dataset; the text says why, naming the file."""
 
 
-class BuildError(RuntimeError):
+class BuildError(DatagenError, RuntimeError):
     """The build cannot finish; the message says what is missing and why."""
 
 

@@ -307,6 +307,8 @@ class ExportedDataset(Protocol):
 
     def raw(self, i: int, parts: set[str] | None = None) -> dict[str, bytes]: ...
 
+    def part_names(self, i: int) -> list[str]: ...
+
 
 SampleProgress = Callable[[int, int], None]  # (samples done, samples in all)
 

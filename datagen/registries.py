@@ -1,5 +1,5 @@
-"""Every name a user can choose, in one place: scene families, grasp samplers, export formats,
-executors, navigation layouts and robots.
+"""Every name a user can choose, in one place: scene families, the metadata formats their
+samples are written in, grasp samplers, export formats, executors, navigation layouts and robots.
 
 Each table maps a name to a record whose code is referenced as ``"module:attribute"`` and
 imported only when used, so that reading a config (or a dataset) never imports the simulator.
@@ -7,7 +7,7 @@ Config validation, CLI choices and the code that runs a choice all ask these tab
 else lists the names. Adding a plug-in is one module plus one line here (docs/extending.md).
 
 Installed packages may add entries through entry points in the groups ``datagen.families``,
-``datagen.samplers``, ``datagen.exports``, ``datagen.executors``, ``datagen.layouts`` and
+``datagen.metadata_formats``, ``datagen.samplers``, ``datagen.exports``, ``datagen.executors``, ``datagen.layouts`` and
 ``datagen.robots``: an
 entry point's object is the record itself (for example a :class:`SceneFamily`). They are
 loaded the first time a table is read. A plug-in that cannot be used (its import fails, its
@@ -18,9 +18,11 @@ stays usable, and choosing its name is an error that says why it failed to load.
 
 from __future__ import annotations
 
+import importlib
 from dataclasses import dataclass
 from typing import Any
 
+from datagen.errors import DatasetError
 from datagen.records import ExportFunction
 from datagen.registry import Registry, resolve
 
@@ -34,7 +36,8 @@ class SceneFamily:
     produce: str  # (config, seed, index, attempt) -> datagen.sample.Sample
     classes: str  # (config) -> tuple of class names; a class's id is its position
     section: str | None = None  # the config section holding its own settings, if any
-    metadata_format: str = "datagen.sample/1"  # how its samples describe their views
+    # the metadata formats its samples are written in (METADATA_FORMATS)
+    metadata_formats: tuple[str, ...] = ("datagen.sample/1",)
     world: str | None = None  # the world its scenes are built in, for exports that need it
     finish: str | None = None  # (out_dir, made, seconds) -> dict merged into the manifest
     episodes: bool = False  # its samples are episodes over time (datagen.exports.episodes)
@@ -44,6 +47,48 @@ class SceneFamily:
 
     def class_names(self, config) -> tuple[str, ...]:
         return tuple(resolve(self.classes)(config))
+
+
+# what a metadata format's module defines (datagen/formats/__init__.py says what each does)
+FORMAT_FUNCTIONS = ("views", "summary", "distributions", "summary_fields", "tile", "episodes")
+
+
+@dataclass(frozen=True)
+class MetadataFormat:
+    """How the samples of one metadata format (``meta["format"]``) are read, summarised, drawn
+    and turned into episodes: ``module`` defines :data:`FORMAT_FUNCTIONS` (and may define
+    ``check`` and ``pictures``), imported on first use. Readers, tools and exports ask the
+    format of a sample's metadata; none of them names a family."""
+
+    name: str  # the value of meta["format"], with its version: "datagen.sample/1"
+    summary: str  # one line, shown in docs/extending.md
+    module: str  # "package.module"
+    noun: str = "samples"  # what one sample is called in inspect's plot titles
+
+    def function(self, name: str) -> Any:
+        """The module's ``name``; DatasetError naming the module where it defines none."""
+        if (found := self.optional(name)) is None:
+            raise DatasetError(
+                f"metadata format {self.name!r}: its module {self.module} defines no {name}()"
+            )
+        return found
+
+    def optional(self, name: str) -> Any:
+        """The module's ``name`` if it defines one as a function, else None."""
+        found = getattr(importlib.import_module(self.module), name, None)
+        return found if callable(found) else None
+
+
+def metadata_format(meta: Any, where: str) -> MetadataFormat:
+    """The format of a sample's metadata (``meta["format"]``); DatasetError naming ``where``
+    (the sample) and the formats known otherwise."""
+    name = meta.get("format") if isinstance(meta, dict) else None
+    if not isinstance(name, str) or name not in METADATA_FORMATS:
+        raise DatasetError(
+            f"{where}: unknown metadata format {repr(name)[:80]}; "
+            f"expected one of {METADATA_FORMATS.names()}"
+        )
+    return METADATA_FORMATS[name]
 
 
 @dataclass(frozen=True)
@@ -133,7 +178,7 @@ FAMILIES: Registry[SceneFamily] = Registry(
             produce="datagen.scenes.navigation_fleet:produce",
             classes="datagen.worlds.class_names:navigation_classes",
             section="navigation",
-            metadata_format="datagen.nav_episode/1",
+            metadata_formats=("datagen.nav_episode/1", "datagen.nav_fleet/1"),
             world="floorplan",
             episodes=True,
         ),
@@ -143,9 +188,39 @@ FAMILIES: Registry[SceneFamily] = Registry(
             produce="datagen.scenes.aerial_episodes:produce",
             classes="datagen.worlds.class_names:aerial_classes",
             section="aerial",
-            metadata_format="datagen.aerial_episode/1",
+            metadata_formats=("datagen.aerial_episode/1",),
             world="volume",
             episodes=True,
+        ),
+    ],
+)
+
+METADATA_FORMATS: Registry[MetadataFormat] = Registry(
+    "metadata format",
+    "datagen.metadata_formats",
+    [
+        MetadataFormat(
+            "datagen.sample/1",
+            "the cameras of one scene, each a labelled view; a grasp attempt's record and film",
+            "datagen.formats.frames",
+        ),
+        MetadataFormat(
+            "datagen.nav_episode/1",
+            "a ground robot's episode: its camera's frames over time, its path and map",
+            "datagen.formats.nav_episode",
+            noun="episodes",
+        ),
+        MetadataFormat(
+            "datagen.nav_fleet/1",
+            "ground robots sharing a floor plan: each robot's camera over time",
+            "datagen.formats.nav_fleet",
+            noun="episodes",
+        ),
+        MetadataFormat(
+            "datagen.aerial_episode/1",
+            "quadrotors flying one volume: each drone's cameras over time, flow, IMU and poses",
+            "datagen.formats.aerial_episode",
+            noun="episodes",
         ),
     ],
 )

@@ -4,6 +4,8 @@ cycles are import-linter's contracts in pyproject.toml, run by scripts/test.sh.)
 
 from __future__ import annotations
 
+import ast
+import re
 import subprocess
 import sys
 from importlib import metadata
@@ -11,7 +13,15 @@ from pathlib import Path
 
 import pytest
 
-from datagen.registries import EXECUTORS, EXPORTS, FAMILIES, LAYOUTS, SAMPLERS
+from datagen.registries import (
+    EXECUTORS,
+    EXPORTS,
+    FAMILIES,
+    FORMAT_FUNCTIONS,
+    LAYOUTS,
+    METADATA_FORMATS,
+    SAMPLERS,
+)
 from datagen.registry import Registry, resolve
 
 REPO = Path(__file__).resolve().parents[1]
@@ -39,6 +49,18 @@ def test_no_module_shadows_a_standard_or_installed_module():
         if p.stem in taken and p.stem not in ("__init__", "__main__")
     ]
     assert not shadowing, f"rename these modules: {shadowing}"
+
+
+def test_no_module_imports_another_modules_private_names():
+    offenders = [
+        f"{path.relative_to(REPO)}:{node.lineno} {alias.name} from {node.module}"
+        for path in package_modules()
+        for node in ast.walk(ast.parse(path.read_text()))
+        if isinstance(node, ast.ImportFrom) and (node.module or "").startswith("datagen")
+        for alias in node.names
+        if alias.name.startswith("_") and not alias.name.startswith("__")
+    ]
+    assert not offenders, offenders
 
 
 def test_no_tracked_file_names_a_path_outside_the_repository():
@@ -81,6 +103,29 @@ def test_every_registry_entry_loads():
         assert callable(plugin.load())
     for layout in LAYOUTS.values():
         assert callable(resolve(layout.make)) and callable(resolve(layout.params))
+    for fmt in METADATA_FORMATS.values():
+        assert all(callable(fmt.function(name)) for name in FORMAT_FUNCTIONS), fmt.name
+
+
+def test_every_family_writes_registered_metadata_formats():
+    for family in FAMILIES.values():
+        assert family.metadata_formats, family.name
+        assert set(family.metadata_formats) <= set(METADATA_FORMATS), family.name
+
+
+def test_the_layer_table_of_the_docs_is_the_one_lint_imports_checks():
+    import tomllib
+
+    contracts = tomllib.loads((REPO / "pyproject.toml").read_text())["tool"]["importlinter"]
+    layers = next(c["layers"] for c in contracts["contracts"] if c["type"] == "layers")
+    expected = [
+        sorted(p.strip().removeprefix("datagen.") for p in row.split("|")) for row in layers
+    ]
+    doc = (REPO / "docs" / "architecture.md").read_text()
+    rows = re.findall(r"^\| (\d+) \| (.+?) \| .*\|$", doc, re.M)
+    table = [sorted(re.findall(r"`([\w.]+)`", packages)) for _, packages in rows]
+    assert [int(n) for n, _ in rows] == list(range(1, len(rows) + 1))
+    assert table == expected
 
 
 def test_the_command_line_starts_without_the_geometry_or_the_simulator():
@@ -89,3 +134,23 @@ def test_the_command_line_starts_without_the_geometry_or_the_simulator():
     code = f"import sys, datagen.cli; print([m for m in {heavy!r} if m in sys.modules])"
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     assert out.stdout.strip() == "[]", out.stdout
+
+
+def test_every_error_the_command_line_reports_is_one_datagen_error():
+    from datagen.engines.transfer.connection import MqttConnectError
+    from datagen.engines.transfer.mosquitto import BrokerError
+    from datagen.errors import (
+        BuildError,
+        ConfigError,
+        DatagenError,
+        DatasetError,
+        OutDirError,
+        UserInputError,
+    )
+
+    reported = (ConfigError, OutDirError, UserInputError, DatasetError, BuildError, BrokerError)
+    assert all(issubclass(kind, DatagenError) for kind in (*reported, MqttConnectError))
+    assert {kind.exit_status for kind in (ConfigError, OutDirError, UserInputError)} == {2}
+    assert {kind.exit_status for kind in (DatasetError, BuildError, BrokerError)} == {1}
+    cli = (REPO / "datagen" / "cli" / "__init__.py").read_text()
+    assert "except DatagenError as exc:" in cli and "except (BuildError" not in cli

@@ -172,3 +172,87 @@ def test_the_example_sampler_grasps_a_box_from_above():
     candidate = result.candidate
     assert candidate is not None and candidate.width == pytest.approx(0.05)
     assert np.allclose(candidate.approach, [0, 0, -1]) and np.allclose(candidate.closing, [1, 0, 0])
+
+
+# run with the plug-ins on the path: datagen's own loader, views and episodes on the dataset
+READ_ROLLS = """
+import json, sys
+from datagen.dataset.loader import load
+from datagen.dataset.views import is_sequence, labelled_views
+from datagen.exports.episodes import episodes
+dataset = load(sys.argv[1])
+item = dataset[0]
+views = labelled_views(item["meta"])
+print(json.dumps({
+    "frames": [sorted(f) for f in item["frames"]],
+    "views": [v.name for v in views], "sequence": is_sequence(views),
+    "things": [len(v.instances) for v in views],
+    "episodes": [(i, e.key, e.length, e.fps) for i, e in episodes(dataset, dataset.manifest)],
+}))
+"""
+READ_LEROBOT = """
+import json, sys
+from lerobot.datasets.lerobot_dataset import LeRobotDataset
+ds = LeRobotDataset("example/rolls", root=sys.argv[1], video_backend="pyav")
+frame = ds[ds.num_frames - 1]
+print(json.dumps({
+    "episodes": ds.num_episodes, "frames": ds.num_frames, "fps": ds.fps,
+    "robot_type": ds.meta.robot_type, "cameras": list(ds.meta.camera_keys),
+    "state": frame["observation.state"].tolist(), "task": frame["task"],
+}))
+"""
+
+
+@pytest.mark.sim
+@pytest.mark.mqtt
+@pytest.mark.slow
+def test_a_plugin_family_with_its_own_metadata_format_gets_every_reader_tool_and_export(
+    tmp_path, readers_python
+):
+    """docs/extending.md's walk, as printed: example_rolls writes episodes in a format of its own
+    (tests/plugins/example_roll_format.py, one entry point); the loader, the views, inspect,
+    preview, the card, COCO and the LeRobot export read them through that module alone."""
+    doc = (REPO / "docs" / "extending.md").read_text()
+    walk = doc.split("<!-- snippet: tested by tests/test_extending.py -->\n```bash\n")[1]
+    path = f"{Path(sys.executable).parent}{os.pathsep}{os.environ['PATH']}"
+    ran = subprocess.run(
+        ["bash", "-euo", "pipefail", "-c", walk.split("```")[0]],
+        capture_output=True, text=True, cwd=tmp_path, timeout=600, check=False,
+        env=os.environ | {"PYTHONPATH": str(PLUGINS), "PATH": path},
+    )  # fmt: skip
+    assert ran.returncode == 0, ran.stderr[-3000:]
+    out = tmp_path / "datasets" / "rolls"
+    assert (out / "preview.png").is_file()  # drawn by the format's tile
+    card = (out / "README.md").read_text()
+    assert "mean_roll_m" in card or "mean roll m" in card, card[:3000]  # the format's summary
+
+    read = subprocess.run(
+        [sys.executable, "-c", READ_ROLLS, str(out)],
+        capture_output=True, text=True, cwd=REPO, timeout=300, check=False,
+        env=os.environ | {"PYTHONPATH": str(PLUGINS)},
+    )  # fmt: skip
+    assert read.returncode == 0, read.stderr[-3000:]
+    found = json.loads(read.stdout.strip().splitlines()[-1])
+    assert found["frames"] == [["depth", "meta", "rgb", "seg", "semantic"]] * 6
+    assert found["views"] == [f"f{k:04d}" for k in range(6)] and found["sequence"]
+    assert found["things"][0] == 1  # the ball, seen from above
+    assert [e[:3] for e in found["episodes"]] == [[i, f"{i:09d}", 6] for i in range(3)]
+
+    summary = json.loads((out / "inspect" / "summary.json").read_text())
+    assert summary["episodes"] == 3 and summary["frames"] == 18 and summary["mean_roll_m"] > 0
+    assert (out / "inspect" / "overview.png").is_file()
+    assert (out / "inspect" / "distributions.png").is_file()
+
+    coco = json.loads((out / "coco" / "annotations.json").read_text())
+    assert len(coco["images"]) == 18 and {c["name"] for c in coco["categories"]} == {"ball"}
+    lerobot = subprocess.run(
+        [str(readers_python), "-c", READ_LEROBOT, str(out / "lerobot")],
+        capture_output=True, text=True, cwd=tmp_path, timeout=300, check=False,
+        env=os.environ | {"HF_HUB_OFFLINE": "1", "HF_DATASETS_OFFLINE": "1", "HF_HOME": str(tmp_path / "hf")},
+    )  # fmt: skip
+    assert lerobot.returncode == 0, lerobot.stderr[-3000:]
+    got = json.loads(lerobot.stdout.strip().splitlines()[-1])
+    assert got["episodes"] == 3 and got["frames"] == 18 and got["fps"] == 10
+    assert got["robot_type"] == "ball" and got["cameras"] == ["observation.images.top"]
+    last = load(out).metadata(2)["frames"][-1]["ball_xy"]
+    assert np.allclose(got["state"], last, atol=1e-5) and got["task"] == "roll the ball"

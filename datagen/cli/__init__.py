@@ -23,7 +23,7 @@ from datagen.cli import (
     service_commands,
     train_commands,
 )
-from datagen.cli.common import EXIT_INTERRUPTED, EXIT_USER_ERROR, one_line
+from datagen.cli.common import EXIT_INTERRUPTED, one_line
 from datagen.errors import ConfigError, UserInputError
 
 COMMAND_MODULES = (
@@ -109,22 +109,13 @@ def main(argv: list[str] | None = None) -> int:
         level=logging.INFO if args.verbose else logging.WARNING,
         format="%(levelname)s %(name)s: %(message)s",
     )
-    from datagen.dataset.loader import DatasetError
-    from datagen.engines.transfer.connection import MqttConnectError
-    from datagen.engines.transfer.mosquitto import BrokerError
-    from datagen.errors import BuildError, disk_full_message, is_disk_full
+    from datagen.errors import DatagenError, disk_full_message, is_disk_full
 
     try:
         return args.run(args)
-    except ConfigError as exc:
-        print(f"datagen: config error: {one_line(str(exc))}", file=sys.stderr)
-        return EXIT_USER_ERROR
-    except UserInputError as exc:  # an option, --out, a dataset directory: before anything starts
-        print(f"datagen {args.command}: error: {one_line(str(exc))}", file=sys.stderr)
-        return EXIT_USER_ERROR
-    except (BuildError, BrokerError, MqttConnectError, DatasetError) as exc:
-        print(f"datagen: {args.command} failed: {exc}{_resume_hint(args)}", file=sys.stderr)
-        return 1
+    except DatagenError as exc:
+        print(_reported(args, exc), file=sys.stderr)
+        return exc.exit_status
     except OSError as exc:
         if not is_disk_full(exc):
             raise
@@ -140,6 +131,16 @@ def main(argv: list[str] | None = None) -> int:
             file=sys.stderr,
         )
         return EXIT_INTERRUPTED
+
+
+def _reported(args: argparse.Namespace, exc: Exception) -> str:
+    """What the CLI prints of a datagen error: a user's input on one line (nothing has started),
+    else what failed, with the command that finishes a started build."""
+    if isinstance(exc, ConfigError):
+        return f"datagen: config error: {one_line(str(exc))}"
+    if isinstance(exc, UserInputError):  # an option, --out, a dataset directory
+        return f"datagen {args.command}: error: {one_line(str(exc))}"
+    return f"datagen: {args.command} failed: {exc}{_resume_hint(args)}"
 
 
 def _resume_hint(args: argparse.Namespace) -> str:

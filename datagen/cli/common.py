@@ -1,11 +1,11 @@
-"""What every command shares: argument types and exit codes."""
+"""What every command shares: argument types and exit codes (a datagen error's own: its
+``exit_status``, ``datagen.errors``)."""
 
 from __future__ import annotations
 
 import argparse
 import os
 
-EXIT_USER_ERROR = 2
 EXIT_INTERRUPTED = 130
 
 

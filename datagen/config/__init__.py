@@ -45,7 +45,7 @@ from datagen.config.sections import (
     PhysicsConfig,
     RenderConfig,
     TransferConfig,
-    _range,
+    ranged,
 )
 from datagen.config.shading import check_shader
 from datagen.config.values import fits, shape, show, show_key
@@ -60,8 +60,8 @@ CONFIG_VERSION = 1
 class BuildConfig:
     version: int = CONFIG_VERSION
     scene: str = "grasp_tabletop"
-    num_samples: int = field(default=100, metadata=_range(1, 10**9 - 1, "samples"))
-    seed: int = field(default=0, metadata=_range(0, 2**63 - 1, "build seed"))
+    num_samples: int = field(default=100, metadata=ranged(1, 10**9 - 1, "samples"))
+    seed: int = field(default=0, metadata=ranged(0, 2**63 - 1, "build seed"))
     render: RenderConfig = field(default_factory=RenderConfig)
     objects: ObjectsConfig = field(default_factory=ObjectsConfig)
     materials: MaterialsConfig = field(default_factory=MaterialsConfig)

@@ -10,7 +10,7 @@ from pathlib import Path
 import numpy as np
 
 from datagen.assets.tabletop_layout import Workspace
-from datagen.config.sections import _range
+from datagen.config.sections import ranged
 from datagen.errors import ConfigError
 from datagen.registries import ROBOTS
 from datagen.robot_specs import GripperSpec, RobotSpec
@@ -25,7 +25,7 @@ class UrdfRobotConfig:
     finger_joints: tuple[str, ...] = ()  # the two prismatic finger joints (metres each)
     tcp_link: str = ""  # midway between the finger pads, z pointing out of the hand
     finger_travel: tuple[float, float] = field(
-        default=(0.0, 0.04), metadata=_range(0.0, 0.5, "metres each finger moves, closed..open")
+        default=(0.0, 0.04), metadata=ranged(0.0, 0.5, "metres each finger moves, closed..open")
     )
     ready_pose: tuple[float, ...] = ()  # radians per arm joint; () = each joint's mid-range
     srdf: str = ""  # collision pairs the planner may skip; "" = generated once and cached
@@ -41,16 +41,16 @@ class LookConfig:
 
     height: tuple[float, float] = field(
         default=(0.28, 0.38),
-        metadata=_range(0.05, 1.0, "wrist camera above the tray floor, metres"),
+        metadata=ranged(0.05, 1.0, "wrist camera above the tray floor, metres"),
     )
     offset: float = field(
-        default=0.04, metadata=_range(0.0, 0.2, "look-at point from the tray centre, metres/axis")
+        default=0.04, metadata=ranged(0.0, 0.2, "look-at point from the tray centre, metres/axis")
     )
     tilt_deg: tuple[float, float] = field(
-        default=(0.0, 15.0), metadata=_range(0.0, 45.0, "view direction from straight down")
+        default=(0.0, 15.0), metadata=ranged(0.0, 45.0, "view direction from straight down")
     )
     roll_deg: tuple[float, float] = field(
-        default=(-20.0, 20.0), metadata=_range(-180.0, 180.0, "image up from away-from-the-base")
+        default=(-20.0, 20.0), metadata=ranged(-180.0, 180.0, "image up from away-from-the-base")
     )
 
 
@@ -59,7 +59,7 @@ class RobotConfig:
     name: str = "panda"
     pose: str = "look"  # look: wrist camera over the tray (robot.look); ready: the ready pose
     joint_jitter: float = field(
-        default=0.15, metadata=_range(0.0, 1.0, "radians around the ready pose, per arm joint")
+        default=0.15, metadata=ranged(0.0, 1.0, "radians around the ready pose, per arm joint")
     )
     look: LookConfig = field(default_factory=LookConfig)
     urdf: UrdfRobotConfig = field(default_factory=UrdfRobotConfig)

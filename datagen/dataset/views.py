@@ -1,6 +1,7 @@
 """The labelled camera views inside a sample, whatever its scene family: the stored metadata's
-``format`` says how the sample describes its views, and :func:`labelled_views` turns either
-shape into one list of :class:`LabelledView`.
+``format`` (``datagen.formats``) says how the sample describes its views, and
+:func:`labelled_views` turns each shape into one list of :class:`LabelledView`. The shapes the
+built-in formats use:
 
 ``datagen.sample/1``: one view per camera in ``views`` (the workspace camera's images are the
 unprefixed parts, another camera's are prefixed by its name: ``view1.rgb.png``, ``wrist.rgb.png``;
@@ -15,11 +16,11 @@ one view per frame and camera (parts ``f0003.d0.rgb.png``, ...), camera by camer
 
 from __future__ import annotations
 
-from collections.abc import Callable, Iterator
+from collections.abc import Iterator
 from dataclasses import dataclass
 
-from datagen.dataset.loader import DatasetError
 from datagen.records import CameraRecord, FrameRecord, LabelledInstance, SampleMetadata, ViewRecord
+from datagen.registries import metadata_format
 
 # Classes that are surfaces, not countable instances: left out of instance annotations. The
 # robot's arm and gripper are instances (a sample view's ``robot_parts``).
@@ -92,24 +93,11 @@ def camera_sequence_views(meta: SampleMetadata) -> Iterator[LabelledView]:
             )
 
 
-# metadata format -> its views; a new format is one reader here
-VIEW_READERS: dict[str, Callable[[SampleMetadata], Iterator[LabelledView]]] = {
-    "datagen.sample/1": camera_views,
-    "datagen.nav_episode/1": sequence_views,
-    "datagen.aerial_episode/1": camera_sequence_views,
-    "datagen.nav_fleet/1": camera_sequence_views,
-}
-
-
 def labelled_views(meta: SampleMetadata) -> list[LabelledView]:
-    """Every labelled view of one sample, from its stored metadata (``meta["format"]``)."""
-    reader = VIEW_READERS.get(meta.get("format"))
-    if reader is None:
-        raise DatasetError(
-            f"sample {meta.get('key')}: unknown metadata format {meta.get('format')!r}; "
-            f"expected one of {list(VIEW_READERS)}"
-        )
-    return list(reader(meta))
+    """Every labelled view of one sample, read by its metadata format's ``views``
+    (``datagen.formats``; DatasetError for a format not registered)."""
+    views = metadata_format(meta, f"sample {meta.get('key')}").function("views")
+    return list(views(meta))
 
 
 def sequences(views: list[LabelledView]) -> dict[str, list[LabelledView]]:

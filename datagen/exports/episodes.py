@@ -28,24 +28,24 @@ it, per camera. Which samples hold one, and how they map:
   with; the final frame off the rate's grid is left out.
 
 Anything else (frames-only scenes) holds none: :func:`require_episodes` says so in one line.
+Each sample's metadata format (``datagen.formats``) finds its episodes; what the ground robots'
+formats share is here.
 """
 
 from __future__ import annotations
 
 import math
-from collections.abc import Iterator
+from collections.abc import Iterator, Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
 
 from datagen.dataset.loader import DatasetError, decode_parts
-from datagen.dataset.trajectory import decode_trajectory
 from datagen.dataset.values import BadSample, shown
-from datagen.dataset.views import labelled_views
 from datagen.exports.checks import finite_in_float32, finite_rate, sample_metadata
 from datagen.records import ExportedDataset, Manifest
-from datagen.registries import FAMILIES
+from datagen.registries import FAMILIES, metadata_format
 
 GRID_TOLERANCE_S = 1e-6  # a frame's time within this of t / fps is on the rate's grid
 MAX_STEPS_PER_FRAME = 10_000  # control steps between two frames: the config's 100 Hz / 0.01 Hz
@@ -138,21 +138,8 @@ def episodes_of(dataset: ExportedDataset, manifest: Manifest, i: int) -> list[Ep
 
 def _episodes_of(dataset: ExportedDataset, manifest: Manifest, i: int) -> list[Episode]:
     meta = sample_metadata(dataset, i)
-    if meta.get("format") == "datagen.nav_episode/1":
-        return [_navigation(meta, float(manifest["config"]["navigation"]["frame_rate_hz"]))]
-    if meta.get("format") == "datagen.nav_fleet/1":
-        fps = float(manifest["config"]["navigation"]["frame_rate_hz"])
-        return [_ground_agent(meta, fps, k) for k in range(len(meta["episode"]["agents"]))]
-    if meta.get("format") == "datagen.aerial_episode/1":
-        fps = float(manifest["config"]["aerial"]["frame_rate_hz"])
-        return [_aerial(meta, fps, k) for k in range(len(meta["episode"]["agents"]))]
-    if isinstance(meta.get("attempt"), dict):
-        names = set(dataset.part_names(i))
-        if "trajectory.npz" not in names:
-            return []
-        raw = dataset.raw(i, {"trajectory.npz"})
-        return [_grasp(meta, decode_trajectory(raw["trajectory.npz"]), names)]
-    return []
+    episodes_in = metadata_format(meta, f"sample {dataset.keys[i]}").function("episodes")
+    return episodes_in(meta, dataset, i, manifest)
 
 
 def frames_of(raw: dict[str, bytes], parts: list[str]) -> np.ndarray:
@@ -164,61 +151,11 @@ def frames_of(raw: dict[str, bytes], parts: list[str]) -> np.ndarray:
     return np.stack(decoded)
 
 
-def _words(name: str) -> str:
+def words(name: str) -> str:
     return name.replace("_", " ")
 
 
-def _grasp(meta: dict[str, Any], traj: dict[str, Any], part_names: set[str]) -> Episode:
-    names, key = traj["names"], meta["key"]
-    timestep = float(names["timestep"])
-    row_every, frame_every = int(names["row_every_steps"]), int(names["frame_every_steps"] or 0)
-    steps = traj["step"]
-    if len(traj["frame_step"]):
-        if frame_every % row_every:
-            raise DatasetError(
-                f"sample {key}: frames every {frame_every} physics steps do not fall on the "
-                f"state rows (every {row_every}): build with campaign.frame_hz equal to "
-                f"campaign.record_hz (or a divisor of it)"
-            )
-        rows = np.searchsorted(steps, traj["frame_step"])
-        fps = 1.0 / (frame_every * timestep)
-        cameras = {"workspace": [f"frame{k}.rgb.png" for k in range(len(rows))]}
-        wrist = [f"frame{k}.wrist.rgb.png" for k in range(len(rows))]
-        if all(p in part_names for p in wrist):
-            cameras["wrist"] = wrist
-    else:
-        rows = np.flatnonzero(steps % row_every == 0)  # the last row, after the hold, is off it
-        fps, cameras = 1.0 / (row_every * timestep), {}
-    attempt = meta["attempt"]
-    return Episode(
-        key=key,
-        kind="grasp",
-        task=f"pick up the {_words(attempt['target']['class'])}",
-        fps=fps,
-        state=traj["qpos"][rows].astype(np.float32),
-        state_names=list(names["joint_names"]),
-        action=traj["action"][rows].astype(np.float32),
-        action_names=list(names["action_names"]),
-        success=bool(attempt["outcome"]["success"]),
-        cameras=cameras,
-        extras={
-            "gripper_opening": traj["gripper_opening"][rows, None],  # m
-            "tcp_pose": traj["tcp_pose"][rows],  # world xyz m, quaternion wxyz
-            "target_pose": traj["target_pose"][rows],
-            "qvel": traj["qvel"][rows],
-            "phase": traj["phase"][rows, None].astype(np.int64),
-        },
-        extra_names={
-            "gripper_opening": ["opening_m"],
-            "tcp_pose": ["x", "y", "z", "qw", "qx", "qy", "qz"],
-            "target_pose": ["x", "y", "z", "qw", "qx", "qy", "qz"],
-            "qvel": list(names["joint_names"]),
-            "phase": ["phase"],
-        },
-    )
-
-
-def _on_grid(records: list[dict[str, Any]], fps: float) -> list[int]:
+def on_grid(records: Sequence[Mapping[str, Any]], fps: float) -> list[int]:
     """Indices of the records whose time is on the ``fps`` grid (frame n at n / fps)."""
     return [
         n
@@ -237,29 +174,34 @@ def held_commands(commands: np.ndarray, first: int, count: int) -> np.ndarray:
     return held
 
 
-def _frame_actions(
-    trajectory: dict[str, Any], records: list[dict[str, Any]], fps: float, delay: float, where: str
+def frame_actions(
+    trajectory: Mapping[str, Any],
+    records: Sequence[Mapping[str, Any]],
+    fps: float,
+    delay: float,
+    where: str,
 ) -> np.ndarray:
     """(T, 2k) float32: per frame, the k commands that take it to the next frame on the ``fps``
     grid (the trajectory's commands from the frame's step on, the robot waiting ``delay``
     seconds at its start first); ``where``: the trajectory's key, for messages."""
-    dt = trajectory.get("dt")
-    per_frame = 1.0 / (fps * dt) if isinstance(dt, int | float) and dt > 0 else math.nan
+    stored = trajectory.get("dt")
+    dt = float(stored) if isinstance(stored, int | float) and stored > 0 else math.nan
+    per_frame = 1.0 / (fps * dt)
     every = round(per_frame) if 1 <= per_frame <= MAX_STEPS_PER_FRAME else 0
     if not every or abs(every - per_frame) > 1e-6 * every:
         raise BadSample(
             f"{where}.dt: frames at {fps:g} Hz fall every "
-            f"{per_frame:g} control steps of {shown(dt)} s; expected a whole number from 1 to "
+            f"{per_frame:g} control steps of {shown(stored)} s; expected a whole number from 1 to "
             f"{MAX_STEPS_PER_FRAME} (navigation.frame_rate_hz dividing control_rate_hz)"
         )
-    commands = _commands(trajectory.get("commands"), where)
+    commands = commands_of(trajectory.get("commands"), where)
     waited = round(delay / dt)
     return np.stack(
         [held_commands(commands, int(r["step"]) - waited, every).ravel() for r in records]
     ).astype(np.float32)
 
 
-def _commands(value: Any, where: str) -> np.ndarray:
+def commands_of(value: Any, where: str) -> np.ndarray:
     """(S, 2) float: a stored trajectory's commands."""
     try:
         commands = np.asarray(value if value else np.zeros((0, 2)), float)
@@ -270,11 +212,11 @@ def _commands(value: Any, where: str) -> np.ndarray:
     return commands
 
 
-def _ground(
-    meta: dict[str, Any],
+def ground_episode(
+    meta: Mapping[str, Any],
     fps: float,
     key: str,
-    states: list[dict[str, Any]],
+    states: Sequence[Mapping[str, Any]],
     success: bool,
     prefixes: list[str],
     action: np.ndarray,
@@ -286,7 +228,7 @@ def _ground(
     return Episode(
         key=key,
         kind="navigation",
-        task=f"drive to the goal through the {_words(meta['family'])}",
+        task=f"drive to the goal through the {words(meta['family'])}",
         robot=str(meta["robot"].get("name", "")),
         fps=fps,
         state=np.array([s["pose"] for s in states], np.float32),
@@ -307,82 +249,4 @@ def _ground(
             "distance_to_goal": ["metres"],
             "collision": ["collision"],
         },
-    )
-
-
-def _navigation(meta: dict[str, Any], fps: float) -> Episode:
-    views = labelled_views(meta)
-    views = [views[n] for n in _on_grid([v.record for v in views], fps)]
-    records = [v.record for v in views]
-    trajectory = meta["episode"]["trajectory"]
-    action = _frame_actions(trajectory, records, fps, 0.0, "episode.trajectory")
-    return _ground(
-        meta,
-        fps,
-        meta["key"],
-        records,
-        bool(meta["episode"]["success"]),
-        [v.prefix for v in views],
-        action,
-    )
-
-
-def _aerial(meta: dict[str, Any], fps: float, k: int) -> Episode:
-    records = [meta["frames"][n] for n in _on_grid(meta["frames"], fps)]
-    states = [r["agents"][k] for r in records]
-    # by role, not by drone: every drone's episode has the same features
-    roles = {
-        c.removeprefix(f"d{k}").lstrip("_") or "forward": c
-        for c, record in meta["cameras"].items()
-        if record["drone"] == k
-    }
-    frames = [f"f{r['frame']:04d}" for r in records]
-    agent = meta["episode"]["agents"][k]
-    return Episode(
-        key=f"{meta['key']}.d{k}",
-        kind="aerial",
-        task=f"fly to the goal through the {_words(meta['family'])}",
-        fps=fps,
-        state=np.array(
-            [[*s["position"], *s["quaternion_xyzw"], *s["velocity"]] for s in states], np.float32
-        ),
-        state_names=["x", "y", "z", "qx", "qy", "qz", "qw", "vx", "vy", "vz"],
-        action=np.array([[s["thrust"], *s["body_rates"]] for s in states], np.float32),
-        action_names=["thrust_m_s2", "roll_rate_rad_s", "pitch_rate_rad_s", "yaw_rate_rad_s"],
-        success=bool(agent["success"]),
-        cameras={role: [f"{f}.{c}.rgb.png" for f in frames] for role, c in sorted(roles.items())},
-        depth={role: [f"{f}.{c}.depth.png" for f in frames] for role, c in sorted(roles.items())},
-        extras={
-            "goal_in_body": np.array([s["goal_in_body"] for s in states], np.float32),
-            "distance_to_goal": np.array([[s["distance_to_goal"]] for s in states], np.float32),
-            "imu": np.array(
-                [[*s["imu"]["accelerometer"], *s["imu"]["gyroscope"]] for s in states], np.float32
-            ),
-            "obstacle_gap": np.array([[s["obstacle_gap"]] for s in states], np.float32),
-            "collision": np.array([[s["collision"]] for s in states], np.bool_),
-        },
-        extra_names={
-            "goal_in_body": ["x_m", "y_m", "z_m"],
-            "distance_to_goal": ["metres"],
-            "imu": ["ax_m_s2", "ay_m_s2", "az_m_s2", "wx_rad_s", "wy_rad_s", "wz_rad_s"],
-            "obstacle_gap": ["metres"],
-            "collision": ["collision"],
-        },
-    )
-
-
-def _ground_agent(meta: dict[str, Any], fps: float, k: int) -> Episode:
-    """Robot ``k`` of a ``datagen.nav_fleet/1`` episode, as a single robot's episode."""
-    records = [meta["frames"][n] for n in _on_grid(meta["frames"], fps)]
-    agent, key = meta["episode"]["agents"][k], f"{meta['key']}.r{k}"
-    where = f"episode.agents[{k}].trajectory"
-    action = _frame_actions(agent["trajectory"], records, fps, float(agent["delay_s"]), where)
-    return _ground(
-        meta,
-        fps,
-        key,
-        [r["agents"][k] for r in records],
-        bool(agent["success"]),
-        [f"f{r['frame']:04d}.r{k}." for r in records],
-        action,
     )

@@ -1,9 +1,9 @@
 """Preview grids: samples drawn with their annotations (masks, 2D boxes, 3D boxes, object axes,
 labels, grasps; navigation frames with their classes, path and map).
 
-A sample is drawn by the tile of its views' shape (``datagen.dataset.views``), never by its scene
-family's name: a time sequence by :func:`sequence_tile`, cameras by :func:`camera_tile`. A sample
-whose stored values cannot be drawn is reported and left out (``datagen.tools.sample_checks``)."""
+A sample is drawn by its metadata format's tile (``datagen.formats``), never by its scene
+family's name; the drawing the formats share is here (:func:`camera_tile`,
+:func:`navigation_tile`). A sample whose stored values cannot be drawn is reported and left out (``datagen.tools.sample_checks``)."""
 
 from __future__ import annotations
 
@@ -13,12 +13,12 @@ from typing import Any
 import cv2
 import numpy as np
 
-from datagen.dataset.views import is_sequence, labelled_views
+from datagen.dataset.views import labelled_views
 from datagen.exports.files import inside, replace_file, written
 from datagen.geometry import project
 from datagen.outcomes import grasp_outcome, navigation_outcome
 from datagen.records import CameraRecord, ViewRecord
-from datagen.tools.aerial_preview import aerial_tile
+from datagen.registries import metadata_format
 from datagen.tools.drawing import depth_colour, fit, instance_colour, put_label
 from datagen.tools.sample_checks import (
     OnSkip,
@@ -72,8 +72,9 @@ def draw_annotations(
         colour = instance_colour(obj["instance_id"])
         # OpenCV draws with pixel centres at integers
         corners = pixels(np.asarray(obj["obb_corners_px"], dtype=float) - 0.5)
-        for i, j in _BOX_EDGES if corners is not None else ():
-            cv2.line(image, tuple(corners[i]), tuple(corners[j]), colour, 1, cv2.LINE_AA)
+        if corners is not None:
+            for i, j in _BOX_EDGES:
+                cv2.line(image, tuple(corners[i]), tuple(corners[j]), colour, 1, cv2.LINE_AA)
         if "pose_camera" in obj and K is not None:
             pose = finite_matrix(
                 obj["pose_camera"]["matrix"], (4, 4), f"{where}.objects[{k}].pose_camera.matrix"
@@ -132,7 +133,7 @@ def draw_grasp(image: np.ndarray, attempt: dict[str, Any], camera: CameraRecord)
         cv2.line(image, tuple(uv[a]), tuple(uv[b]), colour, 2, cv2.LINE_AA)
     palm = (uv[2] + uv[3]) // 2
     cv2.line(image, tuple(palm), tuple(uv[4]), colour, 2, cv2.LINE_AA)
-    label = "success" if outcome["success"] else outcome["failure_mode"]
+    label = "success" if outcome["success"] else str(outcome["failure_mode"])
     put_label(image, label, (int(uv[4][0]) + 4, int(uv[4][1])), 0.45)
 
 
@@ -194,18 +195,18 @@ def draw_navigation_frame(
     return image
 
 
-def sequence_tile(item: dict[str, Any]) -> np.ndarray:
-    """One loaded time sequence (a navigation episode): its middle frame annotated, above its
-    top-down map."""
+def navigation_tile(
+    item: dict[str, Any],
+    k: int,
+    frame: dict[str, Any],
+    camera: CameraRecord,
+    path: list,
+    episode: dict[str, Any],
+) -> np.ndarray:
+    """A loaded navigation episode's frame ``k`` (its images and ``meta``, the state drawn)
+    annotated with the ``path`` planned (x, y points), above the top-down map labelled with the
+    ``episode``'s outcome and lengths."""
     meta, frames = item["meta"], item["frames"]
-    k = len(frames) // 2
-    episode = meta["episode"]
-    if meta.get("format") == "datagen.nav_fleet/1":  # robot 0's camera, its own path
-        record, seen = meta["frames"][k], meta["frames"][k]["cameras"]["r0"]
-        frame = frames[k]["cameras"]["r0"] | {"meta": record["agents"][0] | seen}
-        camera, path = meta["cameras"]["r0"], episode["agents"][0]["planned_path"]
-    else:
-        frame, camera, path = frames[k], meta["camera"], episode["planned_path"]
     image = draw_navigation_frame(frame, meta["classes"], camera, np.asarray(path))
     put_label(image, f"{item['key']} f{k}/{len(frames)} {meta['family']}", (6, 18), 0.5)
     overview = fit(cv2.cvtColor(item["map"], cv2.COLOR_RGB2BGR), *image.shape[:2])
@@ -276,13 +277,8 @@ def other_views_strip(item: dict[str, Any], views: list, width: int) -> np.ndarr
 
 
 def sample_tile(item: dict[str, Any]) -> np.ndarray:
-    """One loaded sample: an aerial episode by its own tile, a navigation episode (its views
-    form a time sequence) by :func:`sequence_tile`, else by :func:`camera_tile`."""
-    if item["meta"].get("format") == "datagen.aerial_episode/1":
-        return aerial_tile(item)
-    if is_sequence(labelled_views(item["meta"])):
-        return sequence_tile(item)
-    return camera_tile(item)
+    """One loaded sample, drawn by its metadata format's ``tile``."""
+    return metadata_format(item["meta"], f"sample {item.get('key')}").function("tile")(item)
 
 
 def tile_grid(tiles: list[np.ndarray], columns: int = 4, max_width: int = 2400) -> np.ndarray:

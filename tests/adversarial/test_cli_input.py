@@ -303,7 +303,7 @@ def test_dataset_content_of_the_wrong_shape_is_a_user_error(tmp_path, make_datas
     leaves nothing behind."""
     out = make_dataset(tmp_path / "ds", [make_sample(i) for i in range(2)])
     before = snapshot(out)
-    refused(cli("inspect", out), "no inspect summary for metadata format None")
+    refused(cli("inspect", out), f"{out}: unknown metadata format None")
     refused(cli("preview", out), "unknown metadata format None")
     refused(cli("export", out, "--to", "coco"), f"{out}: the dataset's content is not what")
     assert snapshot(out) == before

@@ -3,7 +3,7 @@ to the summary's fields as ``datagen inspect`` cuts it (pure)."""
 
 from __future__ import annotations
 
-from datagen.tools.inspection import _sample_summary, summary_fields
+from datagen.formats.frames import summary, summary_fields
 
 
 def _meta(targets: list[float], distractors: list[float]) -> dict:
@@ -19,19 +19,19 @@ def _meta(targets: list[float], distractors: list[float]) -> dict:
 
 def test_visible_fractions_are_counted_per_role():
     metas = [_meta([0.95, 0.5], [0.05, 0.05, 0.3]), _meta([1.0], [])]
-    summary = _sample_summary([summary_fields(m) for m in metas])
-    assert summary["visible_fraction_targets"] == {
+    counted = summary([summary_fields(m) for m in metas])
+    assert counted["visible_fraction_targets"] == {
         "0.0-0.2": 0,
         "0.2-0.4": 0,
         "0.4-0.6": 1,
         "0.6-0.8": 0,
         "0.8-1.0": 2,
     }
-    assert summary["visible_fraction_distractors"] == {
+    assert counted["visible_fraction_distractors"] == {
         "0.0-0.2": 2,
         "0.2-0.4": 1,
         "0.4-0.6": 0,
         "0.6-0.8": 0,
         "0.8-1.0": 0,
     }
-    assert "visible_fraction_histogram" not in summary  # no bin mixes the two
+    assert "visible_fraction_histogram" not in counted  # no bin mixes the two

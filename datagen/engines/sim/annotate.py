@@ -27,7 +27,9 @@ if TYPE_CHECKING:  # only for annotations: drawing and tests need no simulator
 # beyond this many row spans (a detailed mesh filling much of the view) the convex parts'
 # silhouette stands in for the triangles': milliseconds instead of seconds
 MAX_TRIANGLE_SPANS = 2_000_000
-_BOX_CORNERS = np.array([[x, y, z] for x in (-0.5, 0.5) for y in (-0.5, 0.5) for z in (-0.5, 0.5)])
+UNIT_BOX_CORNERS = np.array(
+    [[x, y, z] for x in (-0.5, 0.5) for y in (-0.5, 0.5) for z in (-0.5, 0.5)]
+)
 
 
 @dataclass
@@ -128,7 +130,7 @@ def object_view_records(
     for obj, (visible, bbox) in zip(objects, pixels, strict=True):
         amodal, amodal_inside = _amodal_pixels(obj, frame, near)
         obb_world = obj.pose_world @ obj.obb_transform
-        corners = (_BOX_CORNERS * obj.obb_extents) @ obb_world[:3, :3].T + obb_world[:3, 3]
+        corners = (UNIT_BOX_CORNERS * obj.obb_extents) @ obb_world[:3, :3].T + obb_world[:3, 3]
         corners_px, _ = image_points(corners, frame.intrinsics, frame.extrinsics)
         records.append(
             {

@@ -118,20 +118,22 @@ def traced_twin(
 def warm_up(denoiser: str) -> None:
     """Pays a process's first path-traced picture (SAPIEN compiles the ``rt`` shaders) and
     checks ``denoiser``, so that a worker refuses it at start-up rather than at every sample."""
-    _scene, camera = probe_scene()  # the scene is held while its camera renders
+    scene, camera = probe_scene()
     _picture(camera, PathTracing(samples_per_pixel=1, path_depth=0))
     check_denoiser(denoiser)
+    del scene  # held until its camera has rendered
 
 
 @functools.cache
 def _denoiser_runs(denoiser: str) -> bool:
     """Whether pictures of a small scene at one path a pixel, with ``denoiser`` and without,
     differ (once per process and denoiser)."""
-    _scene, camera = probe_scene()
+    scene, camera = probe_scene()
     noisy, denoised = (
         _picture(camera, PathTracing(samples_per_pixel=1, path_depth=2, denoiser=name))
         for name in ("none", denoiser)
     )
+    del scene  # held until its camera has rendered
     return not np.array_equal(noisy, denoised)
 
 

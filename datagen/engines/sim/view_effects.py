@@ -17,7 +17,7 @@ from typing import Any
 import numpy as np
 from scipy import ndimage
 
-from datagen.engines.sim.annotate import _BOX_CORNERS, LabelledObject
+from datagen.engines.sim.annotate import UNIT_BOX_CORNERS, LabelledObject
 from datagen.engines.sim.camera_effects import apply_camera_effects
 from datagen.engines.sim.depth_sensor import sensor_depth
 from datagen.engines.sim.encode import View
@@ -45,7 +45,7 @@ def distorted_records(
             rows, cols = extents[obj.instance_id - 1]
             bbox = [cols.start, rows.start, cols.stop - 1, rows.stop - 1]
         box_camera = extrinsics @ obj.pose_world @ obj.obb_transform
-        corners = (_BOX_CORNERS * obj.obb_extents) @ box_camera[:3, :3].T + box_camera[:3, 3]
+        corners = (UNIT_BOX_CORNERS * obj.obb_extents) @ box_camera[:3, :3].T + box_camera[:3, 3]
         out.append(
             record
             | {

@@ -30,6 +30,7 @@ from paho.mqtt.properties import Properties
 from paho.mqtt.subscribeoptions import SubscribeOptions
 
 from datagen.engines.transfer.broker_url import parse_broker_url
+from datagen.errors import DatagenError
 
 log = logging.getLogger(__name__)
 
@@ -51,7 +52,7 @@ _paho_log.addFilter(_drop_not_connected)
 Subscription = tuple[str, int | SubscribeOptions]
 
 
-class MqttConnectError(ConnectionError):
+class MqttConnectError(DatagenError, ConnectionError):
     """The broker refused us, or could not be reached in time."""
 
 

@@ -34,11 +34,12 @@ from datagen.engines.transfer.connection import broker_answers
 from datagen.engines.transfer.mosquitto_config import write_config
 from datagen.engines.transfer.ports import free_port, port_taken
 from datagen.engines.transfer.wire import DEFAULT_MAX_MESSAGE_BYTES
+from datagen.errors import DatagenError
 
 log = logging.getLogger(__name__)
 
 
-class BrokerError(RuntimeError):
+class BrokerError(DatagenError, RuntimeError):
     """Mosquitto is missing, failed to start, or died."""
 
 

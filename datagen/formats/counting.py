@@ -1,5 +1,4 @@
-"""What ``datagen inspect`` says of navigation episodes of several robots: success, SPL and path
-lengths per robot, the delays that kept them apart, what their cameras saw."""
+"""Counting helpers the formats' summaries share."""
 
 from __future__ import annotations
 
@@ -12,8 +11,12 @@ import numpy as np
 from datagen.records import SampleMetadata
 
 
-def _agents(metas: Sequence[SampleMetadata]) -> list[dict[str, Any]]:
-    return [a for m in metas for a in m["episode"]["agents"]]
+def histogram(values: list[float], bins: int = 5) -> dict[str, int]:
+    """Counts of ``values`` in ``bins`` equal bins over [0, 1], keyed ``"0.0-0.2"``, ..."""
+    counts, edges = np.histogram(values, bins=bins, range=(0, 1))
+    return {
+        f"{lo:.1f}-{hi:.1f}": int(c) for lo, hi, c in zip(edges, edges[1:], counts, strict=False)
+    }
 
 
 def agents_summary(metas: Sequence[SampleMetadata], agents: list[dict[str, Any]]) -> dict[str, Any]:
@@ -42,23 +45,25 @@ def agents_summary(metas: Sequence[SampleMetadata], agents: list[dict[str, Any]]
     }
 
 
-def fleet_distributions(metas: list[SampleMetadata]) -> dict[str, list[float]]:
-    agents = _agents(metas)
+def agent_fields(meta: SampleMetadata, state_keys: tuple[str, ...]) -> dict[str, Any]:
+    """An episode of several agents cut to what :func:`agents_summary` reads, with the
+    ``state_keys`` of each agent's state per frame (the collision flag always)."""
+    totals = ("success", "path_length_m", "shortest_path_m", "spl")
     return {
-        "path length (m)": [a["path_length_m"] for a in agents],
-        "shortest path (m)": [a["shortest_path_m"] for a in agents],
-        "SPL": [a["spl"] for a in agents],
-        "start delay (s)": [a["delay_s"] for a in agents],
-        "robots per episode": [len(m["episode"]["agents"]) for m in metas],
-        "frames per episode": [m["episode"]["frames"] for m in metas],
-        "wall height (m)": [m["randomisation"]["wall_height"] for m in metas],
-        "camera height (m)": [c["height_m"] for m in metas for c in m["cameras"].values()],
-        "camera pitch down (deg)": [
-            c["pitch_down_deg"] for m in metas for c in m["cameras"].values()
+        "format": meta["format"],
+        "family": meta["family"],
+        "episode": {
+            "frames": meta["episode"]["frames"],
+            "agents": [{k: a[k] for k in totals} for a in meta["episode"]["agents"]],
+        },
+        "frames": [
+            {
+                "cameras": {
+                    name: {"things": [{"class": t["class"]} for t in seen["things"]]}
+                    for name, seen in f["cameras"].items()
+                },
+                "agents": [{k: s[k] for k in ("collision", *state_keys)} for s in f["agents"]],
+            }
+            for f in meta["frames"]
         ],
     }
-
-
-def fleet_summary(metas: Sequence[SampleMetadata]) -> dict[str, Any]:
-    agents = _agents(metas)
-    return {"robots": len(agents)} | agents_summary(metas, agents)
