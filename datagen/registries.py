@@ -1,5 +1,6 @@
 """Every name a user can choose, in one place: scene families, the metadata formats their
-samples are written in, grasp samplers, export formats, executors, navigation layouts and robots.
+samples are written in, grasp samplers, export formats, executors, navigation layouts, arms and
+ground robots.
 
 Each table maps a name to a record whose code is referenced as ``"module:attribute"`` and
 imported only when used, so that reading a config (or a dataset) never imports the simulator.
@@ -7,76 +8,31 @@ Config validation, CLI choices and the code that runs a choice all ask these tab
 else lists the names. Adding a plug-in is one module plus one line here (docs/extending.md).
 
 Installed packages may add entries through entry points in the groups ``datagen.families``,
-``datagen.metadata_formats``, ``datagen.samplers``, ``datagen.exports``, ``datagen.executors``, ``datagen.layouts`` and
-``datagen.robots``: an
-entry point's object is the record itself (for example a :class:`SceneFamily`). They are
-loaded the first time a table is read. A plug-in that cannot be used (its import fails, its
-object is not a record of the table's kind, it has no name, or its name is a built-in's or an
-earlier plug-in's) is skipped and reported once on the ``datagen.plugins`` logger; the table
-stays usable, and choosing its name is an error that says why it failed to load.
+``datagen.metadata_formats``, ``datagen.samplers``, ``datagen.exports``, ``datagen.executors``,
+``datagen.layouts``, ``datagen.robots`` and ``datagen.ground_robots``: an entry point's object
+is the record itself (for example a :class:`SceneFamily`). They are loaded the first time a
+table is read. A plug-in that cannot be used (its import fails, its object is not a record of
+the table's kind, it has no name, or its name is a built-in's or an earlier plug-in's) is
+skipped and reported once on the ``datagen.plugins`` logger; the table stays usable, and
+choosing its name is an error that says why it failed to load.
 """
 
 from __future__ import annotations
 
-import importlib
-from dataclasses import dataclass
 from typing import Any
 
 from datagen.errors import DatasetError
-from datagen.records import ExportFunction
-from datagen.registry import Registry, resolve
-
-
-@dataclass(frozen=True)
-class SceneFamily:
-    """A kind of sample a build makes (``scene:`` in the config)."""
-
-    name: str
-    summary: str  # one line, shown by `datagen build --help`
-    produce: str  # (config, seed, index, attempt) -> datagen.sample.Sample
-    classes: str  # (config) -> tuple of class names; a class's id is its position
-    section: str | None = None  # the config section holding its own settings, if any
-    # the metadata formats its samples are written in (METADATA_FORMATS)
-    metadata_formats: tuple[str, ...] = ("datagen.sample/1",)
-    world: str | None = None  # the world its scenes are built in, for exports that need it
-    finish: str | None = None  # (out_dir, made, seconds) -> dict merged into the manifest
-    episodes: bool = False  # its samples are episodes over time (datagen.exports.episodes)
-
-    def produce_sample(self, config, seed: int, index: int, attempt: int = 0):
-        return resolve(self.produce)(config, seed, index, attempt)
-
-    def class_names(self, config) -> tuple[str, ...]:
-        return tuple(resolve(self.classes)(config))
-
-
-# what a metadata format's module defines (datagen/formats/__init__.py says what each does)
-FORMAT_FUNCTIONS = ("views", "summary", "distributions", "summary_fields", "tile", "episodes")
-
-
-@dataclass(frozen=True)
-class MetadataFormat:
-    """How the samples of one metadata format (``meta["format"]``) are read, summarised, drawn
-    and turned into episodes: ``module`` defines :data:`FORMAT_FUNCTIONS` (and may define
-    ``check`` and ``pictures``), imported on first use. Readers, tools and exports ask the
-    format of a sample's metadata; none of them names a family."""
-
-    name: str  # the value of meta["format"], with its version: "datagen.sample/1"
-    summary: str  # one line, shown in docs/extending.md
-    module: str  # "package.module"
-    noun: str = "samples"  # what one sample is called in inspect's plot titles
-
-    def function(self, name: str) -> Any:
-        """The module's ``name``; DatasetError naming the module where it defines none."""
-        if (found := self.optional(name)) is None:
-            raise DatasetError(
-                f"metadata format {self.name!r}: its module {self.module} defines no {name}()"
-            )
-        return found
-
-    def optional(self, name: str) -> Any:
-        """The module's ``name`` if it defines one as a function, else None."""
-        found = getattr(importlib.import_module(self.module), name, None)
-        return found if callable(found) else None
+from datagen.plugin_records import (
+    ExportFormat,
+    GroundRobot,
+    LayoutKind,
+    LibrarySource,
+    MetadataFormat,
+    Plugin,
+    RobotKind,
+    SceneFamily,
+)
+from datagen.registry import Registry
 
 
 def metadata_format(meta: Any, where: str) -> MetadataFormat:
@@ -89,66 +45,6 @@ def metadata_format(meta: Any, where: str) -> MetadataFormat:
             f"expected one of {METADATA_FORMATS.names()}"
         )
     return METADATA_FORMATS[name]
-
-
-@dataclass(frozen=True)
-class ExportFormat:
-    """A format exported from a finished dataset's shards (``output.sinks``, ``--to``)."""
-
-    name: str
-    path: str  # file or folder in the dataset directory
-    export: str  # a datagen.records.ExportFunction
-    worlds: tuple[str, ...] | None = None  # the scene worlds it can describe; None: any
-    episodes: bool = False  # describes episodes only (datagen.exports.episodes)
-
-    def load(self) -> ExportFunction:
-        return resolve(self.export)
-
-
-@dataclass(frozen=True)
-class Plugin:
-    """A grasp sampler (a class) or an executor (a class): a name and what it refers to."""
-
-    name: str
-    target: str
-
-    def load(self) -> Any:
-        return resolve(self.target)
-
-
-@dataclass(frozen=True)
-class LayoutKind:
-    """A navigation floor-plan generator: ``make(rng, params) -> Layout`` and its parameters."""
-
-    name: str
-    make: str
-    params: str  # a dataclass of the generator's parameters
-
-
-@dataclass(frozen=True)
-class RobotKind:
-    """An arm for tabletop scenes (``robot.name``): its record, a
-    :class:`datagen.robot_specs.RobotSpec`, referenced as ``"module:attribute"``."""
-
-    name: str
-    summary: str  # one line, shown in docs/robots.md
-    spec: str
-
-    def load(self):
-        return resolve(self.spec)
-
-
-@dataclass(frozen=True)
-class LibrarySource:
-    """A source of the library of real appearance (``photos.sources``, ``datagen library``):
-    its record, a :class:`datagen.library.sources.Source`, referenced as ``"module:attribute"``."""
-
-    name: str
-    summary: str  # one line, shown by `datagen library list` and in docs/photo-library.md
-    spec: str
-
-    def load(self):
-        return resolve(self.spec)
 
 
 FAMILIES: Registry[SceneFamily] = Registry(
@@ -312,6 +208,32 @@ ROBOTS: Registry[RobotKind] = Registry(
             "koch",
             "Koch v1.1 low-cost arm with its jaw gripper (ManiSkill's koch-v1.1)",
             "datagen.robot_specs.koch:KOCH",
+        ),
+    ],
+)
+
+GROUND_ROBOTS: Registry[GroundRobot] = Registry(
+    "ground robot",
+    "datagen.ground_robots",
+    [
+        GroundRobot(
+            "fetch",
+            "Fetch: a differential drive that turns on the spot (ManiSkill's Fetch)",
+            drive="datagen.navigation.episode:differential_drive",
+            body="datagen.worlds.floorplan:fetch_body",
+            describe="datagen.scenes.navigation_episodes:fetch_record",
+        ),
+        GroundRobot(
+            "car",
+            "a car with Ackermann steering, its camera on a mast at the front",
+            drive="datagen.navigation.episode:ackermann_drive",
+            body="datagen.worlds.car:car_body",
+            describe="datagen.scenes.navigation_episodes:car_record",
+            label="car",
+            steers=True,
+            view_limit_deg=90.0,
+            view_limit_above=True,
+            paint="datagen.randomisers.floorplan_scene:car_paint",
         ),
     ],
 )

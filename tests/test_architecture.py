@@ -13,11 +13,11 @@ from pathlib import Path
 
 import pytest
 
+from datagen.plugin_records import FORMAT_FUNCTIONS
 from datagen.registries import (
     EXECUTORS,
     EXPORTS,
     FAMILIES,
-    FORMAT_FUNCTIONS,
     LAYOUTS,
     METADATA_FORMATS,
     SAMPLERS,

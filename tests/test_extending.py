@@ -256,3 +256,44 @@ def test_a_plugin_family_with_its_own_metadata_format_gets_every_reader_tool_and
     assert got["robot_type"] == "ball" and got["cameras"] == ["observation.images.top"]
     last = load(out).metadata(2)["frames"][-1]["ball_xy"]
     assert np.allclose(got["state"], last, atol=1e-5) and got["task"] == "roll the ball"
+
+
+ROVER = """\
+scene: navigation
+num_samples: 1
+seed: 4
+render: {width: 96, height: 72}
+navigation: {robot: rover, family: corridor, frame_rate_hz: 2}
+"""
+
+
+@pytest.mark.sim
+@pytest.mark.mqtt
+@pytest.mark.slow
+def test_a_third_ground_robot_is_one_record_and_one_entry_point(tmp_path):
+    """tests/plugins/example_rover.py: its record (drive, body, description, view limit) and
+    one entry point; navigation episodes, inspect and the LeRobot export take it as they take
+    Fetch and the car."""
+    config, out = tmp_path / "rover.yaml", tmp_path / "rover"
+    config.write_text(ROVER)
+    built = datagen("build", str(config), "--out", str(out), "--workers", "1")
+    assert built.returncode == 0, built.stderr[-3000:]
+    meta = load(out).metadata(0)
+    assert meta["robot"]["name"] == "rover" and meta["robot"]["size_m"][0] > 0
+    things = {t["class"] for f in meta["frames"] for t in f["things"]}
+    assert "robot" not in things  # its camera never lists itself
+    assert len(meta["frames"]) >= 2 and meta["episode"]["path_length_m"] > 0
+    exported = datagen("export", str(out), "--to", "lerobot")
+    assert exported.returncode == 0, exported.stderr[-3000:]
+    info = json.loads((out / "lerobot" / "meta" / "info.json").read_text())
+    assert info["robot_type"] == "rover"
+
+    steep = config.read_text().replace("frame_rate_hz: 2}", "camera_pitch_deg: [60, 70]}")
+    config.write_text(steep)
+    refused = datagen("build", str(config), "--out", str(tmp_path / "steep"), "--check")
+    assert refused.returncode == 2 and "Traceback" not in refused.stderr
+    assert "the rover camera's view would reach" in refused.stderr
+    assert "expected at most 80" in refused.stderr  # the record's own limit
+    config.write_text(ROVER.replace("robot: rover", "robot: tank"))
+    unknown = datagen("build", str(config), "--out", str(tmp_path / "tank"), "--check")
+    assert unknown.returncode == 2 and "'fetch', 'car', 'rover'" in unknown.stderr

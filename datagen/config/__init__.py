@@ -29,8 +29,6 @@ from datagen.config.campaign import check_campaign_model
 from datagen.config.pictures import check_photos, check_pictures, resolve_picture_folders
 from datagen.config.robot import RobotConfig, robot_spec
 from datagen.config.sections import (
-    CAR_VIEW_LIMIT_DEG,
-    FETCH_VIEW_LIMIT_DEG,
     SAMPLE_ERROR_POLICIES,
     SHAPE_FAMILIES,
     BuildPolicyConfig,
@@ -51,7 +49,7 @@ from datagen.config.shading import check_shader
 from datagen.config.values import fits, shape, show, show_key
 from datagen.config.yaml_file import read_yaml
 from datagen.errors import ConfigError
-from datagen.registries import EXPORTS, FAMILIES, LAYOUTS, SAMPLERS, STORE
+from datagen.registries import EXPORTS, FAMILIES, GROUND_ROBOTS, LAYOUTS, SAMPLERS, STORE
 
 CONFIG_VERSION = 1
 
@@ -223,10 +221,7 @@ def _check_aerial_camera(config: BuildConfig, source: str) -> None:
 
 
 def _check_navigation(nav: NavigationConfig, source: str) -> None:
-    if nav.robot not in ("fetch", "car"):
-        raise ConfigError(
-            f"{source}: navigation.robot: expected 'fetch' or 'car', got {nav.robot!r}"
-        )
+    GROUND_ROBOTS.check(nav.robot, f"{source}: navigation.robot")
     steps = nav.control_rate_hz / nav.frame_rate_hz  # control steps per frame
     if steps < 1 - 1e-9 or abs(steps - round(steps)) > 1e-9:
         raise ConfigError(
@@ -238,11 +233,13 @@ def _check_navigation(nav: NavigationConfig, source: str) -> None:
 
 
 def _check_robot_view(nav: NavigationConfig, source: str) -> None:
-    """A robot's camera never sees the robot itself (``CAR_VIEW_LIMIT_DEG``)."""
-    if nav.robot == "car":  # up or down
-        pitch, limit, where = max(map(abs, nav.camera_pitch_deg)), CAR_VIEW_LIMIT_DEG, "off"
-    else:  # down: Fetch's base
-        pitch, limit, where = nav.camera_pitch_deg[1], FETCH_VIEW_LIMIT_DEG, "below"
+    """A robot's camera never sees the robot itself (its record's ``view_limit_deg``)."""
+    robot = GROUND_ROBOTS[nav.robot]
+    limit = robot.view_limit_deg
+    if robot.view_limit_above:  # up or down
+        pitch, where = max(map(abs, nav.camera_pitch_deg)), "off"
+    else:  # down: the robot's base
+        pitch, where = nav.camera_pitch_deg[1], "below"
     reach = pitch + nav.camera_fovy_deg[1] / 2
     if reach > limit:
         raise ConfigError(

@@ -235,14 +235,6 @@ class CampaignConfig:
     model_camera: str = "wrist"  # whose depth the model sees: wrist or workspace
 
 
-# Degrees off straight ahead a robot's camera view may reach (pitch + half the vertical field of
-# view) so that it never sees the robot itself. The car's camera looks out ahead of every part of
-# the car (datagen/worlds/car.py): any view within 90 degrees up or down. Fetch's head camera sees
-# its base from about 78 degrees down (rendered at 4:3, 2:1 and 3:5; tests/navigation).
-CAR_VIEW_LIMIT_DEG = 90.0
-FETCH_VIEW_LIMIT_DEG = 75.0
-
-
 @dataclass(frozen=True)
 class NavigationConfig:
     """Navigation episodes (scene ``navigation``): Fetch drives from a start to a goal."""

@@ -27,7 +27,7 @@ from datagen.navigation.planning import (
     shortest_path_length_m,
     smooth_path,
 )
-from datagen.registries import LAYOUTS
+from datagen.registries import GROUND_ROBOTS, LAYOUTS
 from datagen.registry import resolve
 from datagen.seeding import sample_rng
 
@@ -117,7 +117,6 @@ def plan_episode(cfg: NavigationConfig, seed: int, index: int, retry: int = 0) -
     )
 
 
-ROBOTS = ("fetch", "car")
 # A car in footprint radii: its body is 1.6 x 1.0, centred on the footprint disk (its half
 # diagonal, 0.94, fits inside); the rear axle is CAR_REAR behind that centre, the front axle
 # CAR_WHEELBASE ahead of the rear one.
@@ -135,6 +134,24 @@ def car_params(cfg: NavigationConfig) -> CarParams:
         rate_hz=cfg.control_rate_hz,
         robot_radius=r,
     )
+
+
+def differential_drive(
+    cfg: NavigationConfig, path: np.ndarray, yaw: float, layout: Layout
+) -> tuple[Trajectory, float, FollowParams]:
+    """Fetch's expert: pure pursuit from the drawn heading ``yaw`` (it turns on the spot)."""
+    params = follow_params(cfg)
+    return follow(path, yaw, params, layout), yaw, params
+
+
+def ackermann_drive(
+    cfg: NavigationConfig, path: np.ndarray, yaw: float, layout: Layout
+) -> tuple[Trajectory, float, CarParams]:
+    """The car's expert: a car cannot turn on the spot, so it starts along the path (the drawn
+    heading is not used)."""
+    params = car_params(cfg)
+    trajectory = follow_ackermann(path, params, layout)
+    return trajectory, float(trajectory.poses[0, 2]), params
 
 
 def _arm_ends(rng: np.random.Generator, layout: Layout) -> tuple[tuple[int, int], tuple[int, int]]:
@@ -165,13 +182,8 @@ def plan_task(
         raise PlanningError(f"A* found no path from {start} to {goal} in a connected component")
     path = path_to_world(smooth_path(occupied, cells), layout.resolution)
     yaw = float(rng.uniform(-math.pi, math.pi))
-    if cfg.robot == "car":  # a car cannot turn on the spot: it starts along the path
-        params = car_params(cfg)
-        trajectory = follow_ackermann(path, params, layout)
-        yaw = float(trajectory.poses[0, 2])
-    else:
-        params = follow_params(cfg)
-        trajectory = follow(path, yaw, params, layout)
+    drive = resolve(GROUND_ROBOTS[cfg.robot].drive)
+    trajectory, yaw, params = drive(cfg, path, yaw, layout)
     start_xy, goal_xy = path[0], path[-1]
     step = params.max_linear / params.rate_hz  # metres: the longest move between two poses
     lower = lower_bound_grid(layout.grid, layout.resolution, cfg.robot_radius, step)

@@ -15,6 +15,8 @@ from datagen.navigation.grid import Layout
 from datagen.randomisers.lighting import light_direction
 from datagen.randomisers.materials import random_colour, random_material
 from datagen.randomisers.textures import texture_surfaces
+from datagen.registries import GROUND_ROBOTS
+from datagen.registry import resolve
 from datagen.seeding import sample_rng
 
 # HSV value ranges that keep rooms plausible; obstacles use the config's full colour range.
@@ -27,6 +29,14 @@ LAMP_CLEARANCE = 0.8  # metres
 
 def _u(rng: np.random.Generator, bounds: tuple[float, float]) -> float:
     return round(float(rng.uniform(*bounds)), 6)
+
+
+def car_paint(rng: np.random.Generator, config: BuildConfig) -> dict[str, Any]:
+    """The car's body, wheels and mast."""
+    return {
+        part: random_material(rng, config.materials, config.materials.saturation, value)
+        for part, value in (("body", (0.4, 1.0)), ("wheels", (0.05, 0.2)), ("mast", (0.1, 0.4)))
+    }
 
 
 def sample_nav_materials(rng, config: BuildConfig, obstacles: int) -> dict[str, Any]:
@@ -104,12 +114,10 @@ def sample_nav_scene(
         TEXTURED_SURFACES,
         config.photos,
     )
-    if nav.robot == "car":  # from a stream of its own: Fetch's episodes keep their values
-        car_rng = sample_rng(seed, index, "nav_car", attempt)
-        materials["car"] = {
-            part: random_material(car_rng, config.materials, config.materials.saturation, value)
-            for part, value in (("body", (0.4, 1.0)), ("wheels", (0.05, 0.2)), ("mast", (0.1, 0.4)))
-        }
+    robot = GROUND_ROBOTS[nav.robot]
+    if robot.paint:  # from a stream of its own: the other robots' episodes keep their values
+        paint_rng = sample_rng(seed, index, f"nav_{robot.name}", attempt)
+        materials[robot.name] = resolve(robot.paint)(paint_rng, config)
     camera = {
         "torso_lift": _u(camera_rng, nav.torso_lift),
         "pitch_deg": _u(camera_rng, nav.camera_pitch_deg),

@@ -33,6 +33,8 @@ from datagen.navigation.map_image import episode_map, occupancy_image
 from datagen.navigation.planning import clearance
 from datagen.outcomes import spl
 from datagen.randomisers.floorplan_scene import sample_nav_scene
+from datagen.registries import GROUND_ROBOTS
+from datagen.registry import resolve
 from datagen.sample import Sample, sample_key
 from datagen.worlds.floorplan import NAV_CLASSES, NavScene, Thing, build_nav_scene
 from datagen.worlds.robots import FETCH
@@ -90,7 +92,7 @@ def render_episode(
     for k, step in enumerate(steps):
         x, y, yaw = (float(v) for v in traj.poses[step])
         command = traj.commands[step] if step < len(traj.commands) else (0.0, 0.0)
-        steer = float(command[1]) if config.navigation.robot == "car" else 0.0
+        steer = float(command[1]) if GROUND_ROBOTS[config.navigation.robot].steers else 0.0
         scene.set_base(x, y, yaw, steer)
         scene.scene.update_render()
         frame = capture(scene.camera)
@@ -121,7 +123,7 @@ def render_episode(
                 ),
                 "collision": bool(traj.collision[step]),
                 "extrinsics_world_to_camera": rounded(frame.extrinsics, 7),
-                "things": things_in_view(scene.things, instance, skip=("robot", "car")),
+                "things": things_in_view(scene.things, instance, skip=robot_labels()),
             }
         )
     camera = camera_record(config.render, scene.camera.fovy, camera_in_robot, intrinsics)
@@ -187,25 +189,37 @@ def layout_record(layout: Layout) -> dict[str, Any]:
     }
 
 
+def robot_labels() -> tuple[str, ...]:
+    """The semantic classes of robots: a robot's camera does not list robots it sees."""
+    return tuple(sorted({robot.label for robot in GROUND_ROBOTS.values()}))
+
+
 def robot_record(config: BuildConfig, scene: NavScene) -> dict[str, Any]:
+    """The sample's ``robot`` record, by the robot's own ``describe``."""
+    return resolve(GROUND_ROBOTS[config.navigation.robot].describe)(config, scene)
+
+
+def car_record(config: BuildConfig, scene: NavScene) -> dict[str, Any]:
     nav = config.navigation
-    if nav.robot == "car":
-        params = car_params(nav)
-        return {
-            "name": "car",
-            "radius": nav.robot_radius,
-            "wheelbase_m": round(params.wheelbase, 6),
-            # the pose is the body's centre (the footprint disk's); the rear axle is behind it
-            "rear_axle_behind_m": round(params.rear, 6),
-            "max_steering_deg": nav.max_steering_deg,
-            "min_turning_radius_m": round(params.min_turning_radius, 6),  # the rear axle's
-            "min_centre_turning_radius_m": round(params.min_centre_turning_radius, 6),
-            "commands": ["linear_m_s", "steering_rad"],
-        }
+    params = car_params(nav)
+    return {
+        "name": "car",
+        "radius": nav.robot_radius,
+        "wheelbase_m": round(params.wheelbase, 6),
+        # the pose is the body's centre (the footprint disk's); the rear axle is behind it
+        "rear_axle_behind_m": round(params.rear, 6),
+        "max_steering_deg": nav.max_steering_deg,
+        "min_turning_radius_m": round(params.min_turning_radius, 6),  # the rear axle's
+        "min_centre_turning_radius_m": round(params.min_centre_turning_radius, 6),
+        "commands": ["linear_m_s", "steering_rad"],
+    }
+
+
+def fetch_record(config: BuildConfig, scene: NavScene) -> dict[str, Any]:
     return {
         "name": "fetch",
         "description": f"mani_skill/assets/{FETCH}",
-        "radius": nav.robot_radius,
+        "radius": config.navigation.robot_radius,
         "qpos_fixed": rounded(scene.robot.get_qpos()[3:]),
         "joints": [j.name for j in scene.robot.get_active_joints()],
         "commands": ["linear_m_s", "angular_rad_s"],

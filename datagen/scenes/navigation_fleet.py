@@ -31,6 +31,7 @@ from datagen.navigation.map_image import fleet_map, occupancy_image
 from datagen.navigation.planning import clearance
 from datagen.outcomes import agents_outcome, spl
 from datagen.randomisers.floorplan_scene import sample_nav_scene
+from datagen.registries import GROUND_ROBOTS
 from datagen.sample import Sample, sample_key
 from datagen.scenes.navigation_episodes import (
     camera_record,
@@ -116,7 +117,7 @@ def produce_fleet(config: BuildConfig, seed: int, index: int, attempt: int = 0) 
     for f, step in enumerate(steps):
         states = _agent_states(fleet, step, nav.robot_radius, every)
         for k, state in enumerate(states):
-            steer = state["command"][1] if nav.robot == "car" else 0.0
+            steer = state["command"][1] if GROUND_ROBOTS[nav.robot].steers else 0.0
             scene.set_base(*state["pose"], steer, k=k)
         scene.scene.update_render()
         record: dict[str, Any] = {

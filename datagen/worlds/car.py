@@ -20,6 +20,7 @@ import numpy as np
 import sapien
 import trimesh
 
+from datagen.engines.sim.cameras import add_camera
 from datagen.navigation.episode import CAR_REAR, CAR_WHEELBASE
 from datagen.worlds.surfaces import render_material, render_shape
 
@@ -115,6 +116,17 @@ def build_car(scene: sapien.Scene, radius: float, materials: dict) -> CarBody:
     car = CarBody(chassis, wheels, radius)
     car.set_base(0.0, 0.0, 0.0)
     return car
+
+
+def car_body(config, scene: sapien.Scene, cam: dict, values: dict):
+    """The car (painted as ``values["materials"]["car"]``), its entities and its camera on the
+    mast's pod."""
+    r, radius = config.render, config.navigation.robot_radius
+    car = build_car(scene, radius, values["materials"]["car"])
+    pose = camera_pose(radius, cam["pitch_deg"])
+    fovy = math.radians(cam["fovy_deg"])
+    camera = add_camera(scene, "head", r.width, r.height, fovy, r.near, r.far, car.chassis, pose)
+    return car, car.entities, camera
 
 
 def camera_pose(radius: float, pitch_down_deg: float) -> sapien.Pose:

@@ -19,8 +19,9 @@ from datagen.config import BuildConfig
 from datagen.engines.sim.cameras import add_camera
 from datagen.navigation.episode import Episode
 from datagen.navigation.grid import Layout
+from datagen.registries import GROUND_ROBOTS
+from datagen.registry import resolve
 from datagen.robot_specs import maniskill_asset
-from datagen.worlds.car import CarBody, build_car, camera_pose
 from datagen.worlds.class_names import NAV_CLASSES
 from datagen.worlds.realise import apply_lighting, light_slots, pad_lights
 from datagen.worlds.robots import FETCH, load_robot
@@ -60,7 +61,8 @@ class Thing:
     entities: list[sapien.Entity] = field(default_factory=list)
 
 
-Robot = sapien.physx.PhysxArticulation | CarBody  # Fetch, or the car
+# Fetch (an articulation whose first joints are x, y, yaw), or a body with set_base (the car)
+Robot = sapien.physx.PhysxArticulation | Any
 
 
 @dataclass
@@ -83,7 +85,7 @@ class NavScene:
     def set_base(self, x: float, y: float, yaw: float, steer: float = 0.0, k: int = 0) -> None:
         """Robot ``k`` at (x, y, yaw); a car's front wheels turned for ``steer`` (radians)."""
         robot = self.robots[k]
-        if isinstance(robot, CarBody):
+        if not isinstance(robot, sapien.physx.PhysxArticulation):
             robot.set_base(x, y, yaw, steer)
             return
         qpos = robot.get_qpos()
@@ -195,23 +197,21 @@ def build_nav_scene(config: BuildConfig, episode: Episode, values: dict[str, Any
 
 
 def _robot(config: BuildConfig, scene: sapien.Scene, cam: dict[str, Any], values, name: str):
-    """A robot (Fetch or the car), its labelled thing and its camera."""
-    r, nav = config.render, config.navigation
-    fovy = math.radians(cam["fovy_deg"])
-    if nav.robot == "car":
-        car = build_car(scene, nav.robot_radius, values["materials"]["car"])
-        pose = camera_pose(nav.robot_radius, cam["pitch_deg"])
-        camera = add_camera(
-            scene, "head", r.width, r.height, fovy, r.near, r.far, car.chassis, pose
-        )
-        return car, Thing(0, "car", name.replace("robot", "car"), car.entities), camera
-    fetch = _fetch(scene, cam, config.render.robot_triangles)
+    """The robot of ``navigation.robot`` (its record's ``body``), its labelled thing and its
+    camera."""
+    record = GROUND_ROBOTS[config.navigation.robot]
+    body, entities, camera = resolve(record.body)(config, scene, cam, values)
+    return body, Thing(0, record.label, name.replace("robot", record.name), entities), camera
+
+
+def fetch_body(config: BuildConfig, scene: sapien.Scene, cam: dict[str, Any], values):
+    """Fetch, its links and its head camera."""
+    r = config.render
+    fetch = _fetch(scene, cam, r.robot_triangles)
     head = next(link for link in fetch.get_links() if link.name == CAMERA_LINK)
+    fovy = math.radians(cam["fovy_deg"])
     camera = add_camera(scene, "head", r.width, r.height, fovy, r.near, r.far, head.entity)
-    thing = Thing(
-        0, "robot", name.replace("robot", "fetch"), [link.entity for link in fetch.get_links()]
-    )
-    return fetch, thing, camera
+    return fetch, [link.entity for link in fetch.get_links()], camera
 
 
 def build_floorplan_scene(

@@ -15,11 +15,12 @@ import numpy as np
 import pytest
 
 from datagen.config import config_from_dict, load_config
-from datagen.config.sections import CAR_VIEW_LIMIT_DEG, FETCH_VIEW_LIMIT_DEG, RenderConfig
+from datagen.config.sections import RenderConfig
 from datagen.engines.sim.render import capture
 from datagen.errors import ConfigError
 from datagen.navigation.episode import plan_episode
 from datagen.randomisers.floorplan_scene import sample_nav_scene
+from datagen.registries import GROUND_ROBOTS
 from datagen.scenes.navigation_fleet import produce
 from datagen.worlds.floorplan import NAV_CLASS_ID, build_nav_scene
 
@@ -77,7 +78,7 @@ def test_the_car_misses_itself_at_the_extremes_of_its_view(width, height):
     config = _sized(CAR, width, height)
     nav = config.navigation
     shipped = [(p, f) for p in nav.camera_pitch_deg for f in nav.camera_fovy_deg]
-    limit = CAR_VIEW_LIMIT_DEG
+    limit = GROUND_ROBOTS["car"].view_limit_deg
     edges = [(limit - 35, 70), (35 - limit, 70), (limit - 5, 10), (limit - 75, 150)]
     for pitch, fovy in [*shipped, *edges]:
         for steer in (-1.0, 1.0):  # radians: beyond any steering limit
@@ -93,10 +94,14 @@ def test_fetch_misses_itself_at_the_extremes_of_its_view(width, height):
     config = _sized(FETCH, width, height)
     for fovy in (10, 50, 70, 110, 150):
         for lift in (0.0, 0.386):  # the torso's range, metres
-            pitch = FETCH_VIEW_LIMIT_DEG - fovy / 2
+            pitch = GROUND_ROBOTS["fetch"].view_limit_deg - fovy / 2
             camera = {"torso_lift": lift, "pitch_deg": pitch, "fovy_deg": fovy}
             assert _own_pixels(config, camera) == 0, camera
-    beyond = {"torso_lift": 0.0, "pitch_deg": FETCH_VIEW_LIMIT_DEG, "fovy_deg": 10}  # 80 down
+    beyond = {
+        "torso_lift": 0.0,
+        "pitch_deg": GROUND_ROBOTS["fetch"].view_limit_deg,
+        "fovy_deg": 10,
+    }  # 80 down
     assert _own_pixels(config, beyond) > 0
 
 
