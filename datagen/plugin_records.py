@@ -1,6 +1,6 @@
 """The records of the plug-in tables (``datagen.registries``): what a scene family, a metadata
-format, an export, a grasp sampler or an executor, a navigation layout, an arm, a ground robot and
-a library source are. Their code is referenced as ``"module:attribute"`` and imported when used.
+format, an export, a grasp sampler or an executor, a navigation layout, an arm, a ground robot, an
+airframe and a library source are. Their code is referenced as ``"module:attribute"`` and imported when used.
 """
 
 from __future__ import annotations
@@ -137,6 +137,24 @@ class GroundRobot:
     view_limit_deg: float = 75.0
     view_limit_above: bool = False
     paint: str | None = None  # (rng, config) -> materials of its parts, from stream nav_<name>
+
+
+@dataclass(frozen=True)
+class Airframe:
+    """A drone's frame (``aerial.airframe``), sized by the span drawn for each drone. Its code is
+    referenced as ``"module:attribute"``: ``shape`` (span, metres) -> a shape with ``span``;
+    ``parts`` (shape) -> {part: trimesh.Trimesh} in the body frame (x forward, y left, z up,
+    origin at the centre of mass); ``mounts`` (shape, shift) -> {"forward": xyz, "down": xyz},
+    where its cameras sit (metres; ``shift`` in [-1, 1] x [-1, 1] moves the forward camera
+    within its randomisation). Its camera must see none of its own parts: the config checks the
+    forward camera's tilt (``aerial.camera_pitch_deg``) against the quadrotor's pod."""
+
+    name: str
+    summary: str  # one line, shown in docs/aerial.md
+    shape: str
+    parts: str
+    mounts: str
+    paint: tuple[tuple[str, tuple[float, float]], ...]  # each part: the HSV value range it gets
 
 
 @dataclass(frozen=True)

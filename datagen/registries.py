@@ -1,6 +1,6 @@
 """Every name a user can choose, in one place: scene families, the metadata formats their
-samples are written in, grasp samplers, export formats, executors, navigation layouts, arms and
-ground robots.
+samples are written in, grasp samplers, export formats, executors, navigation layouts, arms,
+ground robots and airframes.
 
 Each table maps a name to a record whose code is referenced as ``"module:attribute"`` and
 imported only when used, so that reading a config (or a dataset) never imports the simulator.
@@ -9,12 +9,12 @@ else lists the names. Adding a plug-in is one module plus one line here (docs/ex
 
 Installed packages may add entries through entry points in the groups ``datagen.families``,
 ``datagen.metadata_formats``, ``datagen.samplers``, ``datagen.exports``, ``datagen.executors``,
-``datagen.layouts``, ``datagen.robots`` and ``datagen.ground_robots``: an entry point's object
-is the record itself (for example a :class:`SceneFamily`). They are loaded the first time a
-table is read. A plug-in that cannot be used (its import fails, its object is not a record of
-the table's kind, it has no name, or its name is a built-in's or an earlier plug-in's) is
-skipped and reported once on the ``datagen.plugins`` logger; the table stays usable, and
-choosing its name is an error that says why it failed to load.
+``datagen.layouts``, ``datagen.robots``, ``datagen.ground_robots`` and ``datagen.airframes``:
+an entry point's object is the record itself (for example a :class:`SceneFamily`). They are
+loaded the first time a table is read. A plug-in that cannot be used (its import fails, its
+object is not a record of the table's kind, it has no name, or its name is a built-in's or an
+earlier plug-in's) is skipped and reported once on the ``datagen.plugins`` logger; the table
+stays usable, and choosing its name is an error that says why it failed to load.
 """
 
 from __future__ import annotations
@@ -23,6 +23,7 @@ from typing import Any
 
 from datagen.errors import DatasetError
 from datagen.plugin_records import (
+    Airframe,
     ExportFormat,
     GroundRobot,
     LayoutKind,
@@ -234,6 +235,29 @@ GROUND_ROBOTS: Registry[GroundRobot] = Registry(
             view_limit_deg=90.0,
             view_limit_above=True,
             paint="datagen.randomisers.floorplan_scene:car_paint",
+        ),
+    ],
+)
+
+AIRFRAMES: Registry[Airframe] = Registry(
+    "airframe",
+    "datagen.airframes",
+    [
+        Airframe(
+            "quadrotor",
+            "four rotors in an X, landing legs and a camera pod on a nose below the front rotors",
+            shape="datagen.aerial.quadrotor:QuadrotorShape",
+            parts="datagen.aerial.quadrotor:quadrotor_parts",
+            mounts="datagen.aerial.quadrotor:camera_mounts",
+            # dark frames, light or bright bodies, grey motors, translucent-looking rotors
+            paint=(
+                ("body", (0.3, 1.0)),
+                ("arms", (0.05, 0.35)),
+                ("motors", (0.2, 0.5)),
+                ("rotors", (0.1, 0.6)),
+                ("legs", (0.05, 0.4)),
+                ("camera", (0.0, 0.2)),
+            ),
         ),
     ],
 )

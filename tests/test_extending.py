@@ -297,3 +297,38 @@ def test_a_third_ground_robot_is_one_record_and_one_entry_point(tmp_path):
     config.write_text(ROVER.replace("robot: rover", "robot: tank"))
     unknown = datagen("build", str(config), "--out", str(tmp_path / "tank"), "--check")
     assert unknown.returncode == 2 and "'fetch', 'car', 'rover'" in unknown.stderr
+
+
+HEXAROTOR = """\
+scene: aerial
+num_samples: 1
+seed: 2
+render: {width: 96, height: 72}
+aerial: {airframe: hexarotor, drones: 2, family: corridor, frame_rate_hz: 2}
+"""
+
+
+@pytest.mark.sim
+@pytest.mark.mqtt
+@pytest.mark.slow
+def test_a_second_airframe_is_one_record_and_one_entry_point(tmp_path):
+    """tests/plugins/example_hexarotor.py: its shape, parts, paint and camera mounts in one
+    record and one entry point; aerial episodes are planned with its radius, drawn with its
+    parts and exported as its robot."""
+    config, out = tmp_path / "hex.yaml", tmp_path / "hex"
+    config.write_text(HEXAROTOR)
+    built = datagen("build", str(config), "--out", str(out), "--workers", "1")
+    assert built.returncode == 0, built.stderr[-3000:]
+    meta = load(out).metadata(0)
+    assert set(meta["randomisation"]["drones"][0]) == {"body", "arms", "rotors", "camera"}
+    for frame in meta["frames"]:  # each drone's camera never sees its own drone
+        for k in range(2):
+            seen = {t["name"] for t in frame["cameras"][f"d{k}"]["things"]}
+            assert f"drone_{k}" not in seen
+    exported = datagen("export", str(out), "--to", "lerobot")
+    assert exported.returncode == 0, exported.stderr[-3000:]
+    info = json.loads((out / "lerobot" / "meta" / "info.json").read_text())
+    assert info["robot_type"] == "hexarotor"
+    config.write_text(HEXAROTOR.replace("hexarotor", "octocopter"))
+    unknown = datagen("build", str(config), "--out", str(tmp_path / "octo"), "--check")
+    assert unknown.returncode == 2 and "'quadrotor', 'hexarotor'" in unknown.stderr

@@ -12,17 +12,18 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
+from datagen.aerial.airframe import bounding_radius, camera_reach, drone_shape
 from datagen.aerial.fleet import Agent, FleetError, plan_fleet
 from datagen.aerial.planning import FlightLimits
-from datagen.aerial.quadrotor import QuadrotorShape, bounding_radius, camera_reach
 from datagen.aerial.volumes import Volume, VolumeParams, make_volume, voxelise
 from datagen.config.aerial import AerialConfig
 from datagen.navigation.geodesic import lower_bound_grid, shortest_length
 from datagen.navigation.layouts import make_layout
-from datagen.registries import LAYOUTS
+from datagen.registries import AIRFRAMES, LAYOUTS
 from datagen.registry import resolve
 from datagen.seeding import sample_rng
 
@@ -37,7 +38,7 @@ class AerialPlanningError(RuntimeError):
 @dataclass
 class AerialEpisode:
     volume: Volume
-    shapes: list[QuadrotorShape]
+    shapes: list[Any]  # each drone's airframe shape (aerial.airframe), with its span
     limits: list[FlightLimits]
     agents: list[Agent]
     attempt: int
@@ -73,15 +74,19 @@ def flight_limits(cfg: AerialConfig, radius: float) -> FlightLimits:
 
 
 def plan_aerial_episode(cfg: AerialConfig, seed: int, index: int, retry: int = 0) -> AerialEpisode:
-    reasons = []
+    reasons, airframe = [], AIRFRAMES[cfg.airframe]
     for attempt in range(ATTEMPTS):
         suffix = f"/{attempt}" if attempt else ""
         sizes = sample_rng(seed, index, "aerial_drones" + suffix, retry)
         shapes = [
-            QuadrotorShape(round(float(sizes.uniform(*cfg.span)), 4)) for _ in range(cfg.drones)
+            drone_shape(airframe, round(float(sizes.uniform(*cfg.span)), 4))
+            for _ in range(cfg.drones)
         ]
         # a stereo pair's right camera may reach beyond the drone's parts: planned with it
-        radii = [max(bounding_radius(s), camera_reach(s, cfg.stereo_baseline)) for s in shapes]
+        radii = [
+            max(bounding_radius(airframe, s), camera_reach(airframe, s, cfg.stereo_baseline))
+            for s in shapes
+        ]
         limits = [flight_limits(cfg, radius) for radius in radii]
         layout = make_layout(
             cfg.family,

@@ -6,8 +6,8 @@ tests/aerial/test_quadrotor.py).
 
 Body frame (as the flight's, :mod:`datagen.aerial.flatness`): x forward, y left, z up, origin at
 the centre of mass (the body's centre). Sizes in metres: ``span`` is the distance between the
-centres of two opposite rotors; everything else scales with it. :func:`bounding_radius` is the
-radius of the sphere round the origin that holds every part: the radius flights are planned with.
+centres of two opposite rotors; everything else scales with it. Its record is ``quadrotor`` in
+``datagen.registries.AIRFRAMES``; :mod:`datagen.aerial.airframe` measures it for planning.
 """
 
 from __future__ import annotations
@@ -85,13 +85,6 @@ def quadrotor_parts(shape: QuadrotorShape) -> dict[str, trimesh.Trimesh]:
     }
 
 
-def bounding_radius(shape: QuadrotorShape) -> float:
-    """Metres: the farthest vertex of any part from the centre of mass."""
-    return float(
-        max(np.linalg.norm(m.vertices, axis=1).max() for m in quadrotor_parts(shape).values())
-    )
-
-
 MOUNT_SHIFT = (0.04, 0.015)  # spans: how far the forward camera may sit off the pod's centre (y, z)
 
 
@@ -107,17 +100,3 @@ def camera_mounts(
         "forward": np.array([0.5 * s + 0.005, y, -0.04 * s + z]),
         "down": np.array([0.0, 0.0, -0.06 * s - 0.005]),
     }
-
-
-def right_camera(forward: np.ndarray, baseline: float) -> np.ndarray:
-    """Where a stereo pair's right camera sits in the body frame: ``baseline`` metres to the
-    right of the forward camera at ``forward`` (along -y: a tilt about y keeps the axes
-    parallel)."""
-    return np.asarray(forward, float) - np.array([0.0, baseline, 0.0])
-
-
-def camera_reach(shape: QuadrotorShape, baseline: float) -> float:
-    """Metres from the centre of mass to the farthest place a camera may sit: the forward mount
-    shifted as far as its randomisation goes, and a right camera ``baseline`` beside it."""
-    mounts = [camera_mounts(shape, (y, z))["forward"] for y in (-1.0, 1.0) for z in (-1.0, 1.0)]
-    return float(max(np.linalg.norm(right_camera(m, baseline)) for m in mounts))

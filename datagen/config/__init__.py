@@ -49,7 +49,7 @@ from datagen.config.shading import check_shader
 from datagen.config.values import fits, shape, show, show_key
 from datagen.config.yaml_file import read_yaml
 from datagen.errors import ConfigError
-from datagen.registries import EXPORTS, FAMILIES, GROUND_ROBOTS, LAYOUTS, SAMPLERS, STORE
+from datagen.registries import AIRFRAMES, EXPORTS, FAMILIES, GROUND_ROBOTS, LAYOUTS, SAMPLERS, STORE
 
 CONFIG_VERSION = 1
 
@@ -276,6 +276,7 @@ def _check_semantics(config: BuildConfig, source: str) -> None:
     LAYOUTS.check(config.navigation.family, f"{source}: navigation.family")
     _check_navigation(config.navigation, source)
     LAYOUTS.check(config.aerial.family, f"{source}: aerial.family")
+    AIRFRAMES.check(config.aerial.airframe, f"{source}: aerial.airframe")
     _check_aerial_camera(config, source)
     _check_sinks(list(config.output.sinks), family, source)
     if config.build.on_sample_error not in SAMPLE_ERROR_POLICIES:

@@ -48,6 +48,7 @@ class AerialConfig:
     span: tuple[float, float] = field(
         default=(0.25, 0.45), metadata=ranged(0.1, 1.0, "metres between opposite rotor centres")
     )
+    airframe: str = "quadrotor"  # a drone's frame (datagen.registries.AIRFRAMES)
     # the volume (datagen.aerial.volumes)
     height: tuple[float, float] = field(
         default=(2.6, 4.0), metadata=ranged(1.0, 10.0, "floor to ceiling, metres")

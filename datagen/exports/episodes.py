@@ -66,7 +66,7 @@ class Episode:
     depth: dict[str, list[str]] = field(default_factory=dict)  # camera -> 16-bit mm PNG parts
     extras: dict[str, np.ndarray] = field(default_factory=dict)  # name -> (T, ...) per frame
     extra_names: dict[str, list[str]] = field(default_factory=dict)  # its columns, if named
-    robot: str = ""  # the robot of a navigation episode ("fetch", "car"); "" where the kind says
+    robot: str = ""  # a navigation episode's robot ("fetch", "car"), an aerial one's airframe
 
     @property
     def length(self) -> int:

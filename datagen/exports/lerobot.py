@@ -38,7 +38,7 @@ from datagen.records import ExportedDataset, Manifest, SampleProgress
 MB = 1024**2
 EPISODE_ROWS_PER_GROUP = 100  # meta/episodes rows buffered before a row group is written
 # the robot of each kind of episode but grasps (whose arm is the config's)
-ROBOT_OF_KIND = {"navigation": "fetch", "aerial": "quadrotor"}
+ROBOT_OF_KIND = {"navigation": "fetch"}
 
 
 def export(

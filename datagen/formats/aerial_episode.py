@@ -68,13 +68,15 @@ def episodes(
     meta: SampleMetadata, dataset: ExportedDataset, i: int, manifest: Manifest
 ) -> list[Episode]:
     """One episode per drone (key ``<sample>.d<k>``) at ``aerial.frame_rate_hz``."""
-    fps = float(manifest["config"]["aerial"]["frame_rate_hz"])
+    aerial = manifest["config"]["aerial"]
+    fps, airframe = float(aerial["frame_rate_hz"]), str(aerial.get("airframe", "quadrotor"))
     records = [meta["frames"][n] for n in on_grid(meta["frames"], fps)]
-    return [_drone(meta, records, fps, k) for k in range(len(meta["episode"]["agents"]))]
+    drones = range(len(meta["episode"]["agents"]))
+    return [_drone(meta, records, fps, k, airframe) for k in drones]
 
 
 def _drone(
-    meta: SampleMetadata, records: Sequence[Mapping[str, Any]], fps: float, k: int
+    meta: SampleMetadata, records: Sequence[Mapping[str, Any]], fps: float, k: int, airframe: str
 ) -> Episode:
     """Drone ``k``'s frames from its cameras, named by role (``forward``: part ``d<k>``;
     ``down``: ``d<k>_down``, if built) with depth; state: position (m), attitude quaternion
@@ -94,6 +96,7 @@ def _drone(
         key=f"{meta['key']}.d{k}",
         kind="aerial",
         task=f"fly to the goal through the {words(meta['family'])}",
+        robot=airframe,
         fps=fps,
         state=np.array(
             [[*s["position"], *s["quaternion_xyzw"], *s["velocity"]] for s in states], np.float32

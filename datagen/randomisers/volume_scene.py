@@ -14,26 +14,17 @@ from typing import Any
 
 import numpy as np
 
-from datagen.aerial.quadrotor import PARTS
 from datagen.config import BuildConfig
 from datagen.navigation.grid import Layout
 from datagen.randomisers.floorplan_scene import sample_nav_lighting
 from datagen.randomisers.materials import random_colour, random_material
 from datagen.randomisers.textures import texture_surfaces
+from datagen.registries import AIRFRAMES
 from datagen.seeding import sample_rng
 
 SURFACES = {"floor": (0.2, 0.75), "walls": (0.5, 0.95), "ceiling": (0.6, 0.95)}  # HSV value
 OBSTACLE_KINDS = ("obstacle", "pillar", "beam", "hanging", "screen")
 TEXTURED = ("floor", "walls", "ceiling", *OBSTACLE_KINDS)
-# drone parts: dark frames, light or bright bodies, grey motors, translucent-looking rotors
-_DRONE_VALUE = {
-    "body": (0.3, 1.0),
-    "arms": (0.05, 0.35),
-    "motors": (0.2, 0.5),
-    "rotors": (0.1, 0.6),
-    "legs": (0.05, 0.4),
-    "camera": (0.0, 0.2),
-}
 
 
 def _u(rng: np.random.Generator, bounds: tuple[float, float]) -> float:
@@ -77,8 +68,8 @@ def sample_aerial_scene(
     }
     drone_materials = [
         {
-            part: random_material(rng, materials_cfg, (0.0, 0.9), _DRONE_VALUE[part])
-            for part in PARTS
+            part: random_material(rng, materials_cfg, (0.0, 0.9), value)
+            for part, value in AIRFRAMES[cfg.airframe].paint
         }
         for _ in range(drones)
     ]

@@ -18,10 +18,12 @@ from typing import Any
 import numpy as np
 import sapien
 
+from datagen.aerial.airframe import camera_mounts, drone_parts, right_camera
 from datagen.aerial.episode import AerialEpisode
-from datagen.aerial.quadrotor import camera_mounts, quadrotor_parts, right_camera
 from datagen.config import BuildConfig
 from datagen.engines.sim.cameras import add_camera
+from datagen.plugin_records import Airframe
+from datagen.registries import AIRFRAMES
 from datagen.worlds.class_names import AERIAL_CLASSES
 from datagen.worlds.floorplan import Thing, rect_box
 from datagen.worlds.realise import apply_lighting, light_slots, pad_lights
@@ -60,11 +62,11 @@ def _box(box) -> tuple[list[float], list[float]]:
     return rect_box((x0, y0, x1, y1), z0, z1)
 
 
-def _drone(scene: sapien.Scene, name: str, span: float, materials: dict[str, Any]) -> sapien.Entity:
-    from datagen.aerial.quadrotor import QuadrotorShape
-
+def _drone(
+    scene: sapien.Scene, name: str, airframe: Airframe, shape: Any, materials: dict[str, Any]
+) -> sapien.Entity:
     body = sapien.render.RenderBodyComponent()
-    for part, mesh in quadrotor_parts(QuadrotorShape(span)).items():
+    for part, mesh in drone_parts(airframe, shape).items():
         body.attach(render_shape(mesh, materials[part]))
     entity = sapien.Entity()
     entity.name = name
@@ -116,9 +118,9 @@ def build_aerial_scene(
         else:
             things.append(Thing(0, "obstacle", f"{solid.kind}_{i}", [entity]))
     drones, cameras, camera_in_body = [], {}, {}
-    r = config.render
+    r, airframe = config.render, AIRFRAMES[config.aerial.airframe]
     for k, (agent, shape) in enumerate(zip(episode.agents, episode.shapes, strict=True)):
-        drone = _drone(scene, f"drone_{k}", shape.span, values["drones"][k])
+        drone = _drone(scene, f"drone_{k}", airframe, shape, values["drones"][k])
         drones.append(drone)
         things.append(Thing(0, "drone", f"drone_{k}", [drone]))
         goal = sapien.render.RenderBodyComponent()
@@ -132,7 +134,7 @@ def build_aerial_scene(
         marker.set_pose(sapien.Pose(agent.goal.tolist()))
         things.append(Thing(0, "goal_marker", f"goal_{k}", [marker]))
         cam = values["cameras"][k]
-        mounts = camera_mounts(shape, tuple(cam["forward"]["shift"]))
+        mounts = camera_mounts(airframe, shape, tuple(cam["forward"]["shift"]))
         forward = cam["forward"]
         rigs = {f"d{k}": (_mount(mounts["forward"], forward["pitch_deg"]), forward["fovy_deg"])}
         if config.aerial.stereo_baseline > 0:  # rectified: the same intrinsics, parallel axes

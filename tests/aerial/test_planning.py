@@ -8,14 +8,15 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from datagen.aerial.airframe import bounding_radius, camera_reach
 from datagen.aerial.episode import flown_length, path_lower_bound, plan_aerial_episode
 from datagen.aerial.fleet import Agent, closest_approach, separation
 from datagen.aerial.planning import FlightLimits, plan_flight
-from datagen.aerial.quadrotor import bounding_radius, camera_reach
 from datagen.aerial.volumes import Solid, Volume, box_distance
 from datagen.config import config_from_dict
 from datagen.navigation.grid import Layout
 from datagen.outcomes import spl
+from datagen.registries import AIRFRAMES
 
 DT = 0.005  # seconds: finer than the planner's own checks
 
@@ -110,4 +111,7 @@ def test_a_stereo_pairs_right_camera_is_inside_the_planned_radius():
     ).aerial
     ep = plan_aerial_episode(cfg, 7, 0)
     for shape, limits in zip(ep.shapes, ep.limits, strict=True):
-        assert limits.radius >= camera_reach(shape, 0.4) > bounding_radius(shape)
+        quadrotor = AIRFRAMES["quadrotor"]
+        assert (
+            limits.radius >= camera_reach(quadrotor, shape, 0.4) > bounding_radius(quadrotor, shape)
+        )

@@ -6,28 +6,25 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from datagen.aerial.quadrotor import (
-    QuadrotorShape,
-    bounding_radius,
-    camera_mounts,
-    camera_reach,
-    quadrotor_parts,
-    right_camera,
-)
+from datagen.aerial.airframe import bounding_radius, camera_mounts, camera_reach, right_camera
+from datagen.aerial.quadrotor import QuadrotorShape, quadrotor_parts
 from datagen.config import config_from_dict
 from datagen.config.aerial import MAX_CAMERA_TOP_DEG
 from datagen.errors import ConfigError
+from datagen.registries import AIRFRAMES
+
+QUADROTOR = AIRFRAMES["quadrotor"]
 
 
 @pytest.mark.parametrize("span", [0.1, 0.25, 0.45, 1.0])
 def test_the_bounding_radius_holds_every_part_and_scales_with_the_span(span):
     shape = QuadrotorShape(span)
-    radius = bounding_radius(shape)
+    radius = bounding_radius(QUADROTOR, shape)
     assert all(
         np.linalg.norm(m.vertices, axis=1).max() <= radius + 1e-12
         for m in quadrotor_parts(shape).values()
     )
-    assert radius == pytest.approx(bounding_radius(QuadrotorShape(1.0)) * span)
+    assert radius == pytest.approx(bounding_radius(QUADROTOR, QuadrotorShape(1.0)) * span)
 
 
 def _seen(points: np.ndarray, pitch_deg: float, fovy_deg: float, aspect: float) -> np.ndarray:
@@ -57,8 +54,8 @@ def test_the_forward_cameras_see_nothing_of_their_drone_up_to_the_limit(
     as well, and its drone is planned with a radius that holds it."""
     assert pitch + fovy / 2 <= MAX_CAMERA_TOP_DEG
     shape = QuadrotorShape(span)
-    eye = right_camera(camera_mounts(shape, shift)["forward"], baseline)
-    assert np.linalg.norm(eye) <= camera_reach(shape, baseline) + 1e-12
+    eye = right_camera(camera_mounts(QUADROTOR, shape, shift)["forward"], baseline)
+    assert np.linalg.norm(eye) <= camera_reach(QUADROTOR, shape, baseline) + 1e-12
     for name, mesh in quadrotor_parts(shape).items():
         seen = _seen(np.asarray(mesh.vertices) - eye, pitch, fovy, 4 / 3)
         assert not seen.any(), (name, pitch, fovy)
