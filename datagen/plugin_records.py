@@ -103,10 +103,11 @@ class LayoutKind:
 @dataclass(frozen=True)
 class RobotKind:
     """An arm for tabletop scenes (``robot.name``): its record, a
-    :class:`datagen.robot_specs.RobotSpec`, referenced as ``"module:attribute"``."""
+    :class:`datagen.robot_specs.RobotSpec` (with its summary), referenced as
+    ``"module:attribute"``. The name is written here too so that reading a config imports no
+    robot description; a test checks that it is the record's."""
 
     name: str
-    summary: str  # one line, shown in docs/robots.md
     spec: str
 
     def load(self):

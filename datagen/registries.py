@@ -185,31 +185,11 @@ ROBOTS: Registry[RobotKind] = Registry(
     "robot",
     "datagen.robots",
     [
-        RobotKind(
-            "panda",
-            "Franka Emika Panda with its hand (ManiSkill's panda_v2)",
-            "datagen.robot_specs.panda:PANDA",
-        ),
-        RobotKind(
-            "iiwa14",
-            "KUKA LBR iiwa 14 R820 with the Franka hand",
-            "datagen.robot_specs.iiwa14:IIWA14",
-        ),
-        RobotKind(
-            "xarm7",
-            "UFACTORY xArm7 with the Franka hand (ManiSkill's xarm7)",
-            "datagen.robot_specs.xarm7:XARM7",
-        ),
-        RobotKind(
-            "so100",
-            "TheRobotStudio SO-100 low-cost arm with its jaw gripper (ManiSkill's so100)",
-            "datagen.robot_specs.so100:SO100",
-        ),
-        RobotKind(
-            "koch",
-            "Koch v1.1 low-cost arm with its jaw gripper (ManiSkill's koch-v1.1)",
-            "datagen.robot_specs.koch:KOCH",
-        ),
+        RobotKind("panda", "datagen.robot_specs.panda:PANDA"),
+        RobotKind("iiwa14", "datagen.robot_specs.iiwa14:IIWA14"),
+        RobotKind("xarm7", "datagen.robot_specs.xarm7:XARM7"),
+        RobotKind("so100", "datagen.robot_specs.so100:SO100"),
+        RobotKind("koch", "datagen.robot_specs.koch:KOCH"),
     ],
 )
 

@@ -15,11 +15,14 @@ import pytest
 
 from datagen.plugin_records import FORMAT_FUNCTIONS
 from datagen.registries import (
+    AIRFRAMES,
     EXECUTORS,
     EXPORTS,
     FAMILIES,
+    GROUND_ROBOTS,
     LAYOUTS,
     METADATA_FORMATS,
+    ROBOTS,
     SAMPLERS,
 )
 from datagen.registry import Registry, resolve
@@ -103,6 +106,14 @@ def test_every_registry_entry_loads():
         assert callable(plugin.load())
     for layout in LAYOUTS.values():
         assert callable(resolve(layout.make)) and callable(resolve(layout.params))
+    for arm in ROBOTS.values():  # the name is the record's own, written once more for laziness
+        assert arm.load().name == arm.name
+    for robot in GROUND_ROBOTS.values():
+        assert all(callable(resolve(ref)) for ref in (robot.drive, robot.body, robot.describe))
+    for airframe in AIRFRAMES.values():
+        assert all(
+            callable(resolve(ref)) for ref in (airframe.shape, airframe.parts, airframe.mounts)
+        )
     for fmt in METADATA_FORMATS.values():
         assert all(callable(fmt.function(name)) for name in FORMAT_FUNCTIONS), fmt.name
 
