@@ -68,7 +68,7 @@ class MetadataFormat:
 
 @dataclass(frozen=True)
 class ExportFormat:
-    """A format exported from a finished dataset's shards (``output.sinks``, ``--to``)."""
+    """A format exported from a finished dataset's shards (``output.formats``, ``--to``)."""
 
     name: str
     path: str  # file or folder in the dataset directory

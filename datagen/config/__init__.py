@@ -47,11 +47,10 @@ from datagen.config.sections import (
 )
 from datagen.config.shading import check_shader
 from datagen.config.values import fits, shape, show, show_key
+from datagen.config.versions import CONFIG_VERSION, as_current_version
 from datagen.config.yaml_file import read_yaml
 from datagen.errors import ConfigError
 from datagen.registries import AIRFRAMES, EXPORTS, FAMILIES, GROUND_ROBOTS, LAYOUTS, SAMPLERS, STORE
-
-CONFIG_VERSION = 1
 
 
 @dataclass(frozen=True)
@@ -106,12 +105,7 @@ def config_from_dict(data: Any, source: str = "<config>") -> BuildConfig:
         raise ConfigError(
             f"{source}: expected a mapping of keys at the top level, got {show(data)}"
         )
-    version = data.get("version", CONFIG_VERSION)
-    if type(version) is not int or version != CONFIG_VERSION:
-        raise ConfigError(
-            f"{source}: version: this datagen reads config version {CONFIG_VERSION}, "
-            f"got {show(version)}"
-        )
+    data = as_current_version(data, source)
     _check_keys_and_types(BuildConfig, data, source, prefix="")
     try:
         config = dacite.from_dict(
@@ -278,7 +272,7 @@ def _check_semantics(config: BuildConfig, source: str) -> None:
     LAYOUTS.check(config.aerial.family, f"{source}: aerial.family")
     AIRFRAMES.check(config.aerial.airframe, f"{source}: aerial.airframe")
     _check_aerial_camera(config, source)
-    _check_sinks(list(config.output.sinks), family, source)
+    _check_formats(list(config.output.formats), family, source)
     if config.build.on_sample_error not in SAMPLE_ERROR_POLICIES:
         raise ConfigError(
             f"{source}: build.on_sample_error: expected one of {list(SAMPLE_ERROR_POLICIES)}, "
@@ -357,23 +351,27 @@ def _is_dir(path: str) -> bool:
         return False
 
 
-def _check_sinks(sinks: list[str], family, source: str) -> None:
+def _check_formats(formats: list[str], family, source: str) -> None:
     choices = [STORE, *EXPORTS]
-    if STORE not in sinks or any(s not in choices for s in sinks) or len(set(sinks)) != len(sinks):
+    if (
+        STORE not in formats
+        or any(s not in choices for s in formats)
+        or len(set(formats)) != len(formats)
+    ):
         raise ConfigError(
-            f"{source}: output.sinks: expected distinct names from {choices} including "
-            f"{STORE!r} (the store the other formats are exported from), got {sinks}"
+            f"{source}: output.formats: expected distinct names from {choices} including "
+            f"{STORE!r} (the store the other formats are exported from), got {formats}"
         )
-    for name in sinks[1:] if sinks[0] == STORE else [s for s in sinks if s != STORE]:
+    for name in formats[1:] if formats[0] == STORE else [s for s in formats if s != STORE]:
         if EXPORTS[name].episodes and not family.episodes:
             raise ConfigError(
-                f"{source}: output.sinks: {name!r} stores episodes, and scene {family.name!r} "
+                f"{source}: output.formats: {name!r} stores episodes, and scene {family.name!r} "
                 f"makes single frames; episodes come from "
                 f"{' or '.join(n for n in FAMILIES if FAMILIES[n].episodes)}"
             )
         worlds = EXPORTS[name].worlds
         if worlds is not None and family.world not in worlds:
             raise ConfigError(
-                f"{source}: output.sinks: {name!r} exports scenes of the {' or '.join(worlds)} "
+                f"{source}: output.formats: {name!r} exports scenes of the {' or '.join(worlds)} "
                 f"world only, not scene {family.name!r} ({family.world} world)"
             )

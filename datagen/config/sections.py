@@ -165,7 +165,7 @@ class PhysicsConfig:
 @dataclass(frozen=True)
 class OutputConfig:
     shard_size: int = field(default=200, metadata=ranged(1, 1_000_000, "samples per tar shard"))
-    sinks: tuple[str, ...] = ("webdataset",)
+    formats: tuple[str, ...] = ("webdataset",)  # the shards' store, then formats exported
     png_level: int = field(
         default=1,
         metadata=ranged(0, 9, "PNG compression: 1 fastest (default), 9 smallest, 0 none"),

@@ -84,18 +84,18 @@ def check_world(fmt: ExportFormat, manifest: Manifest, root: Path) -> None:
 
 def run_exports(
     root: str | os.PathLike,
-    sinks,
+    formats,
     force: bool = False,
     on_progress: ExportProgress | None = None,
     options: Mapping[str, Mapping[str, Any]] | None = None,
 ) -> dict[str, ExportRecord]:
-    """Exports each of ``sinks`` (other than the webdataset store) not yet recorded in the
+    """Exports each of ``formats`` (other than the webdataset store) not yet recorded in the
     manifest or no longer there, or every one with ``force``; returns the manifest's
     ``exports`` record. ``options``: format -> keyword arguments of its export function
     (``{"lerobot": {"robot": "so100_follower"}}``); a format given options is written again."""
     from datagen.dataset.loader import load
 
-    unknown = [s for s in sinks if s != STORE and s not in EXPORTS]
+    unknown = [s for s in formats if s != STORE and s not in EXPORTS]
     if unknown:
         raise DatasetError(
             f"unknown {EXPORTS.kind} {unknown[0]!r}; expected one of {EXPORTS.names()}"
@@ -106,8 +106,8 @@ def run_exports(
     done = dict(recorded) if isinstance(recorded, dict) else {}
     missing = {s for s in done if s in EXPORTS and not os.path.lexists(root / EXPORTS[s].path)}
     options = options or {}
-    redo = {s for s in sinks if force or s not in done or s in missing or options.get(s)}
-    todo = [EXPORTS[s] for s in sinks if s in EXPORTS and s in redo]
+    redo = {s for s in formats if force or s not in done or s in missing or options.get(s)}
+    todo = [EXPORTS[s] for s in formats if s in EXPORTS and s in redo]
     if not todo:
         return done
     for fmt in todo:  # refuse before writing anything

@@ -58,7 +58,7 @@ def run_build(
     identity, complete = prepare_out_dir(out_dir, config, overwrite, resume, build_id)
     if complete:
         # finishes an interrupted export, if any
-        run_exports(out_dir, config.output.sinks, on_progress=on_export_progress)
+        run_exports(out_dir, config.output.formats, on_progress=on_export_progress)
         return BuildResult(out_dir, config.num_samples, 0.0, already_complete=True)
     if executor == "ray" and ray_address and not broker_url:
         raise BuildError(
@@ -88,7 +88,7 @@ def run_build(
         manifest = json.loads((out_dir / MANIFEST).read_text())
         write_manifest(out_dir, manifest | extra)
     if (out_dir / MANIFEST).is_file():
-        run_exports(out_dir, config.output.sinks, on_progress=on_export_progress)
+        run_exports(out_dir, config.output.formats, on_progress=on_export_progress)
     return result
 
 

@@ -191,7 +191,7 @@ def replay(root: str | Path, key: str) -> dict[str, np.ndarray]:
     usd_path = root / "usd" / f"{key}.usda"
     if not usd_path.exists():
         raise DatasetError(
-            f"{usd_path} does not exist: add 'usd' to output.sinks, or run "
+            f"{usd_path} does not exist: add 'usd' to output.formats, or run "
             f"'datagen export {root} --to usd' first"
         )
     config = config_from_dict(manifest["config"], source=str(root / "manifest.json"))

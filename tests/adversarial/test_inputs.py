@@ -191,7 +191,7 @@ def workspace(tmp_path_factory) -> dict[str, list[str]]:
     bomb = "".join(
         f"  - &a{i} [{', '.join([f'*a{i - 1}'] * 9) if i else 'lol'}]\n" for i in range(10)
     )
-    (root / "bomb.yaml").write_text(f"output:\n  sinks:\n{bomb}")
+    (root / "bomb.yaml").write_text(f"output:\n  formats:\n{bomb}")
     (root / "generated").mkdir()  # the one place examples write: their mutated configs
     datasets = [str(p) for p in _broken_datasets(root)]
     places = [str(root / n) for n in ("mine", "empty", "interrupted", "a-file", "missing")]

@@ -55,7 +55,7 @@ def built(tmp_path_factory) -> Path:
         "num_samples": SAMPLES, "seed": 3,
         "render": {"width": 64, "height": 48, "wrist_camera": False},
         "objects": {"count": [1, 1]}, "physics": {"settle_time": 0.1},
-        "output": {"shard_size": 3, "sinks": ["webdataset"]},
+        "output": {"shard_size": 3, "formats": ["webdataset"]},
     })  # fmt: skip
     run_build(config, out, workers=1)
     return out

@@ -40,7 +40,7 @@ def small_config(tmp_path: Path, sinks: str = "[webdataset]") -> Path:
     config = tmp_path / "small.yaml"
     config.write_text(
         "scene: grasp_tabletop\nrender:\n  width: 96\n  height: 72\n"
-        f"output:\n  shard_size: 2\n  sinks: {sinks}\n"
+        f"output:\n  shard_size: 2\n  formats: {sinks}\n"
     )
     return config
 

@@ -37,7 +37,7 @@ def tiny_config(seed: int):
         "num_samples": N, "seed": seed,
         "render": {"width": 64, "height": 48, "wrist_camera": False},
         "objects": {"count": [1, 1]}, "physics": {"settle_time": 0.1},
-        "output": {"shard_size": N, "sinks": ["webdataset"]},
+        "output": {"shard_size": N, "formats": ["webdataset"]},
     })  # fmt: skip
 
 

@@ -34,7 +34,7 @@ def test_empty_file_gives_defaults(tmp_path):
         ("objects:\n  families: [box, teapot]\n", "objects.families: expected a non-empty list"),
         ("render:\n  width: 2.5\n", "render.width: expected a whole number, got 2.5"),
         ("scene: kitchen\n", "scene: expected one of"),
-        ("version: 7\n", "version: this datagen reads config version 1"),
+        ("version: 7\n", "version: this datagen reads config versions 1 and 2, got 7"),
         ("- a\n- b\n", "expected a mapping"),
         ("objects: [\n", "not valid YAML"),
     ],
@@ -93,7 +93,7 @@ def test_reference_documents_every_key():
         ("objects:\n  count: {a: 1}\n", "objects.count: expected a [min, max] pair"),
         ("objects:\n  size: 0.1\n", "objects.size: expected a [min, max] pair of finite numbers"),
         ("objects:\n  families: box\n", "objects.families: expected a list of strings"),
-        ("output:\n  sinks: webdataset\n", "output.sinks: expected a list of strings"),
+        ("output:\n  formats: webdataset\n", "output.formats: expected a list of strings"),
         ("objects:\n  families: [1, 2]\n", "objects.families: expected a list of strings"),
         ("camera:\n  eye: [1, 2]\n", "camera.eye: expected a list of 3 finite numbers [x, y, z]"),
         ("camera:\n  eye: null\n", "camera.eye: expected a list of 3 finite numbers"),
@@ -103,7 +103,7 @@ def test_reference_documents_every_key():
         ("render:\n  wrist_camera: 1\n", "render.wrist_camera: expected true or false, got 1"),
         ("lighting:\n  shadows: 'yes'\n", "lighting.shadows: expected true or false, got 'yes'"),
         ("render:\n  near: false\n", "render.near: expected a finite number, got False"),
-        ("version: true\n", "version: this datagen reads config version 1, got True"),
+        ("version: true\n", "version: this datagen reads config versions 1 and 2, got True"),
         ("num_samples: 1.0e+12\n", "num_samples: expected a whole number, got 1000000000000.0"),
         ("num_samples: " + "9" * 40 + "\n", "num_samples: expected values in [1, 999999999]"),
         ("render: null\n", "render: expected a mapping of keys, got None"),
@@ -136,7 +136,7 @@ BOMB = "".join(
 @pytest.mark.parametrize(
     "text",
     [
-        f"output:\n  sinks:\n{BOMB}",  # the blow-up would happen while the value is checked
+        f"output:\n  formats:\n{BOMB}",  # the blow-up would happen while the value is checked
         f"objects:\n  families:\n{BOMB}",
         f"bogus:\n{BOMB}",
     ],
@@ -155,7 +155,7 @@ def test_a_few_aliases_are_fine_and_a_recursive_one_is_refused(tmp_path):
     text = "objects:\n  size: &s [0.05, 0.1]\nnavigation:\n  clutter_size: *s\n"
     assert load_config(write(tmp_path, text)).navigation.clutter_size == (0.05, 0.1)
     with pytest.raises(ConfigError, match="refers to a node that contains it"):
-        load_config(write(tmp_path, "output:\n  sinks: &x [*x]\n"))
+        load_config(write(tmp_path, "output:\n  formats: &x [*x]\n"))
 
 
 @pytest.mark.parametrize(
@@ -194,3 +194,20 @@ def test_an_unreadable_config_file_is_one_line(tmp_path):
     path.chmod(0)
     with pytest.raises(ConfigError, match="cannot read the config file: Permission denied"):
         load_config(path)
+
+
+def test_a_version_1_config_is_read_with_a_notice_for_its_renamed_key(tmp_path, caplog):
+    old = write(tmp_path, "version: 1\noutput:\n  sinks: [webdataset, coco]\n")
+    with caplog.at_level("WARNING", logger="datagen.config"):
+        config = load_config(old)
+    assert config.version == 2 and config.output.formats == ("webdataset", "coco")
+    notices = [r.getMessage() for r in caplog.records]
+    assert len(notices) == 1 and "output.sinks is read as output.formats" in notices[0]
+    assert str(old) in notices[0] and "\n" not in notices[0]
+    new = write(tmp_path, "version: 2\noutput:\n  formats: [webdataset, coco]\n")
+    assert load_config(new) == config
+    with pytest.raises(ConfigError, match=r"unknown key\(s\) output.sinks"):
+        load_config(write(tmp_path, "version: 2\noutput:\n  sinks: [webdataset]\n"))
+    both = "version: 1\noutput:\n  sinks: [webdataset]\n  formats: [webdataset]\n"
+    with pytest.raises(ConfigError, match="the same key, named 'sinks' in config version 1"):
+        load_config(write(tmp_path, both))

@@ -24,7 +24,7 @@ def tiny_dataset(tmp_path_factory):
         num_samples=16,
         seed=11,
         render=RenderConfig(width=160, height=120),
-        output=OutputConfig(shard_size=6, sinks=("webdataset", "coco")),
+        output=OutputConfig(shard_size=6, formats=("webdataset", "coco")),
     )
     run_build(config, out, workers=2)
     return out

@@ -29,7 +29,7 @@ CONFIG = BuildConfig(
     seed=5,
     render=RenderConfig(width=160, height=120),
     campaign=CampaignConfig(hold_time=0.5),
-    output=OutputConfig(sinks=("webdataset", "hdf5")),
+    output=OutputConfig(formats=("webdataset", "hdf5")),
 )
 
 

@@ -147,7 +147,7 @@ def nav_build(tmp_path_factory):
         num_samples=EPISODES,
         render=RENDER,
         navigation=NavigationConfig(family="maze", clutter=(1, 4), frame_rate_hz=1.0),
-        output=OutputConfig(sinks=("webdataset", "coco", "hdf5")),
+        output=OutputConfig(formats=("webdataset", "coco", "hdf5")),
     )
     out = tmp_path_factory.mktemp("nav")
     run_build(config, out / "two", workers=2)

@@ -130,7 +130,7 @@ def test_a_build_with_picture_folders_lists_skips_exports_tiles_and_replays(tmp_
                        "textures_dir_share": 1.0},
          "background": {"images_dir": str(tmp_path / "walls"), "texture_probability": 1.0,
                         "images_dir_share": 1.0},
-         "output": {"sinks": ["webdataset", "usd"]},
+         "output": {"formats": ["webdataset", "usd"]},
          "photos": {"enabled": False}},  # the users' pictures, not the library's, on every surface
     ).replace(num_samples=2, seed=3)  # fmt: skip
     out = tmp_path / "built"

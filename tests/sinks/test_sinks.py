@@ -181,7 +181,7 @@ def test_usd_scenes_validate_and_match_the_metadata(built):
                 np.testing.assert_allclose(np.asarray(mesh.GetPointsAttr().Get()), part.vertices, atol=1e-6)  # fmt: skip
                 assert len(mesh.GetFaceVertexCountsAttr().Get()) == len(part.faces)
     with pytest.raises(ConfigError, match="'usd' exports scenes of the tabletop world only"):
-        config_from_dict({"scene": "navigation", "output": {"sinks": ["webdataset", "usd"]}})
+        config_from_dict({"scene": "navigation", "output": {"formats": ["webdataset", "usd"]}})
 
 
 @pytest.mark.sim
@@ -235,8 +235,8 @@ def test_exports_refuse_scenes_outside_their_worlds(tmp_path):
 def test_episode_formats_refuse_frames_in_one_line(tmp_path, name):
     """In the config, before a build starts, and on a finished dataset, before writing."""
     with pytest.raises(ConfigError, match=rf"'{name}' stores episodes, and scene 'grasp_tabletop' makes single frames; episodes come from grasp_attempts or navigation or aerial$"):  # fmt: skip
-        config_from_dict({"scene": "grasp_tabletop", "output": {"sinks": ["webdataset", name]}})
-    config_from_dict({"scene": "navigation", "output": {"sinks": ["webdataset", name]}})
+        config_from_dict({"scene": "grasp_tabletop", "output": {"formats": ["webdataset", name]}})
+    config_from_dict({"scene": "navigation", "output": {"formats": ["webdataset", name]}})
     (tmp_path / "manifest.json").write_text(json.dumps({"shards": [], "scene": "grasp_tabletop"}))
     with pytest.raises(datagen.DatasetError) as refused:
         run_exports(tmp_path, [name])
@@ -272,9 +272,9 @@ def test_labelled_views_follow_the_metadata_format_not_the_family():
 
 def test_unknown_or_missing_sinks_are_config_errors():
     with pytest.raises(ConfigError, match=r"output.sinks: expected distinct names"):
-        config_from_dict({"output": {"sinks": ["webdataset", "parquet"]}}, source="x.yaml")
+        config_from_dict({"output": {"formats": ["webdataset", "parquet"]}}, source="x.yaml")
     with pytest.raises(ConfigError, match=r"including 'webdataset'"):
-        config_from_dict({"output": {"sinks": ["coco"]}}, source="x.yaml")
+        config_from_dict({"output": {"formats": ["coco"]}}, source="x.yaml")
 
 
 def _keys(dataset, workers: int) -> list[str]:
