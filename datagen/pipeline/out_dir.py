@@ -16,6 +16,7 @@ from pathlib import Path
 from typing import Any
 
 from datagen.config import BuildConfig
+from datagen.config.versions import as_current_version
 from datagen.engines.transfer.wire import SECRET_ENV, parse_secret
 from datagen.errors import BuildError, OutDirError
 from datagen.pipeline import finished_build
@@ -156,7 +157,10 @@ def check_build_state(out_dir: Path, config: BuildConfig) -> None:
         raise OutDirError(
             f"{out_dir}: nothing to resume (no {BUILD_STATE}); start it without --resume"
         )
-    if (started := state.get("config")) != config.to_dict():
+    started = state.get("config")
+    if isinstance(started, dict) and started.get("version") == 1:  # started by an older datagen
+        started = as_current_version(started, str(out_dir / BUILD_STATE))
+    if started != config.to_dict():
         previous = started if isinstance(started, dict) else {}
         differing = sorted(k for k, v in config.to_dict().items() if previous.get(k) != v)
         raise OutDirError(

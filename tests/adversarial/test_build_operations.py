@@ -150,3 +150,20 @@ def test_a_disk_that_fills_mid_build_stops_it_in_one_line_and_resume_finishes_it
     assert resumed.returncode == 0, resumed.stderr
     assert "were already durable" in resumed.stdout
     assert verify(out)["samples"] == N and len(load(out)) == N
+
+
+def test_a_build_started_with_a_version_1_config_resumes_and_another_config_is_refused(tmp_path):
+    from datagen.errors import OutDirError
+    from datagen.pipeline.out_dir import BUILD_STATE, check_build_state
+
+    config = BuildConfig()
+    out = datagen_output(tmp_path / "out")
+    state = json.loads((out / BUILD_STATE).read_text())
+    output = state["config"]["output"]
+    output["sinks"] = output.pop("formats")  # as datagen wrote it before config version 2
+    state["config"]["version"] = 1
+    (out / BUILD_STATE).write_text(json.dumps(state))
+    check_build_state(out, config)  # the same config, recorded in version 1's words
+    other = config.replace(num_samples=config.num_samples + 1)
+    with pytest.raises(OutDirError, match=r"another config \(differs in: num_samples\)"):
+        check_build_state(out, other)
