@@ -36,11 +36,11 @@ def datagen(*args, env=None, timeout=300):
     )
 
 
-def small_config(tmp_path: Path, sinks: str = "[webdataset]") -> Path:
+def small_config(tmp_path: Path, formats: str = "[webdataset]") -> Path:
     config = tmp_path / "small.yaml"
     config.write_text(
         "scene: grasp_tabletop\nrender:\n  width: 96\n  height: 72\n"
-        f"output:\n  shard_size: 2\n  formats: {sinks}\n"
+        f"output:\n  shard_size: 2\n  formats: {formats}\n"
     )
     return config
 
@@ -82,7 +82,7 @@ def test_plain_progress_prints_one_line_per_interval_and_one_at_the_end():
 @pytest.mark.mqtt
 @pytest.mark.slow
 def test_a_build_into_a_log_file_prints_few_plain_progress_lines(tmp_path):
-    config = small_config(tmp_path, sinks="[webdataset, coco]")
+    config = small_config(tmp_path, formats="[webdataset, coco]")
     start = time.monotonic()
     result = datagen(
         "build", str(config), "--out", str(tmp_path / "out"), "--num-samples", "8",

@@ -30,7 +30,7 @@ CONFIG = BuildConfig(
     num_samples=SAMPLES,
     seed=21,
     render=RenderConfig(width=160, height=120, wrist_camera=True, views=2),
-    output=OutputConfig(shard_size=3, sinks=("webdataset", "coco", "hdf5", "pointcloud", "usd")),
+    output=OutputConfig(shard_size=3, formats=("webdataset", "coco", "hdf5", "pointcloud", "usd")),
     # the close-up camera (configs/grasp_closeup.yaml): at 160 x 120 a pixel spans a few mm there
     camera=CameraConfig(eye=(-0.22, 0.28, 1.22), target=(0.08, 0.0, 0.76), fovy_deg=(42.0, 52.0)),
 )
@@ -270,8 +270,8 @@ def test_labelled_views_follow_the_metadata_format_not_the_family():
         labelled_views({"format": "x/1", "key": "000000007"})
 
 
-def test_unknown_or_missing_sinks_are_config_errors():
-    with pytest.raises(ConfigError, match=r"output.sinks: expected distinct names"):
+def test_unknown_or_missing_output_formats_are_config_errors():
+    with pytest.raises(ConfigError, match=r"output.formats: expected distinct names"):
         config_from_dict({"output": {"formats": ["webdataset", "parquet"]}}, source="x.yaml")
     with pytest.raises(ConfigError, match=r"including 'webdataset'"):
         config_from_dict({"output": {"formats": ["coco"]}}, source="x.yaml")
