@@ -197,21 +197,36 @@ def blind_scores(prior: Frames, tests: dict[str, Frames], result: dict, seeds: i
 
 
 def trained_scores(
-    name: str, frames: Frames, tests: dict, make_net, args, precision: str, costs: dict
+    name: str, frames: Frames, tests: dict, make_net, args, result: dict, costs: dict
 ):
     """One net per seed trained on set ``name``'s ``frames``, scored on each domain of ``tests``
-    (domain -> float images on the training device, class maps, target maps)."""
-    x, y = frames.float_images().to(args.device), frames.classes.to(args.device)
+    (domain -> float images on the training device, class maps, target maps). Each seed's
+    scores are kept in ``--out/nets`` as soon as it is trained, so that a run stopped between
+    seeds loses at most one net."""
+    precision = result["precision"]["precision"]
     runs: dict[str, list] = {domain: [] for domain in tests}
     train_s, losses = 0.0, []
+    x = y = None
     for seed in args.seeds:
-        start = time.perf_counter()
-        trained, seed_losses = train(x, y, make_net, args.epochs, seed, precision=precision)
-        train_s += time.perf_counter() - start
-        losses.append(seed_losses)
-        for domain, (tx, classes, targets) in tests.items():
-            predicted = predict(trained, tx, precision).cpu()
-            runs[domain].append(object_scores(predicted, classes, targets))
+        kept = earlier_net(args.out, result, name, len(frames), seed)
+        if kept is None:
+            if x is None:
+                x, y = frames.float_images().to(args.device), frames.classes.to(args.device)
+            start = time.perf_counter()
+            trained, seed_losses = train(x, y, make_net, args.epochs, seed, precision=precision)
+            scores = {
+                domain: object_scores(predict(trained, tx, precision).cpu(), classes, targets)
+                for domain, (tx, classes, targets) in tests.items()
+            }
+            kept = {"train_s": time.perf_counter() - start, "losses": seed_losses}
+            kept |= {"scores": scores, "commit": result["commit"]}
+            keep_net(args.out, result, name, len(frames), seed, kept)
+        else:
+            print(f"{name:22} seed {seed} trained by an earlier run: its scores kept", flush=True)
+        train_s += kept["train_s"]
+        losses.append(kept["losses"])
+        for domain in tests:
+            runs[domain].append(kept["scores"][domain])
     costs.update(
         train_s_per_epoch=round(train_s / args.epochs / len(args.seeds), 2),
         losses=losses,
@@ -281,9 +296,7 @@ def main() -> int:
         frames = (
             prior if name == "c_default" else set_frames(name, args.frames, recipe, args, costs)
         )
-        trained_scores(
-            name, frames, on_device, make_net, args, result["precision"]["precision"], costs
-        )
+        trained_scores(name, frames, on_device, make_net, args, result, costs)
         write(result, args.out)
     write(result, args.out)
     print("\n" + report(result), flush=True)
@@ -319,6 +332,39 @@ def earlier_sets(out: Path, result: dict, frames: int) -> dict[str, dict]:
         for name, costs in earlier.get("sets", {}).items()
         if name in result["sets"] and "scores" in costs and costs.get("frames") == frames
     }
+
+
+def _net_file(out: Path, name: str, seed: int) -> Path:
+    return out / "nets" / f"{name}-seed{seed}.json"
+
+
+def _net_recipe(result: dict, frames: int) -> list:
+    """What one net's scores depend on: the run's recipe but its list of seeds."""
+    counts = {n: d.get("frames") for n, d in result["domains"].items()}
+    return [*_recipe(result | {"seeds": None}), frames, counts]
+
+
+def earlier_net(out: Path, result: dict, name: str, frames: int, seed: int) -> dict | None:
+    """Seed ``seed``'s net on set ``name`` as an earlier run of this recipe kept it (its
+    training time, losses, scores per domain and commit); None when there is none or anything
+    of the recipe differs."""
+    try:
+        kept = json.loads(_net_file(out, name, seed).read_text())
+    except (OSError, ValueError):
+        return None
+    if kept.get("recipe") != _net_recipe(result, frames):
+        return None
+    if not all(domain in kept.get("scores", {}) for domain in result["domains"]):
+        return None
+    return kept
+
+
+def keep_net(out: Path, result: dict, name: str, frames: int, seed: int, kept: dict) -> None:
+    path = _net_file(out, name, seed)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    partial_file = path.with_suffix(".partial")
+    partial_file.write_text(json.dumps(kept | {"recipe": _net_recipe(result, frames)}))
+    partial_file.replace(path)
 
 
 def write(result: dict, out: Path) -> None:

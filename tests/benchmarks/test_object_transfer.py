@@ -142,3 +142,25 @@ def test_every_training_set_is_a_valid_config_differing_from_the_default_in_its_
     assert configs["c_no_look_variety"].robot.look.tilt_deg == (0.0, 0.0)
     assert configs["c_with_raytraced_share"].render.shader == "raytraced"
     assert default.render.shader == "rasterized"
+
+
+def test_a_run_stopped_between_seeds_keeps_each_net_it_trained(tmp_path, monkeypatch):
+    monkeypatch.syspath_prepend(str(REPO / "benchmarks"))
+    import object_transfer
+
+    run = {"cpu": {"line": "x"}, "device": "cpu", "net": {"name": "unet"}, "size": [160, 120]}
+    run |= {"epochs": 20, "seeds": [0, 1, 2], "precision": {"precision": "fp32"}}
+    run |= {"commit": "abc1234", "domains": {"photos": {"frames": 300}}}
+    net = {"train_s": 61.0, "losses": [1.0, 0.5], "scores": {"photos": {"object": 40.0}}}
+    object_transfer.keep_net(tmp_path, run, "a_flat", 2000, 1, net)
+    assert object_transfer.earlier_net(tmp_path, run, "a_flat", 2000, 1)["scores"] == net["scores"]
+    # another list of seeds trains the same net; anything else of the recipe does not
+    assert object_transfer.earlier_net(tmp_path, run | {"seeds": [1]}, "a_flat", 2000, 1)
+    assert object_transfer.earlier_net(tmp_path, run, "a_flat", 2000, 0) is None
+    assert object_transfer.earlier_net(tmp_path, run, "b_plain", 2000, 1) is None
+    assert object_transfer.earlier_net(tmp_path, run, "a_flat", 500, 1) is None
+    assert object_transfer.earlier_net(tmp_path, run | {"epochs": 40}, "a_flat", 2000, 1) is None
+    more = run | {"domains": {"photos": {"frames": 300}, "meshes": {"frames": 300}}}
+    assert object_transfer.earlier_net(tmp_path, more, "a_flat", 2000, 1) is None
+    (tmp_path / "nets" / "a_flat-seed1.json").write_text("{cut sh")
+    assert object_transfer.earlier_net(tmp_path, run, "a_flat", 2000, 1) is None
