@@ -106,7 +106,8 @@ def run_writer_command(p: argparse.ArgumentParser, args: argparse.Namespace) -> 
 
 
 def run_broker(args: argparse.Namespace) -> int:
-    from datagen.engines.transfer.mosquitto import run_broker_forever
+    from datagen.engines.transfer.broker_service import run_broker_forever
+    from datagen.engines.transfer.broker_settings import service_settings
 
     password = args.password or os.environ.get("DATAGEN_BROKER_PASSWORD")
 
@@ -115,7 +116,7 @@ def run_broker(args: argparse.Namespace) -> int:
         print(f"  {broker.public_url}", flush=True)
         print("datagen: Ctrl-C stops it.", flush=True)
 
-    return run_broker_forever(
+    settings = service_settings(
         host=args.host,
         port=args.port,
         data_dir=args.data_dir,
@@ -124,8 +125,8 @@ def run_broker(args: argparse.Namespace) -> int:
         tls_cert=args.tls_cert,
         tls_key=args.tls_key,
         advertise_host=args.advertise_host,
-        on_ready=ready,
     )
+    return run_broker_forever(settings, on_ready=ready)
 
 
 def run_writer(

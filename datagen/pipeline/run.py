@@ -13,6 +13,7 @@ from collections.abc import Callable, Iterator
 from pathlib import Path
 
 from datagen.config import BuildConfig
+from datagen.engines.transfer.broker_settings import BrokerSettings
 from datagen.engines.transfer.mosquitto import ManagedBroker
 from datagen.errors import BuildError
 from datagen.exports.runner import ExportProgress, run_exports
@@ -103,9 +104,8 @@ def _broker(
         yield broker_url, None
         return
     max_bytes = int(config.transfer.max_sample_mb * 2**20) + 2**16  # + wire header room
-    with ManagedBroker(
-        max_message_bytes=max_bytes, preexec_fn=die_with_parent, websockets=monitor is not None
-    ) as broker:
+    settings = BrokerSettings(max_message_bytes=max_bytes, websockets=monitor is not None)
+    with ManagedBroker(settings, preexec_fn=die_with_parent) as broker:
         if monitor:
             monitor(broker)
         if observer:

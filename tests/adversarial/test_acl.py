@@ -20,6 +20,7 @@ import pytest
 
 from adversarial.leaks import ProcessWatcher, leaking_files, leaks, secret_forms
 from datagen.dataset.loader import check_complete
+from datagen.engines.transfer.broker_settings import BrokerSettings
 from datagen.engines.transfer.mosquitto import ManagedBroker
 from datagen.engines.transfer.publisher import PublishRefused, SamplePublisher
 from datagen.engines.transfer.topics import topics
@@ -60,7 +61,7 @@ def role_broker(tmp_path):
     hashed = users.read_text()
     assert hashed.count("$7$") == 3 and not any(pw in hashed for pw in passwords.values())
     acl.write_text(doc_block("acl-roles"))
-    with ManagedBroker(acl_file=acl, password_file=users) as broker:
+    with ManagedBroker(BrokerSettings(acl_file=acl, password_file=users)) as broker:
         yield broker, passwords
 
 

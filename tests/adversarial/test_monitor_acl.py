@@ -14,6 +14,7 @@ import paho.mqtt.client as mqtt
 import pytest
 
 from adversarial.test_acl import ROLES, Client, T, doc_block, doc_env
+from datagen.engines.transfer.broker_settings import BrokerSettings
 from datagen.engines.transfer.mosquitto import ManagedBroker
 
 pytestmark = [pytest.mark.adversarial, pytest.mark.mqtt]
@@ -34,7 +35,9 @@ def monitored_broker(tmp_path):
     assert not (tmp_path / "monitor.passwd").exists()
     acl = tmp_path / "datagen.acl"
     acl.write_text(doc_block("acl-roles") + "\n" + doc_block("acl-monitor"))
-    with ManagedBroker(acl_file=acl, password_file=tmp_path / "datagen.passwd", websockets=True) as broker:  # fmt: skip
+    users = tmp_path / "datagen.passwd"
+    settings = BrokerSettings(acl_file=acl, password_file=users, websockets=True)
+    with ManagedBroker(settings) as broker:
         yield broker, passwords
 
 

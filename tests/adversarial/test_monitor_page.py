@@ -25,6 +25,7 @@ import paho.mqtt.client as mqtt
 import psutil
 import pytest
 
+from datagen.engines.transfer.broker_settings import BrokerSettings
 from datagen.engines.transfer.mosquitto import ManagedBroker
 from datagen.engines.transfer.topics import topics
 from datagen.monitor.server import MonitorServer, PageConfig
@@ -221,7 +222,7 @@ def _other_addresses() -> list[str]:
 def test_the_websockets_listener_is_bound_to_loopback_only():
     """Mosquitto 2.0.21 hands a WebSockets listener's address to libwebsockets, which bound
     ``listener PORT 127.0.0.1`` on [::], every interface, unless told the socket is IPv4."""
-    with ManagedBroker(websockets=True) as broker:
+    with ManagedBroker(BrokerSettings(websockets=True)) as broker:
         port = broker.websockets_port
         bound = {
             c.laddr.ip
@@ -300,7 +301,7 @@ def test_the_page_connects_only_to_its_servers_broker_whatever_its_address_says(
 
     recorder = WebSocketRecorder()
     build = "page-" + secrets.token_hex(4)
-    with ManagedBroker(websockets=True) as broker:
+    with ManagedBroker(BrokerSettings(websockets=True)) as broker:
         config = PageConfig(broker.websockets_url, broker.monitor_username, broker.monitor_password or "", build)  # fmt: skip
         publisher = mqtt.Client(mqtt.CallbackAPIVersion.VERSION2, protocol=mqtt.MQTTv5)
         publisher.username_pw_set(broker.username, broker.password)

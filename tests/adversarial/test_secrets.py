@@ -27,6 +27,7 @@ from adversarial.leaks import (
     secret_forms,
 )
 from datagen.dataset.loader import check_complete
+from datagen.engines.transfer.broker_settings import BrokerSettings
 from datagen.engines.transfer.broker_url import parse_broker_url
 from datagen.engines.transfer.mosquitto import ManagedBroker
 
@@ -105,7 +106,7 @@ def assert_nothing_leaks(run: Run, out: Path, forms: dict[str, bytes], argv_ok=F
 @pytest.fixture(scope="module")
 def known_broker():
     """An external broker whose password the test knows."""
-    with ManagedBroker(username="leak-test", password=PASSWORD) as broker:
+    with ManagedBroker(BrokerSettings(username="leak-test", password=PASSWORD)) as broker:
         yield broker
 
 

@@ -13,6 +13,7 @@ from pathlib import Path
 
 import pytest
 
+from datagen.engines.transfer.broker_settings import BrokerSettings
 from datagen.engines.transfer.broker_url import broker_url, parse_broker_url, redact
 from datagen.engines.transfer.collector import AckCollector
 from datagen.engines.transfer.connection import MqttConnectError, MqttConnection, broker_answers
@@ -124,7 +125,7 @@ def test_config_raises_limits_and_files_belong_to_the_broker_user(broker):
         "allow_anonymous false",
         "persistence true",
         "max_queued_messages 1000000",
-        f"max_packet_size {broker.max_message_bytes + 64 * 1024}",
+        f"max_packet_size {broker.settings.max_message_bytes + 64 * 1024}",
         "max_queued_bytes",
         "max_inflight_messages",
         "autosave_interval",
@@ -138,7 +139,7 @@ def test_config_raises_limits_and_files_belong_to_the_broker_user(broker):
 def test_missing_executable_is_a_clear_error():
     with (
         pytest.raises(BrokerError, match="not found on PATH"),
-        ManagedBroker(executable="no-such-mosquitto"),
+        ManagedBroker(BrokerSettings(executable="no-such-mosquitto")),
     ):
         pass
 
@@ -149,11 +150,13 @@ def test_failed_start_reports_the_log_tail_and_a_taken_port_in_one_line():
         taken.bind(("127.0.0.1", 0))
         taken.listen()
         port = taken.getsockname()[1]
-        b = ManagedBroker(port=port)
+        b = ManagedBroker(BrokerSettings(port=port))
         with pytest.raises(BrokerError, match=rf"^127\.0\.0\.1:{port} is already in use"), b:
             pass
     assert b.dir is None  # temp dir removed
-    b = ManagedBroker(host="192.0.2.1", port=port)  # an address (TEST-NET-1) no interface has
+    b = ManagedBroker(
+        BrokerSettings(host="192.0.2.1", port=port)
+    )  # an address (TEST-NET-1) no interface has
     with pytest.raises(BrokerError, match=r"(?s)exited with code.*log tail:.*Cannot assign"), b:
         pass
     assert b.dir is None
@@ -252,9 +255,11 @@ def tls_files(tmp_path_factory):
 @pytest.fixture(scope="module")
 def tls_broker(tls_files):
     with ManagedBroker(
-        tls_cert=tls_files / "server.crt",
-        tls_key=tls_files / "server.key",
-        advertise_host="localhost",
+        BrokerSettings(
+            tls_cert=tls_files / "server.crt",
+            tls_key=tls_files / "server.key",
+            advertise_host="localhost",
+        )
     ) as b:
         yield b
 
@@ -333,8 +338,10 @@ def test_a_wrong_password_is_refused_clearly(broker):
 
 def _run_broker_process(port, data_dir):
     code = (
-        "from datagen.engines.transfer.mosquitto import run_broker_forever\n"
-        f"raise SystemExit(run_broker_forever(port={port}, data_dir={str(data_dir)!r}, "
+        "from datagen.engines.transfer.broker_service import run_broker_forever\n"
+        "from datagen.engines.transfer.broker_settings import service_settings\n"
+        f"settings = service_settings(port={port}, data_dir={str(data_dir)!r})\n"
+        "raise SystemExit(run_broker_forever(settings, "
         "on_ready=lambda b: print(b.public_url, flush=True)))"
     )
     proc = subprocess.Popen(
@@ -381,7 +388,7 @@ def test_run_broker_forever_keeps_state_and_credentials_in_its_data_dir(tmp_path
 def test_an_acl_confines_a_user_to_its_build_and_refusals_are_errors(tmp_path, make_sample):
     acl = tmp_path / "acl"
     acl.write_text("pattern readwrite datagen/%u/#\n")  # user "b1" may use build b1 only
-    with ManagedBroker(username="b1", password="secret-1", acl_file=acl) as b:
+    with ManagedBroker(BrokerSettings(username="b1", password="secret-1", acl_file=acl)) as b:
         with SamplePublisher(b.url, "b1", "acl-own") as pub:
             pub.publish(make_sample(0))  # allowed (no subscriber: published again a few times)
             pub.publish_timeout_s = 0.5

@@ -22,6 +22,7 @@ import numpy as np
 import paho.mqtt.client as mqtt
 import pytest
 
+from datagen.engines.transfer.broker_settings import BrokerSettings
 from datagen.engines.transfer.connection import MqttConnection
 from datagen.engines.transfer.mosquitto import ManagedBroker
 from datagen.engines.transfer.topics import LIVE_STATUS_ALL_BUILDS, topics
@@ -173,7 +174,7 @@ def test_the_websockets_listener_serves_mqtt_to_the_monitor_account():
     """A real MQTT-over-WebSockets client (paho, transport="websockets") logs in as the monitor,
     finds the build through the retained status and receives its next status and preview."""
     t = topics("ws-check")
-    with ManagedBroker(websockets=True) as broker:
+    with ManagedBroker(BrokerSettings(websockets=True)) as broker:
         assert broker.websockets_url == f"ws://127.0.0.1:{broker.websockets_port}"
         publisher = MqttConnection(broker.url, "coordinator")
         publisher.publish_json(t.live_status, {"state": "running"}, retain=True).wait_for_publish(5)

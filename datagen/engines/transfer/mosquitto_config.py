@@ -20,6 +20,8 @@ import stat
 from pathlib import Path
 from typing import Protocol
 
+from datagen.engines.transfer.broker_settings import BrokerSettings
+
 log = logging.getLogger(__name__)
 
 # Room for the topic, properties and fixed header around the largest payload.
@@ -71,50 +73,36 @@ def _traversable(directory: Path, uid: int, gid: int) -> bool:
     return True
 
 
-class BrokerSettings(Protocol):
+class RunningBroker(Protocol):
     """What ``write_config`` reads of a broker (``mosquitto.ManagedBroker`` has it all), so this
-    module does not import the one that calls it."""
+    module does not import the one that calls it: its settings and what its start chose."""
 
+    settings: BrokerSettings
     dir: Path | None
-    host: str
     port: int | None
     tls_port: int | None
-    tls_cert: Path | None
-    tls_key: Path | None
+    websockets_port: int | None
     username: str
     password: str
-    password_file: Path | None
-    acl_file: Path | None
-    websockets: bool
-    websockets_host: str
-    websockets_port: int | None
     monitor_username: str
     monitor_password: str | None
-    max_message_bytes: int
-    max_queued_messages: int
-    max_queued_bytes: int
-    max_inflight_messages: int
-    autosave_interval_s: float
-
-    @property
-    def tls(self) -> bool: ...
 
     @property
     def plain_host(self) -> str: ...
 
 
-def write_config(broker: BrokerSettings) -> pwd.struct_passwd | None:
+def write_config(broker: RunningBroker) -> pwd.struct_passwd | None:
     """Writes ``broker``'s files into ``broker.dir``; returns user ``mosquitto``'s entry when
     the broker should be started as that user (as root, with no privileged port to bind)."""
     assert broker.dir is not None
-    d = broker.dir
+    d, settings = broker.dir, broker.settings
     (d / "data").mkdir(exist_ok=True)
     users = f"{broker.username}:{mosquitto_password_hash(broker.password)}\n"
-    if broker.websockets:
+    if settings.websockets:
         assert broker.monitor_password is not None
         users += f"{broker.monitor_username}:{mosquitto_password_hash(broker.monitor_password)}\n"
-    if broker.password_file is not None:  # the operator's users (hashed by mosquitto_passwd)
-        users += broker.password_file.read_text(encoding="utf-8").rstrip("\n") + "\n"
+    if settings.password_file is not None:  # the operator's users (hashed by mosquitto_passwd)
+        users += settings.password_file.read_text(encoding="utf-8").rstrip("\n") + "\n"
     _write_private(d / "passwd", users)
     lines = [
         # password_file and allow_anonymous are global (per_listener_settings false):
@@ -122,27 +110,27 @@ def write_config(broker: BrokerSettings) -> pwd.struct_passwd | None:
         f"listener {broker.port} {broker.plain_host}",
     ]
     owned = [d, d / "data", d / "passwd"]
-    if broker.tls:
-        assert broker.tls_cert is not None and broker.tls_key is not None
+    if settings.tls:
+        assert settings.tls_cert is not None and settings.tls_key is not None
         tls_dir = d / "tls"
         tls_dir.mkdir(exist_ok=True)
         # copies: mosquitto may run as user "mosquitto", which cannot read the originals
-        shutil.copyfile(broker.tls_cert, tls_dir / "server.crt")
-        shutil.copyfile(broker.tls_key, tls_dir / "server.key")
+        shutil.copyfile(settings.tls_cert, tls_dir / "server.crt")
+        shutil.copyfile(settings.tls_key, tls_dir / "server.key")
         os.chmod(tls_dir / "server.key", 0o600)
         owned += [tls_dir, tls_dir / "server.crt", tls_dir / "server.key"]
         lines += [
-            f"listener {broker.tls_port} {broker.host}",
+            f"listener {broker.tls_port} {settings.host}",
             f"certfile {tls_dir / 'server.crt'}",
             f"keyfile {tls_dir / 'server.key'}",
         ]
-    if broker.websockets:
+    if settings.websockets:
         # loopback by default (docs/monitor.md); on an external broker with TLS: docs/deployment.md
         assert broker.websockets_port is not None
-        lines += websockets_listener(broker.websockets_port, broker.websockets_host)
-    if broker.acl_file is not None or broker.websockets:
-        acl = broker.acl_file.read_text(encoding="utf-8") if broker.acl_file is not None else ""
-        if broker.websockets:
+        lines += websockets_listener(broker.websockets_port, settings.websockets_host)
+    if settings.acl_file is not None or settings.websockets:
+        acl = settings.acl_file.read_text(encoding="utf-8") if settings.acl_file is not None else ""
+        if settings.websockets:
             acl += MONITOR_ACL.format(user=broker.username, monitor=broker.monitor_username)
         _write_private(d / "acl", acl)  # Mosquitto warns of a readable one
         owned.append(d / "acl")
@@ -152,11 +140,11 @@ def write_config(broker: BrokerSettings) -> pwd.struct_passwd | None:
         f"password_file {d / 'passwd'}",
         "persistence true",
         f"persistence_location {d / 'data'}/",
-        f"autosave_interval {broker.autosave_interval_s}",
-        f"max_queued_messages {broker.max_queued_messages}",
-        f"max_queued_bytes {broker.max_queued_bytes}",
-        f"max_inflight_messages {broker.max_inflight_messages}",
-        f"max_packet_size {broker.max_message_bytes + PACKET_OVERHEAD_BYTES}",
+        f"autosave_interval {settings.autosave_interval_s}",
+        f"max_queued_messages {settings.max_queued_messages}",
+        f"max_queued_bytes {settings.max_queued_bytes}",
+        f"max_inflight_messages {settings.max_inflight_messages}",
+        f"max_packet_size {settings.max_message_bytes + PACKET_OVERHEAD_BYTES}",
         "set_tcp_nodelay true",
         "log_dest stderr",
         "log_type error",
@@ -175,7 +163,7 @@ def write_config(broker: BrokerSettings) -> pwd.struct_passwd | None:
 
 
 def _root_user_line(
-    broker: BrokerSettings, paths: list[Path]
+    broker: RunningBroker, paths: list[Path]
 ) -> tuple[str, pwd.struct_passwd | None]:
     # Mosquitto started as root drops to user "mosquitto": its files must be that user's,
     # and it must be able to reach them.
