@@ -11,7 +11,8 @@ Loading a dataset needs neither the simulator nor a broker::
 
 from datagen.config import BuildConfig, load_config
 from datagen.dataset.batching import collate
-from datagen.dataset.loader import DatasetError, load, load_frames, verify
+from datagen.dataset.frame_dataset import load_frames
+from datagen.dataset.loader import DatasetError, load, verify
 from datagen.errors import ConfigError
 
 __version__ = "0.1.0"

@@ -15,7 +15,7 @@ from pathlib import Path
 import cv2
 
 from datagen.config import load_config
-from datagen.dataset.loader import decode_parts
+from datagen.dataset.parts import decode_parts
 from datagen.registries import FAMILIES
 from datagen.tools.preview import sample_tile
 

@@ -1,5 +1,5 @@
 """Decoding the episode-level parts of an aerial sample: camera pose files, the voxel grid and the
-drones' IMU streams (the images go through :func:`datagen.dataset.loader.decode_parts`)."""
+drones' IMU streams (the images go through :func:`datagen.dataset.parts.decode_parts`)."""
 
 from __future__ import annotations
 

@@ -10,7 +10,7 @@ from typing import Literal, overload
 
 import numpy as np
 
-from datagen.dataset.loader import decode_parts
+from datagen.dataset.parts import decode_parts
 from datagen.dataset.views import labelled_views
 from datagen.geometry import undistorted_normalised
 from datagen.records import SampleMetadata

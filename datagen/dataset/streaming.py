@@ -19,7 +19,8 @@ import numpy as np
 import torch
 from torch.utils.data import IterableDataset, get_worker_info
 
-from datagen.dataset.loader import ShardDataset, decode_parts
+from datagen.dataset.loader import ShardDataset
+from datagen.dataset.parts import decode_parts
 
 
 def _node() -> tuple[int, int]:

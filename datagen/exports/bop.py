@@ -23,7 +23,7 @@ import cv2
 import numpy as np
 
 from datagen.dataset.assets import check_asset_paths
-from datagen.dataset.loader import decode_parts
+from datagen.dataset.parts import decode_parts
 from datagen.dataset.values import pose_matrix
 from datagen.dataset.views import LabelledView, labelled_views
 from datagen.exports.bop_models import ModelSet, dump_json, silhouette

@@ -41,7 +41,8 @@ from typing import Any
 
 import numpy as np
 
-from datagen.dataset.loader import DatasetError, decode_parts
+from datagen.dataset.loader import DatasetError
+from datagen.dataset.parts import decode_parts
 from datagen.dataset.values import BadSample, shown
 from datagen.exports.checks import finite_in_float32, finite_rate, sample_metadata
 from datagen.records import ExportedDataset, Manifest

@@ -30,7 +30,7 @@ import h5py
 import numpy as np
 
 from datagen.dataset.flow_png import decode_flow_image
-from datagen.dataset.loader import decode_parts
+from datagen.dataset.parts import decode_parts
 from datagen.dataset.trajectory import decode_trajectory
 from datagen.dataset.views import LabelledView, is_sequence, labelled_views, sequences
 from datagen.exports.checks import checked_metadata

@@ -19,8 +19,8 @@ from typing import Any
 import numpy as np
 import pyarrow as pa
 
-from datagen.dataset.loader import decode_parts
 from datagen.dataset.manifest import DatasetError
+from datagen.dataset.parts import decode_parts
 from datagen.exports import lerobot_meta as meta
 from datagen.exports.episodes import Episode, episodes_of, frames_of
 from datagen.exports.files import inside

@@ -19,7 +19,7 @@ from typing import Any
 import h5py
 import numpy as np
 
-from datagen.dataset.loader import decode_parts
+from datagen.dataset.parts import decode_parts
 from datagen.dataset.views import labelled_views
 from datagen.exports.checks import positive_metres, sample_metadata
 from datagen.exports.episodes import Episode, episodes, episodes_of, frames_of

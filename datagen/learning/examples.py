@@ -15,7 +15,8 @@ from pathlib import Path
 
 import numpy as np
 
-from datagen.dataset.loader import DatasetError, decode_parts, load
+from datagen.dataset.loader import DatasetError, load
+from datagen.dataset.parts import decode_parts
 from datagen.grasp_model.inputs import GRASP_FEATURES, DepthView, grasp_inputs
 
 LEFT_OUT = ("no_candidate", "disturbed")  # failure modes whose attempts are not examples

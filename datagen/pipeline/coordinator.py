@@ -6,7 +6,8 @@ samples are durable, then the manifest.
          └──────────────────────── MQTT acks (sample durable in a shard) ◄──────────────┘
 
 The coordinator supervises what it started: a worker that died, fell silent or ran past the
-time limit of one sample is killed, replaced and its samples issued again; a writer or broker
+time limit of one sample is killed, replaced and its samples issued again (its
+``WorkerPool``, ``datagen/pipeline/worker_pool.py``); a writer or broker
 that exited or stopped answering is restarted (``datagen/pipeline/supervise.py``; an external one
 is reported, then waited for, then the build stops: docs/liveness.md); a sample not
 acknowledged in time is issued again (writers deduplicate by key). A sample whose production
@@ -32,23 +33,20 @@ from datagen.engines.transfer.run_binding import RunBinding
 from datagen.errors import BuildError
 from datagen.pipeline.executors.base import WorkerSpec
 from datagen.pipeline.live_status import LiveStatus
-from datagen.pipeline.liveness import Attempt, WorkerWatch, timed_out
 from datagen.pipeline.local_writer import LOCAL_WRITER_ID, LocalWriter
 from datagen.pipeline.manifest import build_manifest
 from datagen.pipeline.out_dir import BuildIdentity
-from datagen.pipeline.production import Task
 from datagen.pipeline.result import BuildResult, Observer, ProgressCallback, failed_report
 from datagen.pipeline.schedule import Schedule
 from datagen.pipeline.supervise import (
-    MAX_RESTARTS,
     WRITER_READY_TIMEOUT_S,
     Supervisor,
 )
+from datagen.pipeline.worker_pool import WorkerPool
 from datagen.registries import EXECUTORS
 
 log = logging.getLogger(__name__)
 FINALIZE_TIMEOUT_S = 300.0
-POLL_S = 0.1
 
 
 class Coordinator:
@@ -85,18 +83,10 @@ class Coordinator:
         self.observer = self.live.watching(observer or (lambda event, details: None))
         self.on_progress = on_progress
         self.executor_name, self.executor_options = executor, executor_options or {}
-        self.executor = None  # made in run(), once the broker URL is known
-        self.workers: dict[int, int] = {}  # live worker id -> samples it has published
-        self.retiring: set[int] = set()
-        self.dismissed: set[int] = set()
-        self.next_worker_id = 0
+        self.pool: WorkerPool | None = None  # made in run(), once the broker URL is known
         self.writer = (
             LocalWriter(config, out_dir, self.build_id, self.secret) if writers is None else None
         )
-        self.failed: dict[int, list[str]] = {}  # index -> failures of every attempt
-        self.next_task: dict[int, Task] = {}  # samples to resume at a later attempt (timed out)
-        limits = config.build
-        self.watch = WorkerWatch(limits.worker_timeout_s, limits.sample_timeout_s)
         self.schedule: Schedule | None = None
         self.restarts = {"worker": 0, "writer": 0, "broker": 0}
         self.acks: deque[int] = deque()
@@ -109,7 +99,17 @@ class Coordinator:
         spec = WorkerSpec(
             self.config.to_dict(), worker_url or url, self.build_id, self.secret, self.run_binding
         )
-        self.executor = EXECUTORS[self.executor_name].load()(spec, **self.executor_options)
+        executor = EXECUTORS[self.executor_name].load()(spec, **self.executor_options)
+        self.pool = pool = WorkerPool(
+            self.config,
+            executor,
+            self.num_workers,
+            self.observer,
+            self.live.on_event,
+            self.restarts,
+            self.result.retried,
+            self._missing,
+        )
         total = self.config.num_samples
         self.supervisor = Supervisor(
             self.config,
@@ -143,7 +143,7 @@ class Coordinator:
                 if self.writer is not None:
                     self.supervisor.start_writer()
                 # workers start up (imports, renderer) while the writers get ready
-                starting = [self._spawn_worker() for _ in range(min(self.num_workers, total))]
+                starting = [pool.spawn() for _ in range(min(self.num_workers, total))]
                 self.supervisor.wait_writers_ready(self.result.note_changed)
                 if self.external_writers is not None:
                     # writers started earlier re-announce what is durable; ours did before "ready"
@@ -153,7 +153,7 @@ class Coordinator:
                         raise BuildError(str(exc)) from None
                 durable = {i for i in collector.acked if 0 <= i < total}
                 self.result.resumed_from = len(durable)
-                self.schedule = Schedule(
+                self.schedule = pool.schedule = Schedule(
                     set(range(total)) - durable, self.config.transfer.ack_timeout_s
                 )
                 self.acks.clear()
@@ -161,13 +161,12 @@ class Coordinator:
                 # no idle workers: at most one per sample still to make (a resume may need fewer)
                 needed = len(self.schedule.remaining)
                 for worker_id in starting[needed:]:
-                    self._dismiss(worker_id)
+                    pool.dismiss(worker_id)
                 for worker_id in starting[:needed]:
-                    self.schedule.add_worker(worker_id)
-                    self._feed(worker_id)
-                self._drive()
-                if self.failed:
-                    raise BuildError(failed_report(self.failed, total, self.config.build.retries))
+                    pool.take_on(worker_id)
+                self._drive(self.schedule, pool)
+                if pool.failed:
+                    raise BuildError(failed_report(pool.failed, total, self.config.build.retries))
                 manifest = build_manifest(self.config, self.build_id, self.num_workers)
                 self.result.rejected = collector.rejected
                 manifest["rejected_control_messages_coordinator"] = self.result.rejected
@@ -179,7 +178,7 @@ class Coordinator:
                 self.supervisor.finalize(total, manifest, FINALIZE_TIMEOUT_S)
                 self._check_on_disk()
                 self.live.finish()
-                self._stop_workers(graceful=True)
+                pool.stop(graceful=True)
                 if self.writer is not None:
                     self.writer.wait(timeout_s=30)
             except BaseException as exc:
@@ -187,27 +186,27 @@ class Coordinator:
                 raise
             finally:
                 self.live.close()
-                self._stop_workers(graceful=False)
+                pool.stop(graceful=False)
                 self._stop_writer()
         self.result.samples = total
         self.result.reissued = self.schedule.reissued
         self.result.restarts = dict(self.restarts)
 
-    def _drive(self) -> None:
+    def _drive(self, schedule: Schedule, pool: WorkerPool) -> None:
         total = self.config.num_samples
         while True:
             while self.acks:
                 index = self.acks.popleft()
                 if 0 <= index < total:
-                    self.schedule.on_acked(index)
-            self._report(total - self.schedule.not_durable)
-            if self.schedule.done:
+                    schedule.on_acked(index)
+            self._report(total - schedule.not_durable)
+            if schedule.done:
                 return
             self.supervisor.check()
-            self._handle_worker_messages()
+            pool.handle_messages()
             now = time.monotonic()
-            self._supervise_workers(now)
-            overdue = self.schedule.reissue_overdue(now)
+            pool.supervise(now)
+            overdue = schedule.reissue_overdue(now)
             if overdue:
                 log.warning(
                     "%d samples not durable %.0f s after publishing; issuing them again: %s",
@@ -215,135 +214,17 @@ class Coordinator:
                     self.config.transfer.ack_timeout_s,
                     overdue[:10],
                 )
-            for worker_id in list(self.workers):
-                self._feed(worker_id)
+            pool.feed_all()
+
+    @property
+    def failed(self) -> dict[int, list[str]]:
+        """Samples set aside after failing every attempt: index -> failures (the live status)."""
+        return self.pool.failed if self.pool is not None else {}
 
     def _report(self, done: int) -> None:
         self.live.tick()
         if self.on_progress:
             self.on_progress(done, self.config.num_samples)
-
-    # --- workers ---------------------------------------------------------------------------------
-    def _start_worker(self) -> None:
-        worker_id = self._spawn_worker()
-        self.schedule.add_worker(worker_id)
-        self._feed(worker_id)
-
-    def _spawn_worker(self) -> int:
-        """Starts a worker process (or actor); the schedule gives it samples once it is added."""
-        worker_id = self.next_worker_id
-        self.next_worker_id += 1
-        details = self.executor.start(worker_id)
-        self.watch.add(worker_id, time.monotonic())
-        self.workers[worker_id] = 0
-        self.observer("worker", {"id": worker_id, **details})
-        return worker_id
-
-    def _dismiss(self, worker_id: int) -> None:
-        """A worker started before the writers said how much is left, and not needed: it stops
-        without samples, and what it still sends is ignored."""
-        self.dismissed.add(worker_id)
-        self.executor.retire(worker_id)
-        self.watch.forget(worker_id)
-        self.workers.pop(worker_id, None)
-
-    def _feed(self, worker_id: int) -> None:
-        if worker_id in self.retiring:
-            return
-        for index in self.schedule.next_for(worker_id):
-            if not self.executor.send(worker_id, self.next_task.get(index, Task(index))):
-                return  # it died; poll reports it
-
-    def _handle_worker_messages(self) -> None:
-        recycle_after = self.config.executor.recycle_after
-        for worker_id, kind, payload in self.executor.poll(POLL_S):
-            if worker_id in self.dismissed:
-                continue  # started early and not needed (_dismiss)
-            now = time.monotonic()
-            self.live.on_event(worker_id, kind, payload)
-            self.watch.heard_from(worker_id, now)
-            if kind == "ready":
-                self.watch.ready(worker_id)
-            elif kind == "started":
-                self.watch.started(worker_id, payload, now)
-            elif kind == "published":
-                self.watch.finished(worker_id, payload)
-                self.schedule.on_published(worker_id, payload, now)
-                self.workers[worker_id] += 1
-                if recycle_after and self.workers[worker_id] >= recycle_after:
-                    self._retire(worker_id)
-            elif kind == "retried":
-                self.result.retried[payload["index"]] = {
-                    k: payload[k] for k in ("attempt", "failures")
-                }
-            elif kind == "failed":
-                self.watch.finished(worker_id, payload["index"])
-                self.failed[payload["index"]] = payload["failures"]
-                self.schedule.on_given_up(worker_id, payload["index"])
-            elif kind == "error":
-                raise BuildError(payload)
-            elif kind == "lost":
-                self._lose_worker(worker_id, payload)
-            elif kind == "done":
-                self.watch.forget(worker_id)
-                self.workers.pop(worker_id, None)
-                if worker_id in self.retiring:  # recycled: published samples stay tracked
-                    self.retiring.discard(worker_id)
-                    self.schedule.on_worker_lost(worker_id, keep_published=True)
-                    if not self.schedule.done:
-                        self._start_worker()
-
-    def _retire(self, worker_id: int) -> None:
-        """Recycling: the worker finishes what it holds and stops; a fresh one replaces it."""
-        if worker_id not in self.retiring:
-            self.retiring.add(worker_id)
-            self.observer("recycle", {"id": worker_id, "samples": self.workers[worker_id]})
-            self.executor.retire(worker_id)
-
-    def _supervise_workers(self, now: float) -> None:
-        """Kills a worker that fell silent or ran past the time limit of one sample; a timed-out
-        attempt counts as a failed one (``build.on_sample_error``)."""
-        for stuck in self.watch.unresponsive(now):
-            self.executor.kill(stuck.worker)
-            if stuck.attempt is not None:
-                self._attempt_timed_out(stuck.worker, stuck.attempt)
-            self._lose_worker(stuck.worker, f"killed: it {stuck.why}")
-
-    def _attempt_timed_out(self, worker_id: int, attempt: Attempt) -> None:
-        limits, index = self.config.build, attempt.index
-        failures = timed_out(attempt, limits.sample_timeout_s)
-        if limits.on_sample_error != "retry":
-            raise BuildError(
-                f"sample {index} timed out after {limits.sample_timeout_s:g} s "
-                f"(build.sample_timeout_s; build.on_sample_error: fail); its worker was killed"
-            )
-        if attempt.attempt >= limits.retries:
-            self.failed[index] = failures
-            self.schedule.on_given_up(worker_id, index)
-        else:
-            self.next_task[index] = Task(index, attempt.attempt + 1, tuple(failures))
-
-    def _lose_worker(self, worker_id: int, why: str) -> None:
-        self.watch.forget(worker_id)
-        self.workers.pop(worker_id, None)
-        self.retiring.discard(worker_id)
-        lost = self.schedule.on_worker_lost(worker_id)
-        self.restarts["worker"] += 1
-        log.warning(
-            "worker %d %s; issuing its %d unfinished samples again and starting a new worker",
-            worker_id,
-            why if why.startswith("killed") else f"died ({why})",
-            len(lost),
-        )
-        self.observer("restart", {"what": "worker", "id": worker_id, "why": why, "reissued": lost})
-        if self.restarts["worker"] > MAX_RESTARTS * max(1, self.num_workers):
-            raise BuildError(self._missing("workers keep dying"))
-        self._start_worker()
-
-    def _stop_workers(self, graceful: bool) -> None:
-        if self.executor is not None:
-            self.executor.stop(graceful)
-        self.workers.clear()
 
     # --- writers and the broker (restarts and reports: supervise.py) ---------------------------
     def _stop_writer(self) -> None:

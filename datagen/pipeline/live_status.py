@@ -30,9 +30,11 @@ class BuildProgress(Protocol):
     """What the live status reads of the coordinator (which starts it: no import back)."""
 
     schedule: Schedule | None
-    failed: dict[int, list[str]]
     restarts: dict[str, int]
     result: BuildResult
+
+    @property
+    def failed(self) -> dict[int, list[str]]: ...
 
 
 log = logging.getLogger(__name__)

@@ -20,7 +20,8 @@ import pytest
 
 import datagen
 from datagen.config import config_from_dict
-from datagen.dataset.loader import DatasetError, load, load_frames, verify
+from datagen.dataset.frame_dataset import load_frames
+from datagen.dataset.loader import DatasetError, load, verify
 from datagen.engines.transfer.collector import AckCollector
 from datagen.engines.transfer.connection import MqttConnection
 from datagen.engines.transfer.envelope import derive_key

@@ -18,7 +18,8 @@ import yaml
 from conftest import AERIAL, REPO  # tests/conftest.py
 from pycocotools.coco import COCO
 
-from datagen.dataset.loader import load, load_frames, verify
+from datagen.dataset.frame_dataset import load_frames
+from datagen.dataset.loader import load, verify
 from datagen.exports.runner import run_exports
 from datagen.tools.inspection import inspect_dataset
 from datagen.tools.preview import write_preview

@@ -13,7 +13,7 @@ from aerial_strapdown import angle_between, integrate
 from datagen.aerial.flatness import GRAVITY
 from datagen.aerial.volumes import box_distance
 from datagen.config import config_from_dict
-from datagen.dataset.loader import decode_parts
+from datagen.dataset.parts import decode_parts
 from datagen.scenes.aerial_episodes import produce
 
 pytestmark = [pytest.mark.sim]

@@ -10,7 +10,8 @@ import numpy as np
 import pytest
 
 from datagen.config import ConfigError, config_from_dict
-from datagen.dataset.loader import DatasetError, decode_parts
+from datagen.dataset.loader import DatasetError
+from datagen.dataset.parts import decode_parts
 from datagen.dataset.trajectory import decode_trajectory
 from datagen.grasping.recording import Recorder, StepState, steps_per_sample
 

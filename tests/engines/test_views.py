@@ -11,7 +11,7 @@ import pytest
 
 from datagen.config import BuildConfig, config_from_dict
 from datagen.config.sections import CameraConfig, RenderConfig
-from datagen.dataset.loader import decode_parts
+from datagen.dataset.parts import decode_parts
 from datagen.dataset.pointcloud import view_points
 from datagen.dataset.views import camera_order, labelled_views
 from datagen.errors import ConfigError

@@ -18,7 +18,7 @@ import numpy as np
 import pytest
 
 import datagen
-from datagen.dataset.loader import decode_parts
+from datagen.dataset.parts import decode_parts
 
 pytestmark = pytest.mark.sim
 READER = Path(__file__).with_name("croissant_records.py")

@@ -15,7 +15,8 @@ from conftest import write_dataset  # tests/conftest.py: shards and a manifest, 
 
 from datagen.config import BuildConfig
 from datagen.config.sections import CampaignConfig, RenderConfig
-from datagen.dataset.loader import decode_parts, load
+from datagen.dataset.loader import load
+from datagen.dataset.parts import decode_parts
 from datagen.exports.runner import run_exports
 from datagen.grasping.contacts import sat_twin
 from datagen.grasping.execute import ExecutionParams

@@ -16,7 +16,8 @@ import pytest
 import yaml
 
 from datagen.config import config_from_dict
-from datagen.dataset.loader import load, load_frames, verify
+from datagen.dataset.frame_dataset import load_frames
+from datagen.dataset.loader import load, verify
 from datagen.exports.runner import run_exports
 from datagen.navigation.fleet import closest_approach, plan_fleet_episode
 from datagen.tools.inspection import inspect_dataset

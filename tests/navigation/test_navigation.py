@@ -16,7 +16,8 @@ from pycocotools.coco import COCO
 
 from datagen.config import BuildConfig, load_config
 from datagen.config.sections import NavigationConfig, OutputConfig, RenderConfig
-from datagen.dataset.loader import load, load_frames, verify
+from datagen.dataset.frame_dataset import load_frames
+from datagen.dataset.loader import load, verify
 from datagen.navigation.episode import plan_episode
 from datagen.navigation.grid import inflate
 from datagen.navigation.planning import footprint_collides

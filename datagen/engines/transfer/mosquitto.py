@@ -175,6 +175,7 @@ class ManagedBroker:
         if settings.websockets and self.websockets_port is None:
             self.websockets_port = free_port(settings.websockets_host)
         for host, port in self._listeners():
+            assert port is not None  # every listener's port was chosen above
             if port_taken(host, port):
                 raise BrokerError(self._taken(port))
         self._run_as = write_config(self)
