@@ -124,19 +124,45 @@ def test_every_family_writes_registered_metadata_formats():
         assert set(family.metadata_formats) <= set(METADATA_FORMATS), family.name
 
 
-def test_the_layer_table_of_the_docs_is_the_one_lint_imports_checks():
-    import tomllib
+def _architecture_tables():
+    sys.path.insert(0, str(REPO / "docs" / "hooks"))
+    try:
+        import architecture_tables
+    finally:
+        sys.path.pop(0)
+    return architecture_tables
 
-    contracts = tomllib.loads((REPO / "pyproject.toml").read_text())["tool"]["importlinter"]
-    layers = next(c["layers"] for c in contracts["contracts"] if c["type"] == "layers")
-    expected = [
-        sorted(p.strip().removeprefix("datagen.") for p in row.split("|")) for row in layers
-    ]
+
+def test_the_layer_and_module_tables_of_the_docs_are_generated_from_the_code():
+    tables = _architecture_tables()
     doc = (REPO / "docs" / "architecture.md").read_text()
-    rows = re.findall(r"^\| (\d+) \| (.+?) \| .*\|$", doc, re.M)
-    table = [sorted(re.findall(r"`([\w.]+)`", packages)) for _, packages in rows]
-    assert [int(n) for n, _ in rows] == list(range(1, len(rows) + 1))
-    assert table == expected
+    assert tables.LAYER_MARKER in doc and tables.MODULE_MARKER in doc
+    layer_rows = re.findall(r"^\| (\d*) \| `([\w.]+)` \| (.+) \|$", tables.layer_table(), re.M)
+    assert [n for n in tables.layers() for n in n] == [name for _, name, _ in layer_rows]
+    assert [int(n) for n, _, _ in layer_rows if n] == list(range(1, len(tables.layers()) + 1))
+    modules = {
+        p.relative_to(REPO / "datagen").as_posix()
+        for p in (REPO / "datagen").rglob("*.py")
+        if p.name != "__init__.py" and "__pycache__" not in p.parts
+    }
+    listed, package = set(), ""
+    for where, name, job in re.findall(
+        r"^\| (`[\w/]+/`)? ?\| `(\w+\.py)` \| (.+) \|$", tables.module_table(), re.M
+    ):
+        package = where.strip("`").removeprefix("datagen/") if where else package
+        listed.add(package + name)
+        assert job.strip()
+    assert listed == modules
+
+
+def test_every_path_the_data_flow_picture_names_exists():
+    doc = (REPO / "docs" / "architecture.md").read_text()
+    picture = doc.split("## Data flow and modules", 1)[1].split("```", 2)[1]
+    named = re.findall(r"[\w<>]+/[\w/<>]*(?:\.py|/)?(?=[\s:),]|$)", picture, re.M)
+    assert len(named) > 10
+    for name in named:
+        base = REPO / ("" if name.startswith("configs") else "datagen")
+        assert (base / name).exists() or list(base.glob(name.replace("<family>", "*"))), name
 
 
 def test_the_command_line_starts_without_the_geometry_or_the_simulator():

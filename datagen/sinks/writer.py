@@ -44,13 +44,12 @@ from datagen.engines.transfer.wire import (
 from datagen.errors import disk_full_message, is_disk_full
 from datagen.safe_json import loads_bounded
 from datagen.sample import Sample
-from datagen.shards import ShardInfo, valid_writer_id
+from datagen.shards import valid_writer_id
 from datagen.sinks.acks import announce, others_acked_keys
 from datagen.sinks.binding import WriterBinding
+from datagen.sinks.durable_samples import DurableSamples
 from datagen.sinks.finalize_round import finalize_args, run_round
-from datagen.sinks.journal import others_durable_keys, recover
 from datagen.sinks.lock import WriterLock, WriterLocked
-from datagen.sinks.shard_writer import ShardWriter
 from datagen.sinks.status import WriterStatus
 
 log = logging.getLogger("datagen.writer")
@@ -84,7 +83,8 @@ class DatasetWriter:
     samples before it.
 
     Deduplication by key: a sample whose key is durable anywhere in the directory (found at
-    start, or learnt from another writer's acks) is acked again but not written again.
+    start, or learnt from another writer's acks) is acked again but not written again
+    (what is kept and how: :class:`~datagen.sinks.durable_samples.DurableSamples`).
 
     ``run()`` returns ``EXIT_OK`` (stopped by ``stop()``, or finalized), ``EXIT_FAILED``,
     ``EXIT_FINALIZE_MISMATCH`` (the finalize round refused: no manifest), ``EXIT_LOCKED``
@@ -120,7 +120,6 @@ class DatasetWriter:
         self.ca_file = ca_file
         self.secret = secret  # when given, only samples signed with it are accepted
         self.rejected = 0
-        self.duplicates = 0
         self._inbox: queue.Queue[mqtt.MQTTMessage] = queue.Queue()
         self._stop = threading.Event()
         self._sealer = Sealer(secret, self.topics, "writer", writer_id)
@@ -154,17 +153,7 @@ class DatasetWriter:
         return code
 
     def _run(self) -> int:
-        recovered = recover(self.out_dir, self.writer_id)
-        self._shards: list[ShardInfo] = recovered.shards
-        self._keys = set(recovered.keys)  # in this writer's shards
-        self._seen = recovered.keys | recovered.other_keys  # durable anywhere in the directory
-        if self._seen:
-            log.info(
-                "resuming: %d samples in my %d shards, %d in the directory",
-                len(self._keys),
-                len(self._shards),
-                len(self._seen),
-            )
+        self._durable = durable = DurableSamples(self.out_dir, self.writer_id, self.shard_size)
         self._conn = MqttConnection(
             self.broker_url,
             writer_client_id(self.build_id, self.writer_id, self.secret),
@@ -184,11 +173,8 @@ class DatasetWriter:
             on_connected=self._status.reassert,
         )
         self._status.conn = self._conn
-        self._sink = ShardWriter(
-            self.out_dir, self.writer_id, self.shard_size, recovered.next_shard
-        )
         try:
-            changed = recovered.changed  # removed by recover(): to be made again
+            changed = durable.changed  # removed by recover(): to be made again
             self._report = (
                 {"changed": len(changed), "changed_keys": changed[:10]} if changed else {}
             )
@@ -196,25 +182,27 @@ class DatasetWriter:
                 self._announce_durable(None)
                 log.info("ready: subscribed to %s", self.topics.shared_samples)
             else:
-                self._status.publish("waiting", samples=len(self._keys), durable=len(self._seen))
+                self._status.publish(
+                    "waiting", samples=len(durable.keys), durable=len(durable.seen)
+                )
                 log.info("waiting for the coordinator to bind this writer to its run")
             code = self._loop()
             if code is None:  # stopped by a signal
                 self._drain()
-                self._sink.close()
-                self._status.publish("stopped", samples=len(self._keys))
+                durable.close()
+                self._status.publish("stopped", samples=len(durable.keys))
                 self._conn.close(end_session=True)
-                log.info("stopped with %d samples on disk; session ended", len(self._keys))
+                log.info("stopped with %d samples on disk; session ended", len(durable.keys))
                 return EXIT_OK
             return code
         except Exception as exc:
             if is_disk_full(exc):  # one line, by run(); recovery cuts the open shard
-                self._sink.abandon()
+                durable.abandon()
                 self._status.publish("error", reason=disk_full_message(exc, self.out_dir))
                 self._conn.close()
                 raise
             log.exception("writer failed")
-            self._sink.close()
+            durable.close()
             self._status.publish("error", reason=f"{type(exc).__name__}: {exc}")
             self._conn.close()
             return EXIT_FAILED
@@ -280,7 +268,7 @@ class DatasetWriter:
 
     def _learn_acks(self, msg: mqtt.MQTTMessage) -> None:
         """Another writer's acks: those samples are durable in the directory already."""
-        self._seen.update(others_acked_keys(self._opener, msg, self.writer_id))
+        self._durable.learn(others_acked_keys(self._opener, msg, self.writer_id))
 
     def _accept(self, msg: mqtt.MQTTMessage) -> Sample | None:
         """Writes a new sample; returns the sample to ack, or None for a rejected message."""
@@ -298,13 +286,7 @@ class DatasetWriter:
                     raise WireError(f"sample {sample.key}: {why}")
         except WireError as exc:
             return self._reject(msg, exc)
-        if sample.key in self._seen:
-            self.duplicates += 1
-            log.debug("duplicate %s: acking again, not rewriting", sample.key)
-            return sample
-        self._sink.write(sample)
-        self._seen.add(sample.key)
-        self._keys.add(sample.key)
+        self._durable.keep(sample)
         return sample
 
     def _reject(self, msg: mqtt.MQTTMessage, why: object) -> None:
@@ -314,7 +296,7 @@ class DatasetWriter:
     def _commit(self, pending: list[tuple[mqtt.MQTTMessage, Sample | None]]) -> None:
         if not pending:
             return
-        self._sink.flush_durable()
+        self._durable.flush()
         for msg, sample in pending:
             if sample is not None:
                 ack = {"key": sample.key, "index": sample.index, "writer": self.writer_id}
@@ -356,10 +338,9 @@ class DatasetWriter:
     def _announce_durable(self, announce_id: str | None) -> None:
         """Acks every sample durable in the directory again, then says ``ready`` (with the
         announce command's ``announce_id``)."""
-        everything = self._keys | others_durable_keys(self.out_dir, self.writer_id)
-        self._seen = everything  # a sample removed as changed on disk since may come again
+        everything = self._durable.everything()
         self._announce(everything)
-        counts = {"samples": len(self._keys), "durable": len(everything), **self._report}
+        counts = {"samples": len(self._durable.keys), "durable": len(everything), **self._report}
         self._status.publish(
             "ready", **counts, **({"announce": announce_id} if announce_id else {})
         )
@@ -369,10 +350,10 @@ class DatasetWriter:
             log.info("a finalize for other writers: ignored")
             return None
         deadline = time.monotonic() + args["timeout_s"]
-        self._shards += self._sink.close()  # sealed: nothing more is written
+        shards = self._durable.seal()  # nothing more is written
         counters = {
             "rejected_messages": self.rejected,
-            "duplicate_messages": self.duplicates,
+            "duplicate_messages": self._durable.duplicates,
             # dropped by the opener, or failed in a callback (``MqttConnection.guarded``)
             "rejected_control_messages": sum(self._opener.rejected.values())
             + self._conn.callback_errors,
@@ -382,13 +363,13 @@ class DatasetWriter:
             deadline,
             out_dir=self.out_dir,
             build_id=self.build_id,
-            shards=self._shards,
-            keys=self._keys,
+            shards=shards,
+            keys=self._durable.keys,
             counters=counters,
             status=self._status,
         )
         if done is None:
             return EXIT_FINALIZE_MISMATCH
-        self._shards, self._keys = done
+        self._durable.shards, self._durable.keys = done
         self._finalized = True
         return EXIT_OK
