@@ -37,7 +37,7 @@ REPO = Path(__file__).resolve().parents[1]
 
 # (name in datagen.worlds.tabletop, stage label); sapien.Scene is timed through the module too
 STAGES = (
-    ("sample_scene", "sample the randomised values"),
+    ("draw_scene", "sample the randomised values"),
     ("Scene", "sapien.Scene()"),
     ("_add_part", "table, tray, floor (textured)"),
     ("add_background", "room: walls, ceiling, room lights"),
@@ -108,7 +108,7 @@ def main() -> int:
     args = parser.parse_args()
 
     from datagen.config import load_config
-    from datagen.engines.sim.render import keep_renderer_alive
+    from datagen.sensing.render import keep_renderer_alive
     from datagen.worlds import tabletop
 
     config = load_config(args.config)

@@ -91,8 +91,8 @@ def _grow(base: Path, out: Path, samples: int) -> None:
     from datagen.dataset.manifest import read_manifest
     from datagen.sample import Sample, sample_key
     from datagen.shards import keys_sha256, write_manifest
-    from datagen.sinks.journal import journal_path
-    from datagen.sinks.shard_writer import ShardWriter
+    from datagen.writer.journal import journal_path
+    from datagen.writer.shard_writer import ShardWriter
 
     source, manifest = load(base), read_manifest(base)
     out.mkdir(parents=True)

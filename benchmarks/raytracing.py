@@ -69,7 +69,7 @@ def picture(camera) -> None:
 
 
 def one_time_and_per_picture(repeats: int) -> dict:
-    from datagen.engines.sim import path_tracing
+    from datagen.sensing import path_tracing
 
     scene, camera = path_tracing.probe_scene()
     tiny = path_tracing.PathTracing(samples_per_pixel=1, path_depth=0)
@@ -91,8 +91,8 @@ def one_time_and_per_picture(repeats: int) -> dict:
 
 def per_frame(width: int, height: int, scenes: int, tracing) -> dict:
     from datagen.config import BuildConfig
-    from datagen.engines.sim.path_tracing import raytraced_rgb
-    from datagen.engines.sim.render import capture
+    from datagen.sensing.path_tracing import raytraced_rgb
+    from datagen.sensing.render import capture
     from datagen.worlds.tabletop import build_scene
 
     base = BuildConfig()
@@ -134,8 +134,8 @@ def main() -> int:
 
     import sapien
 
-    from datagen.engines.sim.path_tracing import PathTracing
-    from datagen.engines.sim.render import keep_renderer_alive
+    from datagen.sensing.path_tracing import PathTracing
+    from datagen.sensing.render import keep_renderer_alive
 
     keep_renderer_alive()
     device = sapien.render.get_device_summary().strip().splitlines()[0].strip()

@@ -46,7 +46,7 @@ def _steady_ms(camera) -> float:
 def _robot_mask(scene) -> object:
     import numpy as np
 
-    from datagen.engines.sim.render import capture
+    from datagen.sensing.render import capture
 
     frame = capture(scene.cameras["workspace"])
     return np.isin(frame.entity_ids, [link.entity.per_scene_id for link in scene.robot.get_links()])
@@ -89,8 +89,8 @@ def robot_triangles(config, scenes: int) -> dict:
 def shadow_filter(config, scenes: int) -> dict:
     import numpy as np
 
-    from datagen.engines.sim import shader_pack
-    from datagen.engines.sim.cameras import twin_camera
+    from datagen.sensing import shader_pack
+    from datagen.sensing.cameras import twin_camera
     from datagen.worlds.tabletop import build_scene
 
     ms: dict[str, list[float]] = {"sapien (25 taps)": [], "datagen (9 taps)": []}
@@ -144,7 +144,7 @@ def main() -> int:
     args = parser.parse_args()
 
     from datagen.config import load_config
-    from datagen.engines.sim.render import keep_renderer_alive
+    from datagen.sensing.render import keep_renderer_alive
 
     config = load_config(REPO / "configs/grasp_tabletop.yaml")
     keep_renderer_alive()

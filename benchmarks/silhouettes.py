@@ -27,7 +27,7 @@ REPO = Path(__file__).resolve().parents[1]
 _TIMER = """
 import json, pickle, sys, time
 sys.path.insert(0, {tree!r})
-from datagen.engines.sim.silhouette import silhouette_pixels
+from datagen.sensing.silhouette import silhouette_pixels
 results = []
 for outlines, width, height in pickle.load(open({recorded!r}, "rb")):
     best = float("inf")
@@ -42,8 +42,8 @@ print(json.dumps(results))
 
 def record(samples: int, path: Path) -> None:
     from datagen.config import load_config
-    from datagen.engines.sim import robot_labels
     from datagen.pipeline.production import Task, produce_with_policy
+    from datagen.sensing import robot_labels
 
     recorded = []
     count = robot_labels.silhouette_pixels

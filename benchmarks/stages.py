@@ -9,7 +9,7 @@ variants on the same indices:
 - after: what the library does now (one-pass conversions, the PNG thread pool).
 Per frame and stage, wall milliseconds and process CPU milliseconds (``time.process_time``: all
 threads of the process, lavapipe's rasteriser threads included) from the stage clock
-(``datagen/engines/sim/stage_clock.py``), medians over the frames after the warm-up:
+(``datagen/sensing/stage_clock.py``), medians over the frames after the warm-up:
 build + settle (``build_scene``), render (``take_picture`` and the first ``get_picture``, which
 waits for the frame), read_back (the other pictures), convert, annotate (labels, records,
 metadata), encode (PNG + JSON). Non-render CPU = the frame's CPU minus the render stage's.
@@ -41,8 +41,8 @@ STAGES = ("build", "settle", "render", "read_back", "convert", "annotate", "enco
 
 def _frame(config, index: int, before: bool) -> tuple[dict[str, float], dict[str, float]]:
     """One frame; ``({stage: wall s}, {stage: CPU s})`` with ``frame`` = the whole frame."""
-    from datagen.engines.sim import encode, picture_conversion, stage_clock
     from datagen.scenes.grasp_tabletop import annotate_scene, to_sample
+    from datagen.sensing import encode, picture_conversion, stage_clock
     from datagen.worlds.tabletop import build_scene
 
     saved = (picture_conversion.rgb_from_colour, picture_conversion.depth_from_position)
@@ -112,8 +112,8 @@ def main(argv: list[str] | None = None) -> int:
     import sapien
 
     from datagen.config import load_config
-    from datagen.engines.sim.render import keep_renderer_alive
     from datagen.errors import ConfigError
+    from datagen.sensing.render import keep_renderer_alive
 
     try:
         config = load_config(args.config)

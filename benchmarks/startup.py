@@ -56,7 +56,7 @@ def lap(name):
     now = time.perf_counter(); steps[name] = round(now - t0, 3); t0 = now
 import datagen.pipeline.worker
 from datagen.config import load_config
-from datagen.engines.sim.render import keep_renderer_alive
+from datagen.sensing.render import keep_renderer_alive
 from datagen.pipeline.production import Task, produce_with_policy
 config = load_config({tree!r} + "/{config}")
 lap("import worker, config")

@@ -71,7 +71,7 @@ ObjectViewRecord = TypedDict(
         "obb_corners_px": Matrix,  # (8, 2) image-plane coordinates
     },
 )
-"""What one camera sees of one object (``datagen.engines.sim.annotate``)."""
+"""What one camera sees of one object (``datagen.sensing.annotate``)."""
 
 ObjectWorldRecord = TypedDict(
     "ObjectWorldRecord",
@@ -107,7 +107,7 @@ RobotPartViewRecord = TypedDict(
         "in_frame_fraction": float,
     },
 )
-"""What one camera sees of the robot's arm or gripper (``datagen.engines.sim.robot_labels``)."""
+"""What one camera sees of the robot's arm or gripper (``datagen.sensing.robot_labels``)."""
 
 
 class ViewRecord(TypedDict, total=False):

@@ -8,8 +8,8 @@ shard in one pass for its digests, a megabyte at a time, its members read and ch
 ``datagen.shard_members`` reads every shard's. The format is specified in
 docs/dataset-format.md.
 
-Writing shards (``datagen.sinks.shard_writer``), the crash journal and recovery
-(``datagen.sinks.journal``) and the writer lock (``datagen.sinks.lock``) live with the writer.
+Writing shards (``datagen.writer.shard_writer``), the crash journal and recovery
+(``datagen.writer.journal``) and the writer lock (``datagen.writer.lock``) live with the writer.
 """
 
 from __future__ import annotations

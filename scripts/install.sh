@@ -120,17 +120,17 @@ fi
     || die "importing cv2, open3d, h5py or pycocotools fails in $VENV: remove $STAMP and run this script again."
 
 # --- rendering: a Vulkan device, or Mesa lavapipe from bookworm-backports ------------------------
-probe_render() { "$VENV/bin/python" -m datagen.engines.sim.render_probe >/dev/null 2>&1; }
+probe_render() { "$VENV/bin/python" -m datagen.sensing.render_probe >/dev/null 2>&1; }
 if probe_render; then
-    say "rendering: $("$VENV/bin/python" -m datagen.engines.sim.render_probe 2>/dev/null)"
+    say "rendering: $("$VENV/bin/python" -m datagen.sensing.render_probe 2>/dev/null)"
 else
     [ "$CODENAME" = "bookworm" ] || die "no Vulkan device can render and this is not Debian bookworm: install Mesa >= 24.3 (mesa-vulkan-drivers) or a GPU driver with Vulkan."
     say "no Vulkan device renders: installing Mesa lavapipe from bookworm-backports (Debian 12's Mesa 22.3 lacks VK_KHR_external_semaphore_fd)"
     ensure_backports
     apt_update_once
     DEBIAN_FRONTEND=noninteractive $SUDO apt-get install -y -qq --no-install-recommends -t bookworm-backports mesa-vulkan-drivers >/dev/null
-    probe_render || die "SAPIEN still cannot render after installing Mesa from bookworm-backports; run '$VENV/bin/python -m datagen.engines.sim.render_probe' to see why."
-    say "rendering: $("$VENV/bin/python" -m datagen.engines.sim.render_probe 2>/dev/null)"
+    probe_render || die "SAPIEN still cannot render after installing Mesa from bookworm-backports; run '$VENV/bin/python -m datagen.sensing.render_probe' to see why."
+    say "rendering: $("$VENV/bin/python" -m datagen.sensing.render_probe 2>/dev/null)"
 fi
 # --- the picture library: photographs, material pictures, meshes (docs/photo-library.md) ---------
 # fetched from Debian's and PyPI's registries into $DATAGEN_LIBRARY (~/.cache/datagen/library)

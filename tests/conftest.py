@@ -18,11 +18,11 @@ import numpy as np
 import pytest
 import yaml
 
-from datagen.engines.transfer.mosquitto import ManagedBroker
 from datagen.sample import Sample
 from datagen.shards import keys_sha256, write_manifest
-from datagen.sinks.journal import journal_path
-from datagen.sinks.shard_writer import ShardWriter
+from datagen.transport.mosquitto import ManagedBroker
+from datagen.writer.journal import journal_path
+from datagen.writer.shard_writer import ShardWriter
 
 REPO = Path(__file__).resolve().parents[1]
 

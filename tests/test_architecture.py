@@ -174,8 +174,6 @@ def test_the_command_line_starts_without_the_geometry_or_the_simulator():
 
 
 def test_every_error_the_command_line_reports_is_one_datagen_error():
-    from datagen.engines.transfer.connection import MqttConnectError
-    from datagen.engines.transfer.mosquitto import BrokerError
     from datagen.errors import (
         BuildError,
         ConfigError,
@@ -184,6 +182,8 @@ def test_every_error_the_command_line_reports_is_one_datagen_error():
         OutDirError,
         UserInputError,
     )
+    from datagen.transport.connection import MqttConnectError
+    from datagen.transport.mosquitto import BrokerError
 
     reported = (ConfigError, OutDirError, UserInputError, DatasetError, BuildError, BrokerError)
     assert all(issubclass(kind, DatagenError) for kind in (*reported, MqttConnectError))
@@ -191,3 +191,14 @@ def test_every_error_the_command_line_reports_is_one_datagen_error():
     assert {kind.exit_status for kind in (DatasetError, BuildError, BrokerError)} == {1}
     cli = (REPO / "datagen" / "cli" / "__init__.py").read_text()
     assert "except DatagenError as exc:" in cli and "except (BuildError" not in cli
+
+
+def test_a_function_named_sample_is_about_a_dataset_sample_never_a_random_draw():
+    # "sample" is the dataset item; what draws random values is draw_* (or says what it adds)
+    drawing = []
+    for path in (REPO / "datagen").rglob("*.py"):
+        for node in ast.walk(ast.parse(path.read_text())):
+            named = isinstance(node, ast.FunctionDef) and node.name.startswith("sample_")
+            if named and any(a.arg == "rng" for a in node.args.args):
+                drawing.append(f"{path.relative_to(REPO)}:{node.name}")
+    assert drawing == []

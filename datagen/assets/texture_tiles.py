@@ -136,7 +136,7 @@ def apply_palette(field: np.ndarray, palette: list[list[float]]) -> np.ndarray:
     return lut[np.round(np.clip(field, 0, 1) * 255).astype(np.uint8)]
 
 
-def sample_palette(rng: np.random.Generator, base_color: list[float]) -> list[list[float]]:
+def draw_palette(rng: np.random.Generator, base_color: list[float]) -> list[list[float]]:
     """2-4 colours: the surface's own colour, then harmonies of it (analogous, complementary or
     triadic hues) at varied saturation and value."""
     h, s, v = colorsys.rgb_to_hsv(*base_color[:3])
@@ -155,7 +155,7 @@ def sample_palette(rng: np.random.Generator, base_color: list[float]) -> list[li
     return palette
 
 
-def sample_texture(
+def draw_texture(
     rng: np.random.Generator,
     base_color: list[float],
     families: tuple[str, ...],
@@ -164,7 +164,7 @@ def sample_texture(
     """One procedural texture's stored values, its palette built around ``base_color``."""
     return {
         "family": str(rng.choice(list(families))),
-        "palette": sample_palette(rng, base_color),
+        "palette": draw_palette(rng, base_color),
         "seed": int(rng.integers(2**31)),
         "scale_m": round(float(rng.uniform(*scale_m)), 6),
         "rotation_deg": round(float(rng.uniform(0.0, 360.0)), 6),

@@ -23,9 +23,9 @@ from datagen.cli.common import (
 from datagen.cli.monitor_commands import build_monitor
 from datagen.cli.progress import progress
 from datagen.config import BuildConfig, load_config
-from datagen.engines.transfer.broker_url import BROKER_URL_ENV, WORKER_BROKER_URL_ENV
 from datagen.registries import EXECUTORS, FAMILIES
 from datagen.registry import choices
+from datagen.transport.broker_url import BROKER_URL_ENV, WORKER_BROKER_URL_ENV
 
 _SAMPLES = {f.name: f for f in dataclasses.fields(BuildConfig)}["num_samples"].metadata
 NUM_SAMPLES = whole_number(_SAMPLES["min"], _SAMPLES["max"])
@@ -138,7 +138,7 @@ def resume_command(args: argparse.Namespace) -> str:
     """The command that finishes the interrupted build or campaign of ``args``: every option
     given (those at their default omitted, but for ``--workers``) plus ``--resume``, values
     shell-quoted, the broker URL's password replaced by ``***``."""
-    from datagen.engines.transfer.broker_url import redact
+    from datagen.transport.broker_url import redact
 
     words = ["datagen", *(["-v"] if args.verbose else [])]
     words += ["build"] if args.command == "build" else ["campaign", args.kind]
@@ -302,9 +302,9 @@ def _check_report(args: argparse.Namespace, config: BuildConfig, out: Path, plan
 def check_build(args: argparse.Namespace, config: BuildConfig, out: Path) -> str:
     """What a build with ``args`` would do with ``out`` (a key of ``_PLANS``), after checking
     everything that can be checked before anything starts; raises UserInputError (exit 2)."""
-    from datagen.engines.transfer.broker_url import parse_broker_url
     from datagen.errors import UserInputError
     from datagen.pipeline.out_dir import plan_out_dir
+    from datagen.transport.broker_url import parse_broker_url
 
     urls = {}
     for option, env in (("broker", BROKER_URL_ENV), ("worker_broker", WORKER_BROKER_URL_ENV)):

@@ -55,7 +55,7 @@ def whole_number(lo: int, hi: int):
 
 def broker_url(text: str) -> str:
     """argparse type: an ``mqtt://`` or ``mqtts://`` URL; the error shows it without password."""
-    from datagen.engines.transfer.broker_url import parse_broker_url, redact
+    from datagen.transport.broker_url import parse_broker_url, redact
 
     try:
         parse_broker_url(text)
@@ -66,7 +66,7 @@ def broker_url(text: str) -> str:
 
 
 def build_id(text: str) -> str:
-    from datagen.engines.transfer.topics import valid_build_id
+    from datagen.transport.topics import valid_build_id
 
     if not valid_build_id(text):
         raise argparse.ArgumentTypeError(f"expected 1-64 of [A-Za-z0-9_.-], got {text[:80]!r}")

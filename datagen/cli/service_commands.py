@@ -12,11 +12,11 @@ import sys
 from pathlib import Path
 
 from datagen.cli.common import whole_number
-from datagen.engines.transfer.connection import CA_FILE_ENV, MqttConnectError
-from datagen.engines.transfer.topics import valid_build_id
-from datagen.engines.transfer.wire import DEFAULT_MAX_MESSAGE_BYTES, SECRET_ENV, parse_secret
 from datagen.shards import valid_writer_id
-from datagen.sinks.writer import DEFAULT_SESSION_EXPIRY_S, EXIT_FAILED, DatasetWriter
+from datagen.transport.connection import CA_FILE_ENV, MqttConnectError
+from datagen.transport.topics import valid_build_id
+from datagen.transport.wire import DEFAULT_MAX_MESSAGE_BYTES, SECRET_ENV, parse_secret
+from datagen.writer.dataset_writer import DEFAULT_SESSION_EXPIRY_S, EXIT_FAILED, DatasetWriter
 
 log = logging.getLogger("datagen.writer")  # the writer process's log
 
@@ -106,8 +106,8 @@ def run_writer_command(p: argparse.ArgumentParser, args: argparse.Namespace) -> 
 
 
 def run_broker(args: argparse.Namespace) -> int:
-    from datagen.engines.transfer.broker_service import run_broker_forever
-    from datagen.engines.transfer.broker_settings import service_settings
+    from datagen.transport.broker_service import run_broker_forever
+    from datagen.transport.broker_settings import service_settings
 
     password = args.password or os.environ.get("DATAGEN_BROKER_PASSWORD")
 

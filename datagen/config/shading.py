@@ -9,7 +9,7 @@ from datagen.errors import ConfigError
 def check_shader(render: RenderConfig, scene: str, world: str | None, source: str) -> None:
     """The choices are known names; path-traced views only where a scene family renders them
     (the tabletop scenes). Whether a denoiser runs on the machine is checked where it renders
-    (``datagen.engines.sim.path_tracing.check_denoiser``)."""
+    (``datagen.sensing.path_tracing.check_denoiser``)."""
     if render.shader not in SHADERS:
         raise ConfigError(
             f"{source}: render.shader: expected one of {list(SHADERS)}, got {render.shader!r}"

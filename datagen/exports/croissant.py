@@ -8,7 +8,7 @@ inside them, one ``cr:FileSet`` per kind of part (``rgb.png``, ``json``, ``wrist
 content (decoded for images and text; not for binary parts, nor for optical flow, whose 16-bit
 colour PNG mlcroissant's image decoder, PIL, would cut to 8 bits). mlcroissant extracts a shard
 before reading it, and tries zip before tar: a shard never ends near a zip's signature
-(``datagen.sinks.tar_end``). An export folder's distribution is its files: the top-level ones
+(``datagen.writer.tar_end``). An export folder's distribution is its files: the top-level ones
 (with sha256) and one ``cr:FileSet`` per folder and file type; a set of images is also a record
 set of file name and content (mlcroissant reads JSON, YAML or Parquet files as tables, not as
 content).

@@ -19,7 +19,6 @@ from importlib.resources import files
 from pathlib import Path
 from urllib.parse import unquote, urlsplit
 
-from datagen.engines.transfer.broker_url import redact
 from datagen.monitor.connections import Connections
 from datagen.monitor.request_checks import (
     WILDCARD_HOSTS,
@@ -29,6 +28,7 @@ from datagen.monitor.request_checks import (
     requested_path,
     server_names,
 )
+from datagen.transport.broker_url import redact
 
 log = logging.getLogger(__name__)
 STATIC = Path(str(files("datagen.monitor") / "static"))

@@ -22,9 +22,9 @@ from datagen.navigation.layouts import (
 from datagen.navigation.planning import (
     PlanningError,
     astar,
+    draw_start_goal,
     footprint_collides,
     path_to_world,
-    sample_start_goal,
     shortest_path_length_m,
     smooth_path,
 )
@@ -41,6 +41,7 @@ __all__ = [
     "add_clutter",
     "astar",
     "corridor",
+    "draw_start_goal",
     "follow",
     "footprint_collides",
     "inflate",
@@ -48,7 +49,6 @@ __all__ = [
     "maze",
     "path_to_world",
     "rooms",
-    "sample_start_goal",
     "shortest_path_length_m",
     "smooth_path",
 ]

@@ -22,8 +22,8 @@ from datagen.navigation.layouts import make_layout
 from datagen.navigation.planning import (
     PlanningError,
     astar,
+    draw_start_goal,
     path_to_world,
-    sample_start_goal,
     shortest_path_length_m,
     smooth_path,
 )
@@ -175,10 +175,10 @@ def plan_task(
         drawn_in = (
             layout if taken is None else dataclasses.replace(layout, grid=layout.grid | taken)
         )
-        start, goal = sample_start_goal(rng, drawn_in, inflation, cfg.min_goal_distance)
+        start, goal = draw_start_goal(rng, drawn_in, inflation, cfg.min_goal_distance)
     occupied = inflate(layout.grid, inflation, layout.resolution)
     cells = astar(occupied, start, goal)
-    if cells is None:  # sample_start_goal only returns connected pairs
+    if cells is None:  # draw_start_goal only returns connected pairs
         raise PlanningError(f"A* found no path from {start} to {goal} in a connected component")
     path = path_to_world(smooth_path(occupied, cells), layout.resolution)
     yaw = float(rng.uniform(-math.pi, math.pi))

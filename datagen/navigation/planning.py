@@ -58,7 +58,7 @@ def clearance(grid: np.ndarray, resolution: float, x: float, y: float, reach: fl
     return float(min(np.hypot(px - x, py - y).min(), max(edge, 0.0), reach))
 
 
-def sample_start_goal(
+def draw_start_goal(
     rng: np.random.Generator,
     layout: Layout,
     robot_radius: float,

@@ -27,9 +27,6 @@ from typing import Any
 
 from datagen.config import BuildConfig
 from datagen.dataset.loader import DatasetError, check_complete
-from datagen.engines.transfer.collector import AckCollector
-from datagen.engines.transfer.mosquitto import ManagedBroker
-from datagen.engines.transfer.run_binding import RunBinding
 from datagen.errors import BuildError
 from datagen.pipeline.executors.base import WorkerSpec
 from datagen.pipeline.live_status import LiveStatus
@@ -44,6 +41,9 @@ from datagen.pipeline.supervise import (
 )
 from datagen.pipeline.worker_pool import WorkerPool
 from datagen.registries import EXECUTORS
+from datagen.transport.collector import AckCollector
+from datagen.transport.mosquitto import ManagedBroker
+from datagen.transport.run_binding import RunBinding
 
 log = logging.getLogger(__name__)
 FINALIZE_TIMEOUT_S = 300.0

@@ -3,7 +3,7 @@ once, front to back, against its manifest (``datagen.dataset.integrity``: a mega
 at disk speed). What differs is made again by ``--resume`` through the interrupted build's own
 path: ``reopen`` gives each writer the journal it had before the finalize round (a line per
 shard, with the digests the manifest lists) and removes the manifest, so the writers' recovery
-removes the samples whose bytes are not those (``datagen.sinks.journal.recover``), the build
+removes the samples whose bytes are not those (``datagen.writer.journal.recover``), the build
 makes them again from their (seed, index), and the finalize round writes a new manifest.
 """
 
@@ -17,7 +17,7 @@ from datagen.dataset.integrity import verify_dataset
 from datagen.dataset.manifest import DatasetError
 from datagen.records import ShardRecord
 from datagen.shards import MANIFEST, SHARD_RE, fsync_dir
-from datagen.sinks.journal import append_journal, journal_entry
+from datagen.writer.journal import append_journal, journal_entry
 
 SHOWN = 3  # problems named in a message; verify names them all
 

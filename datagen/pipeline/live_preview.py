@@ -22,13 +22,13 @@ import numpy as np
 
 from datagen import outcomes
 from datagen.dataset.views import labelled_views
-from datagen.engines.transfer.connection import MqttConnectError, MqttConnection
-from datagen.engines.transfer.run_binding import client_id
-from datagen.engines.transfer.topics import topics
 from datagen.images import decode_image
 from datagen.pipeline.live_status import live_enabled
 from datagen.records import SampleOutcome
 from datagen.sample import Sample
+from datagen.transport.connection import MqttConnectError, MqttConnection
+from datagen.transport.run_binding import client_id
+from datagen.transport.topics import topics
 
 log = logging.getLogger(__name__)
 PREVIEW_PERIOD_S = 1.0  # at most one preview a second per worker

@@ -17,13 +17,13 @@ import time
 from collections.abc import Iterable
 from typing import Any, Protocol
 
-from datagen.engines.transfer.connection import MqttConnectError, MqttConnection
-from datagen.engines.transfer.run_binding import client_id
-from datagen.engines.transfer.topics import topics
 from datagen.errors import BuildError
 from datagen.grasping.stats import campaign_stats
 from datagen.pipeline.result import BuildResult, Observer
 from datagen.pipeline.schedule import Schedule
+from datagen.transport.connection import MqttConnectError, MqttConnection
+from datagen.transport.run_binding import client_id
+from datagen.transport.topics import topics
 
 
 class BuildProgress(Protocol):

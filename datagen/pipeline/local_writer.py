@@ -9,8 +9,8 @@ import sys
 from pathlib import Path
 
 from datagen.config import BuildConfig
-from datagen.engines.transfer.wire import SECRET_ENV
 from datagen.pipeline.worker import die_with_parent
+from datagen.transport.wire import SECRET_ENV
 
 LOCAL_WRITER_ID = "0"
 

@@ -10,9 +10,9 @@ from typing import Any
 
 from datagen.config import BuildConfig
 from datagen.config.pictures import picture_report
-from datagen.engines.transfer.wire import VERSION as WIRE_VERSION
 from datagen.pipeline.out_dir import DATASET_FORMAT, now_utc
 from datagen.registries import FAMILIES
+from datagen.transport.wire import VERSION as WIRE_VERSION
 
 _VERSIONED_PACKAGES = (
     "datagen",

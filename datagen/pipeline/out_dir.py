@@ -17,12 +17,12 @@ from typing import Any
 
 from datagen.config import BuildConfig
 from datagen.config.versions import as_current_version
-from datagen.engines.transfer.wire import SECRET_ENV, parse_secret
 from datagen.errors import BuildError, OutDirError
 from datagen.pipeline import finished_build
 from datagen.registries import EXPORTS
 from datagen.safe_json import loads_bounded
 from datagen.shards import DATASET_FORMAT, MANIFEST, write_manifest
+from datagen.transport.wire import SECRET_ENV, parse_secret
 
 BUILD_STATE = "build.json"
 # What datagen writes in a dataset directory (names, or shell patterns), and so all that

@@ -19,9 +19,9 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 
 from datagen.config import BuildConfig
-from datagen.engines.sim.encode import metadata_bytes
 from datagen.registries import FAMILIES
 from datagen.sample import Sample
+from datagen.sensing.encode import metadata_bytes
 
 log = logging.getLogger(__name__)
 MAX_ERROR_CHARS = 2000  # of each failure's message kept in metadata, manifest and reports

@@ -13,8 +13,6 @@ from collections.abc import Callable, Iterator
 from pathlib import Path
 
 from datagen.config import BuildConfig
-from datagen.engines.transfer.broker_settings import BrokerSettings
-from datagen.engines.transfer.mosquitto import ManagedBroker
 from datagen.errors import BuildError
 from datagen.exports.runner import ExportProgress, run_exports
 from datagen.pipeline.coordinator import Coordinator
@@ -24,6 +22,8 @@ from datagen.pipeline.worker import die_with_parent
 from datagen.registries import FAMILIES
 from datagen.registry import resolve
 from datagen.shards import MANIFEST, write_manifest
+from datagen.transport.broker_settings import BrokerSettings
+from datagen.transport.mosquitto import ManagedBroker
 
 
 def run_build(

@@ -24,16 +24,16 @@ from collections.abc import Callable
 from typing import Any
 
 from datagen.config import BuildConfig
-from datagen.engines.transfer.broker_url import parse_broker_url
-from datagen.engines.transfer.broker_watch import PROBE_INTERVAL_S, BrokerWatch
-from datagen.engines.transfer.collector import AckCollector
-from datagen.engines.transfer.mosquitto import ManagedBroker
-from datagen.engines.transfer.run_binding import client_id
 from datagen.errors import BuildError
 from datagen.pipeline.liveness import Silence
 from datagen.pipeline.local_writer import LOCAL_WRITER_ID, LocalWriter
 from datagen.pipeline.result import Observer
-from datagen.sinks.writer import EXIT_DISK_FULL
+from datagen.transport.broker_url import parse_broker_url
+from datagen.transport.broker_watch import PROBE_INTERVAL_S, BrokerWatch
+from datagen.transport.collector import AckCollector
+from datagen.transport.mosquitto import ManagedBroker
+from datagen.transport.run_binding import client_id
+from datagen.writer.dataset_writer import EXIT_DISK_FULL
 
 log = logging.getLogger("datagen.pipeline.coordinator")
 MAX_RESTARTS = 10  # of each kind (worker, writer, broker) before the build gives up

@@ -15,7 +15,7 @@ once is paid at start-up (under the start-up grace, docs/liveness.md), so that
   docs/extending.md example renders), since SAPIEN computes its BRDF table on the first such
   frame of a process: 3-4 s at rest and 9 s on a loaded 2-core machine, once the first sample
   of ``example_blocks``. datagen's own families render only through
-  ``datagen.engines.sim.cameras``, which hands every camera the cached table.
+  ``datagen.sensing.cameras``, which hands every camera the cached table.
 
 Nothing drawn here reaches a sample: a sample's bytes are a function of (seed, index) alone.
 """
@@ -27,10 +27,10 @@ import logging
 import sapien
 
 from datagen.config import BuildConfig
-from datagen.engines.sim import path_tracing
-from datagen.engines.sim.render import keep_renderer_alive
 from datagen.registries import FAMILIES
 from datagen.registry import resolve
+from datagen.sensing import path_tracing
+from datagen.sensing.render import keep_renderer_alive
 
 log = logging.getLogger(__name__)
 BUILT_IN = "datagen."  # the module prefix of datagen's own families

@@ -31,13 +31,13 @@ from multiprocessing.connection import Connection
 from typing import Any
 
 from datagen.config import config_from_dict
-from datagen.engines.sim.stage_clock import take
-from datagen.engines.transfer.publisher import SamplePublisher, SampleTooLarge
-from datagen.engines.transfer.run_binding import RunBinding, client_id
 from datagen.pipeline.live_preview import PreviewFeed, sample_outcome
 from datagen.pipeline.production import SampleFailed, Task, produce_with_policy
 from datagen.pipeline.warm_up import warm_up
 from datagen.records import WorkerEventKind, WorkerPayload
+from datagen.sensing.stage_clock import take
+from datagen.transport.publisher import SamplePublisher, SampleTooLarge
+from datagen.transport.run_binding import RunBinding, client_id
 
 log = logging.getLogger(__name__)
 _PR_SET_PDEATHSIG = 1

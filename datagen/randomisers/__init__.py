@@ -1,5 +1,5 @@
 """Domain randomisation: pure samplers (rng and config in, JSON values out; no simulator, an
-import contract keeps it so). :func:`sample_scene` draws a tabletop scene's values, each from
+import contract keeps it so). :func:`draw_scene` draws a tabletop scene's values, each from
 its own (seed, index, name) stream; :mod:`datagen.worlds` builds what they describe."""
 
 from __future__ import annotations
@@ -10,21 +10,21 @@ import numpy as np
 
 from datagen.config import BuildConfig
 from datagen.config.robot import robot_workspace
-from datagen.randomisers.background import sample_background
-from datagen.randomisers.camera import extra_view_name, sample_camera, sample_extra_view
-from datagen.randomisers.distractors import sample_distractors, sample_flying
-from datagen.randomisers.lighting import sample_lighting
-from datagen.randomisers.materials import class_free_colours, sample_materials
-from datagen.randomisers.objects import sample_objects
+from datagen.randomisers.background import draw_background
+from datagen.randomisers.camera import draw_camera, draw_extra_view, extra_view_name
+from datagen.randomisers.distractors import draw_distractors, draw_flying
+from datagen.randomisers.lighting import draw_lighting
+from datagen.randomisers.materials import class_free_colours, draw_materials
+from datagen.randomisers.objects import draw_objects
 from datagen.randomisers.photos import add_photo_backdrops, add_photo_surfaces
-from datagen.randomisers.poses import sample_drop_poses
-from datagen.randomisers.robot import sample_robot
+from datagen.randomisers.poses import draw_drop_poses
+from datagen.randomisers.robot import draw_robot
 from datagen.randomisers.textures import add_textures
 from datagen.randomisers.workspace import scaled_to_robot
 from datagen.seeding import sample_rng
 
 
-def sample_scene(
+def draw_scene(
     config: BuildConfig,
     seed: int,
     index: int,
@@ -41,8 +41,8 @@ def sample_scene(
 
     config = scaled_to_robot(config)  # a small arm's scene; the config itself for scale 1
     ws = robot_workspace(config.robot)
-    objects = sample_objects(rng("objects"), config.objects)
-    drops = sample_drop_poses(
+    objects = draw_objects(rng("objects"), config.objects)
+    drops = draw_drop_poses(
         rng("drop_poses"), config.objects, len(objects), tray_centre, tray_inner_half
     )
     dropped_at = np.mean([pose["position"][:2] for pose in drops], axis=0)
@@ -53,15 +53,15 @@ def sample_scene(
         "materials": add_textures(
             rng("textures"),
             config.materials,
-            sample_materials(rng("materials"), config.materials, len(objects)),
+            draw_materials(rng("materials"), config.materials, len(objects)),
             config.photos,
         ),
-        "lighting": sample_lighting(rng("lighting"), config.lighting, tray_centre),
-        "camera": sample_camera(rng("camera"), config.camera),
-        "robot": sample_robot(rng("robot"), config.robot, ws, dropped_at),
+        "lighting": draw_lighting(rng("lighting"), config.lighting, tray_centre),
+        "camera": draw_camera(rng("camera"), config.camera),
+        "robot": draw_robot(rng("robot"), config.robot, ws, dropped_at),
     }
     if config.background.enabled:  # absent when off: the scene stays as it was
-        params["background"] = sample_background(
+        params["background"] = draw_background(
             rng("background"), config.background, config.materials, tray_centre, config.photos
         )
     if config.photos.enabled:  # photographs over what was drawn, from streams of their own
@@ -77,7 +77,7 @@ def sample_scene(
     if config.distractors.enabled:  # absent when off: the scene stays as it was
         room = params["background"]["room"] if "background" in params else None
         camera = params["camera"]
-        params["distractors"] = sample_distractors(
+        params["distractors"] = draw_distractors(
             rng("distractors"),
             config.distractors,
             config.materials,
@@ -86,7 +86,7 @@ def sample_scene(
             ws,
             config.photos,
         )
-        params["distractors"] += sample_flying(  # after the others; none for flying [0, 0]
+        params["distractors"] += draw_flying(  # after the others; none for flying [0, 0]
             rng("distractors.flying"),
             config.distractors,
             config.materials,
@@ -100,7 +100,7 @@ def sample_scene(
     if config.render.views > 1:  # absent for one view: a one-view sample stays as it was
         names = [extra_view_name(k) for k in range(1, config.render.views)]
         params["extra_views"] = {
-            name: sample_extra_view(rng(f"camera.{name}"), config.camera) for name in names
+            name: draw_extra_view(rng(f"camera.{name}"), config.camera) for name in names
         }
     return params
 
@@ -121,4 +121,4 @@ def redrawn_drop_poses(
     stream = f"drop_poses.redraw{redraw}"
     rng = sample_rng(seed, index, stream, attempt)
     objects = scaled_to_robot(config).objects
-    return stream, sample_drop_poses(rng, objects, count, tray_centre, tray_inner_half)
+    return stream, draw_drop_poses(rng, objects, count, tray_centre, tray_inner_half)

@@ -18,11 +18,11 @@ from typing import Any
 
 import numpy as np
 
-from datagen.assets.texture_tiles import sample_texture
+from datagen.assets.texture_tiles import draw_texture
 from datagen.config.appearance import BackgroundConfig, PhotosConfig
 from datagen.config.sections import MaterialsConfig
 from datagen.randomisers.materials import random_material
-from datagen.randomisers.textures import DEFAULT_PHOTOS, sample_picture
+from datagen.randomisers.textures import DEFAULT_PHOTOS, draw_picture
 
 WALL_SATURATION = (0.0, 0.4)  # HSV: painted walls are muted
 WALL_VALUE = (0.3, 0.95)
@@ -42,15 +42,15 @@ def _wall_material(
     textured, use_picture = rng.random() < cfg.texture_probability, rng.random()
     if textured and cfg.images_dir and use_picture < cfg.images_dir_share:
         scale_m = photos.backdrop_scale_m  # as a photograph on a wall
-        material["texture"] = sample_picture(rng, cfg.images_dir, photos, scale_m, rotate=False)
+        material["texture"] = draw_picture(rng, cfg.images_dir, photos, scale_m, rotate=False)
     elif textured:
-        material["texture"] = sample_texture(
+        material["texture"] = draw_texture(
             rng, material["base_color"], materials.texture_families, WALL_TEXTURE_SCALE_M
         )
     return material
 
 
-def sample_background(
+def draw_background(
     rng: np.random.Generator,
     cfg: BackgroundConfig,
     materials: MaterialsConfig,

@@ -14,7 +14,7 @@ import numpy as np
 from datagen.config.sections import CameraConfig
 
 
-def sample_camera(rng: np.random.Generator, cfg: CameraConfig) -> dict[str, Any]:
+def draw_camera(rng: np.random.Generator, cfg: CameraConfig) -> dict[str, Any]:
     """The workspace camera (view 0): the nominal eye and target, each jittered."""
     return _jittered(rng, cfg, np.asarray(cfg.eye, float))
 
@@ -24,7 +24,7 @@ def extra_view_name(k: int) -> str:
     return f"view{k}"
 
 
-def sample_extra_view(rng: np.random.Generator, cfg: CameraConfig) -> dict[str, Any]:
+def draw_extra_view(rng: np.random.Generator, cfg: CameraConfig) -> dict[str, Any]:
     """An extra view: the nominal eye turned about the target's vertical, then jittered."""
     azimuth = float(rng.uniform(-cfg.orbit_deg, cfg.orbit_deg))
     return {"azimuth_deg": round(azimuth, 6)} | _jittered(rng, cfg, orbited_eye(cfg, azimuth))

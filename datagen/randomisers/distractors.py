@@ -11,7 +11,7 @@ Three placements (``distractors`` config section), each a count range:
   any), where the workspace camera sees its top over the table, larger (``background_size``).
   A view that sees no such spot gets none.
 
-Flying distractors (``flying``, stream ``distractors.flying``: :func:`sample_flying`) come
+Flying distractors (``flying``, stream ``distractors.flying``: :func:`draw_flying`) come
 after those: anywhere in the view, at a depth of ``flying_depth`` times the camera-to-target
 distance (in front of, at and beyond the tray; never in the table, the tray's space or beyond
 the room's walls), randomly oriented, any shape family or a thin card. A card shows a
@@ -37,8 +37,8 @@ from datagen.config.appearance import DistractorsConfig, PhotosConfig
 from datagen.config.sections import SHAPE_FAMILIES, MaterialsConfig
 from datagen.geometry import random_quaternion
 from datagen.randomisers.materials import random_material
-from datagen.randomisers.objects import sample_shape
-from datagen.randomisers.photos import sample_photo
+from datagen.randomisers.objects import draw_shape
+from datagen.randomisers.photos import draw_photo
 from datagen.randomisers.textures import DEFAULT_PHOTOS, maybe_texture
 
 PLACEMENTS = ("table", "air", "background")
@@ -49,7 +49,7 @@ AIR_OFF_CENTRE = (0.4, 0.85)  # of the half field of view
 BACKGROUND_REACH = 4.0  # metres from the table's centre, per axis, where there is no room
 BACKGROUND_TRIES = 60  # random floor spots tried per background distractor
 _TRIES = 40  # rejection sampling of a free spot; a distractor with none is left out
-FLYING = "flying"  # the placement of :func:`sample_flying`'s distractors
+FLYING = "flying"  # the placement of :func:`draw_flying`'s distractors
 CARD = "card"  # a thin flat box, the flying distractors' extra shape family
 CARD_THICKNESS = (0.001, 0.005)  # metres
 CARD_ASPECT = (0.5, 1.0)  # short side / long side of a card without a photograph
@@ -179,7 +179,7 @@ def _material(
     return material
 
 
-def sample_distractors(
+def draw_distractors(
     rng: np.random.Generator,
     cfg: DistractorsConfig,
     materials: MaterialsConfig,
@@ -199,7 +199,7 @@ def sample_distractors(
         for _ in range(int(rng.integers(low, high + 1))):
             size_range = cfg.background_size if placement == "background" else cfg.size
             size = float(rng.uniform(*size_range))
-            shape = sample_shape(rng, str(rng.choice(SHAPE_FAMILIES)), size)
+            shape = draw_shape(rng, str(rng.choice(SHAPE_FAMILIES)), size)
             material = _material(rng, materials, photos)
             radius = size / 2
             if placement == "air":
@@ -271,16 +271,16 @@ def card_shape(rng: np.random.Generator, size: float, aspect: float) -> dict[str
 
 
 def _photo_card(rng, photos: PhotosConfig, materials: MaterialsConfig, size: float):
-    """(shape, material) of a card showing a photograph (``sample_photo``'s values, its
+    """(shape, material) of a card showing a photograph (``draw_photo``'s values, its
     scale set to the card's width, unrotated)."""
-    photo = sample_photo(rng, photos, (size, size), rotate=False)
+    photo = draw_photo(rng, photos, (size, size), rotate=False)
     shape = card_shape(rng, size, float(photo.get("aspect", 1.0)))
     photo["scale_m"] = shape["parts"][0]["extents"][0]
     material = random_material(rng, materials, materials.saturation, materials.value)
     return shape, {**material, "texture": photo}
 
 
-def sample_flying(
+def draw_flying(
     rng: np.random.Generator,
     cfg: DistractorsConfig,
     materials: MaterialsConfig,
@@ -295,7 +295,7 @@ def sample_flying(
     ``flying`` [0, 0]. ``photos`` is the ``photos`` config section (None: no photographs),
     ``aspect`` the workspace view's width / height, ``wrist_view`` whether the wrist camera
     looks down at the tray (``robot.pose: look``: nothing flies above the tray); the rest as in
-    :func:`sample_distractors`."""
+    :func:`draw_distractors`."""
     view = _View.of(camera, ws, aspect)
     photo_share = photos.distractor_probability if photos is not None and photos.enabled else 0.0
     flying = []
@@ -313,7 +313,7 @@ def sample_flying(
             if family == CARD:
                 shape = card_shape(rng, size, float(rng.uniform(*CARD_ASPECT)))
             else:
-                shape = sample_shape(rng, family, size)
+                shape = draw_shape(rng, family, size)
             material = _material(rng, materials, photos)
         quat = random_quaternion(rng)
         bounds = build_geometry(shape).visual.bounds

@@ -39,7 +39,7 @@ def car_paint(rng: np.random.Generator, config: BuildConfig) -> dict[str, Any]:
     }
 
 
-def sample_nav_materials(rng, config: BuildConfig, obstacles: int) -> dict[str, Any]:
+def draw_nav_materials(rng, config: BuildConfig, obstacles: int) -> dict[str, Any]:
     cfg = config.materials
     out: dict[str, Any] = {
         name: random_material(rng, cfg, (0.0, 0.6), value) for name, value in _SURFACE_VALUE.items()
@@ -56,7 +56,7 @@ def sample_nav_materials(rng, config: BuildConfig, obstacles: int) -> dict[str, 
     return out
 
 
-def sample_nav_lighting(rng, config: BuildConfig, layout: Layout, top: float) -> dict[str, Any]:
+def draw_nav_lighting(rng, config: BuildConfig, layout: Layout, top: float) -> dict[str, Any]:
     """A directional key light with a shadow volume over the whole floor plan, and ceiling
     point lights over free cells for the other lights the config asks for."""
     cfg = config.lighting
@@ -90,7 +90,7 @@ def sample_nav_lighting(rng, config: BuildConfig, layout: Layout, top: float) ->
     }
 
 
-def sample_nav_scene(
+def draw_nav_scene(
     config: BuildConfig, seed: int, index: int, layout: Layout, attempt: int = 0
 ) -> dict[str, Any]:
     """All randomised appearance values of one episode; stored in its metadata."""
@@ -108,7 +108,7 @@ def sample_nav_scene(
     materials = texture_surfaces(
         sample_rng(seed, index, "nav_textures", attempt),
         config.materials,
-        sample_nav_materials(
+        draw_nav_materials(
             sample_rng(seed, index, "nav_materials", attempt), config, len(obstacles)
         ),
         TEXTURED_SURFACES,
@@ -144,7 +144,7 @@ def sample_nav_scene(
         "obstacles": obstacles,
         # textures from a stream of their own: probability 0 leaves the materials as they were
         "materials": materials,
-        "lighting": sample_nav_lighting(
+        "lighting": draw_nav_lighting(
             sample_rng(seed, index, "nav_lighting", attempt), config, layout, wall_height
         ),
         "camera": camera,

@@ -175,7 +175,7 @@ _SAMPLERS = dict(
 )
 
 
-def sample_household_parts(
+def draw_household_parts(
     rng: np.random.Generator, family: str, size: float
 ) -> list[dict[str, Any]]:
     return _SAMPLERS[family](rng, size)

@@ -96,7 +96,7 @@ def _key_shadow(rng: np.random.Generator, cfg: LightingConfig) -> dict[str, Any]
     return {"shadow": True, "shadow_edge": "hard"}
 
 
-def sample_lighting(
+def draw_lighting(
     rng: np.random.Generator, cfg: LightingConfig, target: tuple[float, float, float]
 ) -> dict[str, Any]:
     lights = []

@@ -9,7 +9,7 @@ from typing import Any
 
 import numpy as np
 
-from datagen.assets.texture_tiles import sample_palette
+from datagen.assets.texture_tiles import draw_palette
 from datagen.config.sections import MaterialsConfig
 
 # Surfaces of the room keep plausible colour ranges (HSV value), objects span the config's.
@@ -36,7 +36,7 @@ def random_material(
     }
 
 
-def sample_materials(
+def draw_materials(
     rng: np.random.Generator, cfg: MaterialsConfig, num_objects: int
 ) -> dict[str, Any]:
     surfaces = {
@@ -53,14 +53,14 @@ def _recoloured(rng: np.random.Generator, material: dict[str, Any]) -> dict[str,
     recoloured = {**material, "base_color": colour}
     texture = material.get("texture")
     if texture is not None and "palette" in texture:
-        recoloured["texture"] = {**texture, "palette": sample_palette(rng, colour)}
+        recoloured["texture"] = {**texture, "palette": draw_palette(rng, colour)}
     return recoloured
 
 
 def class_free_colours(
     rng: np.random.Generator, cfg: MaterialsConfig, params: dict[str, Any]
 ) -> dict[str, Any]:
-    """A scene's values (``sample_scene``'s, materials and any background drawn) with, with
+    """A scene's values (``draw_scene``'s, materials and any background drawn) with, with
     ``cfg.class_independent_probability`` (one draw), every object's, the table's, tray's,
     floor's and the room's walls' base colour drawn from one class-free distribution, so
     colour statistics tell no class from another; else ``params`` itself, unchanged."""

@@ -8,7 +8,7 @@ import numpy as np
 
 from datagen.config.sections import HOUSEHOLD_FAMILIES, ObjectsConfig
 from datagen.geometry import random_quaternion
-from datagen.randomisers.household_parts import sample_household_parts
+from datagen.randomisers.household_parts import draw_household_parts
 
 
 def _uniform(rng: np.random.Generator, bounds: tuple[float, float]) -> float:
@@ -22,7 +22,7 @@ def _convex_points(rng: np.random.Generator, semi_axes: np.ndarray, n: int) -> l
     return np.round(directions * radii * semi_axes, 6).tolist()
 
 
-def sample_shape(rng: np.random.Generator, family: str, size: float) -> dict[str, Any]:
+def draw_shape(rng: np.random.Generator, family: str, size: float) -> dict[str, Any]:
     """Shape parameters (metres) for one object whose largest extent is about ``size``."""
     half = size / 2
     if family == "box":
@@ -52,18 +52,18 @@ def sample_shape(rng: np.random.Generator, family: str, size: float) -> dict[str
         parts = []
         for _ in range(int(rng.integers(2, 4))):
             kind = str(rng.choice(["box", "cylinder", "convex"]))
-            sub = sample_shape(rng, kind, size * 0.55)["parts"][0]
+            sub = draw_shape(rng, kind, size * 0.55)["parts"][0]
             sub["offset"] = (rng.uniform(-0.5, 0.5, 3) * half * 0.6).round(6).tolist()
             sub["quat_wxyz"] = random_quaternion(rng)
             parts.append(sub)
     elif family in HOUSEHOLD_FAMILIES:
-        parts = sample_household_parts(rng, family, size)
+        parts = draw_household_parts(rng, family, size)
     else:
         raise ValueError(f"unknown shape family {family!r}")
     return {"family": family, "parts": parts}
 
 
-def sample_asset_shape(rng: np.random.Generator, assets_dir: str, size: float) -> dict[str, Any]:
+def draw_asset_shape(rng: np.random.Generator, assets_dir: str, size: float) -> dict[str, Any]:
     """A user mesh (``objects.source: folder``), scaled so its largest extent is ``size``; the
     family is its class folder. The convex parts are stored with the sample, so the collision
     shape can be rebuilt from the metadata alone; the visual mesh is read from ``asset.path``."""
@@ -80,15 +80,15 @@ def sample_asset_shape(rng: np.random.Generator, assets_dir: str, size: float) -
     }
 
 
-def sample_objects(rng: np.random.Generator, cfg: ObjectsConfig) -> list[dict[str, Any]]:
+def draw_objects(rng: np.random.Generator, cfg: ObjectsConfig) -> list[dict[str, Any]]:
     count = int(rng.integers(cfg.count[0], cfg.count[1] + 1))
     objects = []
     for _ in range(count):
         if cfg.source == "folder":
-            shape = sample_asset_shape(rng, cfg.assets_dir, _uniform(rng, cfg.size))
+            shape = draw_asset_shape(rng, cfg.assets_dir, _uniform(rng, cfg.size))
         else:
             family = str(rng.choice(list(cfg.families)))
-            shape = sample_shape(rng, family, _uniform(rng, cfg.size))
+            shape = draw_shape(rng, family, _uniform(rng, cfg.size))
         objects.append(
             {
                 "shape": shape,

@@ -1,9 +1,9 @@
 """Photograph randomiser: pictures of the library's training sources (``photos.sources``) on
 the tabletop scene's surfaces (stream ``photos.surfaces``), on the room's walls and ceiling
-(stream ``photos.backdrops``), and on flying distractors (:func:`sample_photo`, called from
+(stream ``photos.backdrops``), and on flying distractors (:func:`draw_photo`, called from
 theirs). ``photos.held_out`` sources are never drawn. A user's picture
 (``materials.textures_dir``, ``background.images_dir``) is drawn with the same crop, jitter
-and scale (:func:`sample_look`, called from :mod:`datagen.randomisers.textures`).
+and scale (:func:`draw_look`, called from :mod:`datagen.randomisers.textures`).
 
 A photograph's stored texture values (drawn by :mod:`datagen.assets.texture_tiles`)::
 
@@ -32,7 +32,7 @@ def _round(value: float) -> float:
     return round(float(value), 6)
 
 
-def sample_photo(
+def draw_photo(
     rng: np.random.Generator, cfg: PhotosConfig, scale_m: tuple[float, float], rotate: bool = True
 ) -> dict[str, Any]:
     """One photograph of the training sources with its crop, placement and colour jitter."""
@@ -43,11 +43,11 @@ def sample_photo(
         "source": picture["source"],
         "path": picture["path"],
         "sha256": picture["sha256"],
-        **sample_look(rng, cfg, picture["height"] / picture["width"], scale_m, rotate),
+        **draw_look(rng, cfg, picture["height"] / picture["width"], scale_m, rotate),
     }
 
 
-def sample_look(
+def draw_look(
     rng: np.random.Generator,
     cfg: PhotosConfig,
     aspect: float,
@@ -83,7 +83,7 @@ def add_photo_surfaces(
     }
     for material in [*shown["objects"], *(shown[surface] for surface in SURFACES)]:
         if rng.random() < cfg.surface_probability:
-            material["texture"] = sample_photo(rng, cfg, cfg.surface_scale_m)
+            material["texture"] = draw_photo(rng, cfg, cfg.surface_scale_m)
     return shown
 
 
@@ -95,5 +95,5 @@ def add_photo_backdrops(
     walls = {name: dict(wall) for name, wall in background["walls"].items()}
     for wall in walls.values():
         if rng.random() < cfg.backdrop_probability:
-            wall["texture"] = sample_photo(rng, cfg, cfg.backdrop_scale_m, rotate=False)
+            wall["texture"] = draw_photo(rng, cfg, cfg.backdrop_scale_m, rotate=False)
     return {**background, "walls": walls}

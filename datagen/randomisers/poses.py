@@ -10,7 +10,7 @@ from datagen.config.sections import ObjectsConfig
 from datagen.geometry import random_quaternion
 
 
-def sample_drop_poses(
+def draw_drop_poses(
     rng: np.random.Generator,
     cfg: ObjectsConfig,
     count: int,

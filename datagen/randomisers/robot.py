@@ -12,7 +12,7 @@ from datagen.assets.tabletop_layout import Workspace
 from datagen.config.robot import LookConfig, RobotConfig, robot_spec
 
 
-def sample_robot(
+def draw_robot(
     rng: np.random.Generator, cfg: RobotConfig, ws: Workspace, aim: np.ndarray | None = None
 ) -> dict[str, Any]:
     """Joint positions: the arm's ready pose jittered, the finger joints (two prismatic fingers,
@@ -26,13 +26,13 @@ def sample_robot(
     fingers = [finger] * len(spec.gripper.finger_joints)
     values: dict[str, Any] = {"qpos": np.round(np.append(arm, fingers), 6).tolist()}
     if cfg.pose == "look":
-        values["look"] = sample_wrist_look(
+        values["look"] = draw_wrist_look(
             rng, cfg.look, ws, spec.approach_in_base_plane, spec.look_scale, aim
         )
     return values
 
 
-def sample_wrist_look(
+def draw_wrist_look(
     rng: np.random.Generator,
     cfg: LookConfig,
     ws: Workspace,

@@ -4,7 +4,7 @@ worlds draw the stored values (:mod:`datagen.worlds.surfaces`), the USD export t
 The stored values are those of :mod:`datagen.assets.texture_tiles`; a picture from a user's folder is
 ``{"family": "image", "root", "path", "sha256", "crop", "flip", "contrast", "brightness",
 "saturation", "hue_deg", "aspect", "scale_m", "rotation_deg"}``: cropped, mirrored, jittered and
-sized as a photograph of the library is (:func:`datagen.randomisers.photos.sample_look`, within
+sized as a photograph of the library is (:func:`datagen.randomisers.photos.draw_look`, within
 the ``photos`` section's ranges, enabled or not), on surfaces ``photos.surface_scale_m`` across.
 """
 
@@ -15,16 +15,16 @@ from typing import Any
 import numpy as np
 
 from datagen.assets.image_library import load_library
-from datagen.assets.texture_tiles import IMAGE_FAMILY, sample_texture
+from datagen.assets.texture_tiles import IMAGE_FAMILY, draw_texture
 from datagen.config.appearance import PhotosConfig
 from datagen.config.sections import MaterialsConfig
-from datagen.randomisers.photos import sample_look
+from datagen.randomisers.photos import draw_look
 
 SURFACES = ("table", "tray", "floor")  # the room's surfaces in materials, after the objects
 DEFAULT_PHOTOS = PhotosConfig()  # the ranges for a caller that has no photos section at hand
 
 
-def sample_picture(
+def draw_picture(
     rng: np.random.Generator,
     root: str,
     photos: PhotosConfig,
@@ -40,11 +40,11 @@ def sample_picture(
         "root": root,
         "path": picture.path,
         "sha256": picture.sha256,
-        **sample_look(rng, photos, picture.height / picture.width, scale_m, rotate),
+        **draw_look(rng, photos, picture.height / picture.width, scale_m, rotate),
     }
 
 
-def sample_surface_texture(
+def draw_surface_texture(
     rng: np.random.Generator,
     base_color: list[float],
     cfg: MaterialsConfig,
@@ -54,9 +54,9 @@ def sample_surface_texture(
     folder is set), else a procedural texture around the surface's colour."""
     use_picture = rng.random() < cfg.textures_dir_share
     if cfg.textures_dir and use_picture:
-        values = sample_picture(rng, cfg.textures_dir, photos, photos.surface_scale_m)
+        values = draw_picture(rng, cfg.textures_dir, photos, photos.surface_scale_m)
     else:
-        values = sample_texture(rng, base_color, cfg.texture_families, cfg.texture_scale_m)
+        values = draw_texture(rng, base_color, cfg.texture_families, cfg.texture_scale_m)
     if cfg.normal_maps:
         values["normal_map"] = True
     return values
@@ -68,7 +68,7 @@ def add_textures(
     materials: dict[str, Any],
     photos: PhotosConfig = DEFAULT_PHOTOS,
 ) -> dict[str, Any]:
-    """``materials`` (as :func:`sample_materials` drew them) with a ``texture`` on each surface
+    """``materials`` (as :func:`draw_materials` drew them) with a ``texture`` on each surface
     drawn to be textured: every object, then table, tray and floor, one draw each, so
     ``texture_probability`` 0 leaves every material exactly as it was."""
     textured = {
@@ -90,7 +90,7 @@ def maybe_texture(
     """Gives ``material`` a ``texture`` with ``materials.texture_probability`` (one draw, then
     the texture's own draws when it is textured)."""
     if rng.random() < cfg.texture_probability:
-        material["texture"] = sample_surface_texture(rng, material["base_color"], cfg, photos)
+        material["texture"] = draw_surface_texture(rng, material["base_color"], cfg, photos)
 
 
 def texture_surfaces(
@@ -107,5 +107,5 @@ def texture_surfaces(
         textured[name] = dict(materials[name])
         if rng.random() < cfg.texture_probability:
             base_color = textured[name]["base_color"]
-            textured[name]["texture"] = sample_surface_texture(rng, base_color, cfg, photos)
+            textured[name]["texture"] = draw_surface_texture(rng, base_color, cfg, photos)
     return textured

@@ -16,7 +16,7 @@ import numpy as np
 
 from datagen.config import BuildConfig
 from datagen.navigation.grid import Layout
-from datagen.randomisers.floorplan_scene import sample_nav_lighting
+from datagen.randomisers.floorplan_scene import draw_nav_lighting
 from datagen.randomisers.materials import random_colour, random_material
 from datagen.randomisers.textures import texture_surfaces
 from datagen.registries import AIRFRAMES
@@ -41,7 +41,7 @@ def _cameras(rng: np.random.Generator, cfg) -> dict[str, Any]:
     return {"forward": forward, "down": {"fovy_deg": _u(rng, cfg.down_fovy_deg)}}
 
 
-def sample_aerial_scene(
+def draw_aerial_scene(
     config: BuildConfig,
     seed: int,
     index: int,
@@ -84,7 +84,7 @@ def sample_aerial_scene(
             config.photos,
         ),
         "drones": drone_materials,
-        "lighting": sample_nav_lighting(
+        "lighting": draw_nav_lighting(
             sample_rng(seed, index, "nav_lighting", attempt), config, layout, height
         ),
         "cameras": cameras,

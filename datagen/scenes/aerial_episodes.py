@@ -31,7 +31,12 @@ from datagen.aerial.pictures import side_view, top_down
 from datagen.aerial.volumes import box_distance
 from datagen.config import BuildConfig
 from datagen.dataset.flow_png import encode_kitti
-from datagen.engines.sim.encode import (
+from datagen.outcomes import agents_outcome, spl
+from datagen.randomisers.volume_scene import draw_aerial_scene
+from datagen.sample import Sample, sample_key
+from datagen.scenes.navigation_episodes import rounded, things_in_view
+from datagen.seeding import sample_rng
+from datagen.sensing.encode import (
     NED_POSE_CONVENTION,
     POSE_CONVENTION,
     View,
@@ -41,13 +46,8 @@ from datagen.engines.sim.encode import (
     pose_file,
     pose_file_ned,
 )
-from datagen.engines.sim.optical_flow import flow_to_next
-from datagen.engines.sim.render import DEPTH_SCALE, Frame, capture, keep_renderer_alive
-from datagen.outcomes import agents_outcome, spl
-from datagen.randomisers.volume_scene import sample_aerial_scene
-from datagen.sample import Sample, sample_key
-from datagen.scenes.navigation_episodes import rounded, things_in_view
-from datagen.seeding import sample_rng
+from datagen.sensing.optical_flow import flow_to_next
+from datagen.sensing.render import DEPTH_SCALE, Frame, capture, keep_renderer_alive
 from datagen.worlds.volume import AERIAL_CLASSES, AerialScene, build_aerial_scene
 
 AERIAL_FORMAT = "datagen.aerial_episode/1"
@@ -166,7 +166,7 @@ def produce(config: BuildConfig, seed: int, index: int, attempt: int = 0) -> Sam
     cfg = config.aerial
     episode = plan_aerial_episode(cfg, seed, index, attempt)
     volume = episode.volume
-    values = sample_aerial_scene(
+    values = draw_aerial_scene(
         config, seed, index, volume.layout, volume.height, len(episode.agents), attempt
     )
     scene = build_aerial_scene(config, episode, values)

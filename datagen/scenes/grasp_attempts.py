@@ -20,9 +20,6 @@ import trimesh
 from datagen.assets.tabletop_layout import Workspace, tray_boxes
 from datagen.config import BuildConfig
 from datagen.dataset.loader import load
-from datagen.engines.sim.encode import png_bytes
-from datagen.engines.sim.picture_conversion import rgb_from_colour
-from datagen.engines.sim.render import keep_renderer_alive
 from datagen.geometry import pose_record
 from datagen.grasp_model.inputs import DepthView
 from datagen.grasping import GraspOutcome
@@ -38,6 +35,9 @@ from datagen.registries import SAMPLERS
 from datagen.sample import Sample
 from datagen.scenes.grasp_tabletop import AnnotatedSample, annotate_scene, to_sample
 from datagen.seeding import sample_rng
+from datagen.sensing.encode import png_bytes
+from datagen.sensing.picture_conversion import rgb_from_colour
+from datagen.sensing.render import keep_renderer_alive
 from datagen.worlds.tabletop import GraspScene, SceneObject, build_scene
 
 MIN_VISIBLE_FRACTION = 0.3  # targets are objects the camera sees well enough to learn from

@@ -14,22 +14,22 @@ import numpy as np
 import sapien
 
 from datagen.config import BuildConfig
-from datagen.engines.sim.annotate import (
+from datagen.geometry import pose_record
+from datagen.sample import Sample, sample_key
+from datagen.seeding import sample_rng
+from datagen.sensing.annotate import (
     LabelledObject,
     label_maps,
     object_view_records,
     object_world_record,
 )
-from datagen.engines.sim.camera_effects import sample_camera_effects
-from datagen.engines.sim.depth_sensor import sample_depth_sensor, specular
-from datagen.engines.sim.encode import DEFAULT_PNG_LEVEL, View, encode_view, metadata_bytes
-from datagen.engines.sim.path_tracing import path_tracing_of, view_is_path_traced
-from datagen.engines.sim.render import DEPTH_SCALE, capture, keep_renderer_alive
-from datagen.engines.sim.robot_labels import part_instance_ids, part_view_records, robot_parts
-from datagen.engines.sim.view_effects import apply_view_effects
-from datagen.geometry import pose_record
-from datagen.sample import Sample, sample_key
-from datagen.seeding import sample_rng
+from datagen.sensing.camera_effects import draw_camera_effects
+from datagen.sensing.depth_sensor import draw_depth_sensor, specular
+from datagen.sensing.encode import DEFAULT_PNG_LEVEL, View, encode_view, metadata_bytes
+from datagen.sensing.path_tracing import path_tracing_of, view_is_path_traced
+from datagen.sensing.render import DEPTH_SCALE, capture, keep_renderer_alive
+from datagen.sensing.robot_labels import part_instance_ids, part_view_records, robot_parts
+from datagen.sensing.view_effects import apply_view_effects
 from datagen.worlds.class_names import grasp_classes
 from datagen.worlds.tabletop import GraspScene, build_scene
 
@@ -70,14 +70,14 @@ def _effects(config: BuildConfig, seed: int, index: int, attempt: int, camera: s
     if not config.camera_effects.enabled:
         return None
     rng = sample_rng(seed, index, f"camera_effects.{camera}", attempt)
-    return sample_camera_effects(rng, config.camera_effects)
+    return draw_camera_effects(rng, config.camera_effects)
 
 
 def _sensor(config, seed: int, index: int, attempt: int, camera: str, shiny: list[int]):
     if not config.depth_sensor.enabled:
         return None
     rng = sample_rng(seed, index, f"depth_sensor.{camera}", attempt)
-    return sample_depth_sensor(rng, config.depth_sensor, shiny)
+    return draw_depth_sensor(rng, config.depth_sensor, shiny)
 
 
 def _specular_instances(scene: GraspScene, config: BuildConfig) -> list[int]:

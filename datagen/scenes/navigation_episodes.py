@@ -17,7 +17,17 @@ from scipy import ndimage
 
 from datagen.config import BuildConfig
 from datagen.config.sections import RenderConfig
-from datagen.engines.sim.encode import (
+from datagen.exports.episodes import held_commands
+from datagen.navigation.episode import Episode, car_params, frame_steps, plan_episode
+from datagen.navigation.grid import Layout, inflate
+from datagen.navigation.map_image import episode_map, occupancy_image
+from datagen.navigation.planning import clearance
+from datagen.outcomes import spl
+from datagen.randomisers.floorplan_scene import draw_nav_scene
+from datagen.registries import GROUND_ROBOTS
+from datagen.registry import resolve
+from datagen.sample import Sample, sample_key
+from datagen.sensing.encode import (
     POSE_CONVENTION,
     View,
     encode_view,
@@ -25,17 +35,7 @@ from datagen.engines.sim.encode import (
     png_bytes,
     pose_file,
 )
-from datagen.engines.sim.render import DEPTH_SCALE, capture, keep_renderer_alive
-from datagen.exports.episodes import held_commands
-from datagen.navigation.episode import Episode, car_params, frame_steps, plan_episode
-from datagen.navigation.grid import Layout, inflate
-from datagen.navigation.map_image import episode_map, occupancy_image
-from datagen.navigation.planning import clearance
-from datagen.outcomes import spl
-from datagen.randomisers.floorplan_scene import sample_nav_scene
-from datagen.registries import GROUND_ROBOTS
-from datagen.registry import resolve
-from datagen.sample import Sample, sample_key
+from datagen.sensing.render import DEPTH_SCALE, capture, keep_renderer_alive
 from datagen.worlds.floorplan import NAV_CLASSES, NavScene, Thing, build_nav_scene
 from datagen.worlds.robots import FETCH
 
@@ -230,7 +230,7 @@ def produce(config: BuildConfig, seed: int, index: int, attempt: int = 0) -> Sam
     keep_renderer_alive()
     nav = config.navigation
     episode = plan_episode(nav, seed, index, attempt)
-    values = sample_nav_scene(config, seed, index, episode.layout, attempt)
+    values = draw_nav_scene(config, seed, index, episode.layout, attempt)
     scene = build_nav_scene(config, episode, values)
     steps = frame_steps(episode.trajectory, nav.frame_rate_hz)
     parts, frames, camera = render_episode(config, episode, scene, steps)

@@ -15,22 +15,13 @@ from typing import Any
 import numpy as np
 
 from datagen.config import BuildConfig
-from datagen.engines.sim.encode import (
-    POSE_CONVENTION,
-    View,
-    encode_view,
-    metadata_bytes,
-    png_bytes,
-    pose_file,
-)
-from datagen.engines.sim.render import capture, keep_renderer_alive
 from datagen.exports.episodes import held_commands
 from datagen.navigation.fleet import FleetEpisode, plan_fleet_episode
 from datagen.navigation.grid import inflate
 from datagen.navigation.map_image import fleet_map, occupancy_image
 from datagen.navigation.planning import clearance
 from datagen.outcomes import agents_outcome, spl
-from datagen.randomisers.floorplan_scene import sample_nav_scene
+from datagen.randomisers.floorplan_scene import draw_nav_scene
 from datagen.registries import GROUND_ROBOTS
 from datagen.sample import Sample, sample_key
 from datagen.scenes.navigation_episodes import (
@@ -42,6 +33,15 @@ from datagen.scenes.navigation_episodes import (
     things_in_view,
 )
 from datagen.scenes.navigation_episodes import produce as produce_one
+from datagen.sensing.encode import (
+    POSE_CONVENTION,
+    View,
+    encode_view,
+    metadata_bytes,
+    png_bytes,
+    pose_file,
+)
+from datagen.sensing.render import capture, keep_renderer_alive
 from datagen.worlds.floorplan import NAV_CLASSES, build_floorplan_scene
 
 FLEET_FORMAT = "datagen.nav_fleet/1"
@@ -105,7 +105,7 @@ def produce_fleet(config: BuildConfig, seed: int, index: int, attempt: int = 0) 
     nav = config.navigation
     fleet = plan_fleet_episode(nav, seed, index, attempt)
     layout = fleet.layout
-    values = sample_nav_scene(config, seed, index, layout, attempt)
+    values = draw_nav_scene(config, seed, index, layout, attempt)
     scene = build_floorplan_scene(
         config, layout, [a.episode.goal for a in fleet.agents], values["cameras"], values
     )

@@ -180,7 +180,7 @@ def replay(root: str | Path, key: str) -> dict[str, np.ndarray]:
     """RGB image (H, W, 3) per camera of the replayed scene."""
     from datagen.dataset.assets import check_asset_paths
     from datagen.dataset.loader import load
-    from datagen.engines.sim.render import capture, keep_renderer_alive
+    from datagen.sensing.render import capture, keep_renderer_alive
     from datagen.tools.sample_checks import read_metadata
     from datagen.worlds.tabletop import construct_scene
 
@@ -222,7 +222,7 @@ def replay_differences(
     the replayed one and their largest per-channel difference per pixel (H, W) int."""
     from datagen.dataset.loader import load
     from datagen.dataset.views import camera_order
-    from datagen.engines.sim.view_effects import stored_colour
+    from datagen.sensing.view_effects import stored_colour
     from datagen.tools.sample_checks import read_item
 
     dataset = load(root)

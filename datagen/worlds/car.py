@@ -20,8 +20,8 @@ import numpy as np
 import sapien
 import trimesh
 
-from datagen.engines.sim.cameras import add_camera
 from datagen.navigation.episode import CAR_REAR, CAR_WHEELBASE
+from datagen.sensing.cameras import add_camera
 from datagen.worlds.surfaces import render_material, render_shape
 
 WHEEL_RADIUS, WHEEL_WIDTH = 0.18, 0.12  # footprint radii

@@ -16,12 +16,12 @@ import numpy as np
 import sapien
 
 from datagen.config import BuildConfig
-from datagen.engines.sim.cameras import add_camera
 from datagen.navigation.episode import Episode
 from datagen.navigation.grid import Layout
 from datagen.registries import GROUND_ROBOTS
 from datagen.registry import resolve
 from datagen.robot_specs import maniskill_asset
+from datagen.sensing.cameras import add_camera
 from datagen.worlds.class_names import NAV_CLASSES
 from datagen.worlds.realise import apply_lighting, light_slots, pad_lights
 from datagen.worlds.robots import FETCH, load_robot

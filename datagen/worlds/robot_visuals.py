@@ -3,7 +3,7 @@ simplified once per machine.
 
 Shipped descriptions draw arms with CAD meshes (the Panda: 135,548 triangles, about one per pixel
 it covers at 640x480). A CPU renderer pays for every triangle in the camera pass and again in each
-shadow pass, and the robot's amodal silhouettes (``engines/sim/robot_labels.py``) project every
+shadow pass, and the robot's amodal silhouettes (``sensing/robot_labels.py``) project every
 one: together half of a default frame. Each mesh file of a link is read by SAPIEN itself (so its
 materials are what SAPIEN would show), each of its parts simplified to its share of the budget
 (:mod:`datagen.assets.mesh_simplify`) and written as a GLB file into

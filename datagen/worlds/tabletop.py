@@ -18,9 +18,9 @@ from datagen.assets.shapes import ObjectGeometry
 from datagen.assets.tabletop_layout import StaticPart, Workspace, static_parts
 from datagen.config import BuildConfig
 from datagen.config.robot import robot_spec, robot_workspace
-from datagen.engines.sim.cameras import add_camera
-from datagen.randomisers import redrawn_drop_poses, sample_scene
+from datagen.randomisers import draw_scene, redrawn_drop_poses
 from datagen.robot_specs import RobotSpec, wrist_mount
+from datagen.sensing.cameras import add_camera
 from datagen.worlds.arm_clearance import link_bodies, meets, part_bodies
 from datagen.worlds.class_names import (
     CLASSES,
@@ -112,7 +112,7 @@ def build_scene(config: BuildConfig, seed: int, index: int, attempt: int = 0) ->
     poses (``datagen.worlds.tray_targets``); raises TargetsOutsideTray after ``MAX_REDRAWS``."""
     ws = robot_workspace(config.robot)
     tray_floor_top, tray_inner_half = ws.tray_floor_top, ws.tray_inner_half
-    params = sample_scene(config, seed, index, tray_floor_top, tray_inner_half, attempt)
+    params = draw_scene(config, seed, index, tray_floor_top, tray_inner_half, attempt)
     redraws: list[dict[str, str]] = []
     while True:
         scene = construct_scene(config, params)

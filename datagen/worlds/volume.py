@@ -21,9 +21,9 @@ import sapien
 from datagen.aerial.airframe import camera_mounts, drone_parts, right_camera
 from datagen.aerial.episode import AerialEpisode
 from datagen.config import BuildConfig
-from datagen.engines.sim.cameras import add_camera
 from datagen.plugin_records import Airframe
 from datagen.registries import AIRFRAMES
+from datagen.sensing.cameras import add_camera
 from datagen.worlds.class_names import AERIAL_CLASSES
 from datagen.worlds.floorplan import Thing, rect_box
 from datagen.worlds.realise import apply_lighting, light_slots, pad_lights

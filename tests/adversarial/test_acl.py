@@ -20,10 +20,10 @@ import pytest
 
 from adversarial.leaks import ProcessWatcher, leaking_files, leaks, secret_forms
 from datagen.dataset.loader import check_complete
-from datagen.engines.transfer.broker_settings import BrokerSettings
-from datagen.engines.transfer.mosquitto import ManagedBroker
-from datagen.engines.transfer.publisher import PublishRefused, SamplePublisher
-from datagen.engines.transfer.topics import topics
+from datagen.transport.broker_settings import BrokerSettings
+from datagen.transport.mosquitto import ManagedBroker
+from datagen.transport.publisher import PublishRefused, SamplePublisher
+from datagen.transport.topics import topics
 
 pytestmark = [pytest.mark.adversarial, pytest.mark.mqtt]
 REPO = Path(__file__).resolve().parents[2]

@@ -14,11 +14,11 @@ import pytest
 
 from datagen.config import config_from_dict
 from datagen.dataset.loader import check_complete
-from datagen.engines.transfer.broker_url import parse_broker_url
-from datagen.engines.transfer.envelope import Sealer
-from datagen.engines.transfer.topics import topics
-from datagen.engines.transfer.wire import SECRET_ENV
 from datagen.pipeline.run import run_build
+from datagen.transport.broker_url import parse_broker_url
+from datagen.transport.envelope import Sealer
+from datagen.transport.topics import topics
+from datagen.transport.wire import SECRET_ENV
 
 pytestmark = [pytest.mark.adversarial]
 SECRET = bytes(range(32))

@@ -22,16 +22,16 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from datagen.engines.transfer.collector import AckCollector
-from datagen.engines.transfer.envelope import Opener, Sealer
-from datagen.engines.transfer.run_binding import RunBinding
-from datagen.engines.transfer.topics import topics
-from datagen.engines.transfer.wire import VERSION, WireError, decode_sample, encode_sample
 from datagen.sample import Sample
-from datagen.sinks.journal import durable_keys, journal_path, recover
-from datagen.sinks.journal_lines import JournalError
-from datagen.sinks.shard_writer import ShardWriter
-from datagen.sinks.status import WriterStatus
+from datagen.transport.collector import AckCollector
+from datagen.transport.envelope import Opener, Sealer
+from datagen.transport.run_binding import RunBinding
+from datagen.transport.topics import topics
+from datagen.transport.wire import VERSION, WireError, decode_sample, encode_sample
+from datagen.writer.journal import durable_keys, journal_path, recover
+from datagen.writer.journal_lines import JournalError
+from datagen.writer.shard_writer import ShardWriter
+from datagen.writer.status import WriterStatus
 
 pytestmark = [pytest.mark.adversarial]
 

@@ -22,16 +22,16 @@ import datagen
 from datagen.config import config_from_dict
 from datagen.dataset.frame_dataset import load_frames
 from datagen.dataset.loader import DatasetError, load, verify
-from datagen.engines.transfer.collector import AckCollector
-from datagen.engines.transfer.connection import MqttConnection
-from datagen.engines.transfer.envelope import derive_key
-from datagen.engines.transfer.publisher import SamplePublisher
-from datagen.engines.transfer.run_binding import RunBinding
-from datagen.engines.transfer.topics import topics
-from datagen.engines.transfer.wire import SECRET_ENV, encode_sample
 from datagen.pipeline.run import run_build
 from datagen.sample import Sample
 from datagen.shard_members import scan_members
+from datagen.transport.collector import AckCollector
+from datagen.transport.connection import MqttConnection
+from datagen.transport.envelope import derive_key
+from datagen.transport.publisher import SamplePublisher
+from datagen.transport.run_binding import RunBinding
+from datagen.transport.topics import topics
+from datagen.transport.wire import SECRET_ENV, encode_sample
 
 pytestmark = [pytest.mark.adversarial]
 REPO = Path(__file__).resolve().parents[2]

@@ -25,10 +25,10 @@ import trimesh
 from datagen.assets.mesh_library import face_count
 from datagen.config import BuildConfig, config_from_dict
 from datagen.dataset.loader import check_complete
-from datagen.engines.transfer.mosquitto import ManagedBroker
-from datagen.engines.transfer.wire import SECRET_ENV
 from datagen.errors import BuildError, ConfigError
 from datagen.pipeline.run import run_build
+from datagen.transport.mosquitto import ManagedBroker
+from datagen.transport.wire import SECRET_ENV
 
 pytestmark = [pytest.mark.adversarial]
 

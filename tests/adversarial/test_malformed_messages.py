@@ -21,18 +21,18 @@ import pytest
 
 from datagen.config import config_from_dict
 from datagen.dataset.loader import check_complete, verify
-from datagen.engines.transfer import envelope, wire
-from datagen.engines.transfer.broker_url import parse_broker_url
-from datagen.engines.transfer.collector import AckCollector
-from datagen.engines.transfer.connection import MqttConnection
-from datagen.engines.transfer.publisher import SamplePublisher
-from datagen.engines.transfer.topics import topics
-from datagen.engines.transfer.wire import SECRET_ENV, WireError, decode_sample, encode_sample
 from datagen.pipeline.run import run_build
 from datagen.sample import Sample
-from datagen.sinks.journal import journal_path, recover
-from datagen.sinks.journal_lines import JournalError
-from datagen.sinks.shard_writer import ShardWriter
+from datagen.transport import envelope, wire
+from datagen.transport.broker_url import parse_broker_url
+from datagen.transport.collector import AckCollector
+from datagen.transport.connection import MqttConnection
+from datagen.transport.publisher import SamplePublisher
+from datagen.transport.topics import topics
+from datagen.transport.wire import SECRET_ENV, WireError, decode_sample, encode_sample
+from datagen.writer.journal import journal_path, recover
+from datagen.writer.journal_lines import JournalError
+from datagen.writer.shard_writer import ShardWriter
 
 pytestmark = [pytest.mark.adversarial]
 TIMEOUT_S = 30

@@ -14,8 +14,8 @@ import paho.mqtt.client as mqtt
 import pytest
 
 from adversarial.test_acl import ROLES, Client, T, doc_block, doc_env
-from datagen.engines.transfer.broker_settings import BrokerSettings
-from datagen.engines.transfer.mosquitto import ManagedBroker
+from datagen.transport.broker_settings import BrokerSettings
+from datagen.transport.mosquitto import ManagedBroker
 
 pytestmark = [pytest.mark.adversarial, pytest.mark.mqtt]
 MONITOR = "datagen-monitor"

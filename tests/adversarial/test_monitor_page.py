@@ -25,10 +25,10 @@ import paho.mqtt.client as mqtt
 import psutil
 import pytest
 
-from datagen.engines.transfer.broker_settings import BrokerSettings
-from datagen.engines.transfer.mosquitto import ManagedBroker
-from datagen.engines.transfer.topics import topics
 from datagen.monitor.server import MonitorServer, PageConfig
+from datagen.transport.broker_settings import BrokerSettings
+from datagen.transport.mosquitto import ManagedBroker
+from datagen.transport.topics import topics
 
 pytestmark = [pytest.mark.adversarial]
 REPO = Path(__file__).resolve().parents[2]

@@ -17,14 +17,14 @@ import pytest
 
 from adversarial.tiny_build import REPO, N, build_command, journalled_samples, tiny_config
 from datagen.dataset.loader import load, verify
-from datagen.engines.transfer.collector import AckCollector
-from datagen.engines.transfer.publisher import SamplePublisher
-from datagen.engines.transfer.wire import SECRET_ENV
 from datagen.shard_members import scan_members
 from datagen.shards import MANIFEST
-from datagen.sinks.journal import journal_path, recover
-from datagen.sinks.shard_writer import ShardWriter
-from datagen.sinks.writer import EXIT_FINALIZE_MISMATCH
+from datagen.transport.collector import AckCollector
+from datagen.transport.publisher import SamplePublisher
+from datagen.transport.wire import SECRET_ENV
+from datagen.writer.dataset_writer import EXIT_FINALIZE_MISMATCH
+from datagen.writer.journal import journal_path, recover
+from datagen.writer.shard_writer import ShardWriter
 
 pytestmark = [pytest.mark.adversarial]
 TIMEOUT_S = 30

@@ -19,14 +19,14 @@ import pytest
 
 from datagen.config import config_from_dict
 from datagen.dataset.loader import load, verify
-from datagen.engines.transfer.broker_url import parse_broker_url
-from datagen.engines.transfer.collector import AckCollector
-from datagen.engines.transfer.publisher import SamplePublisher
-from datagen.engines.transfer.run_binding import RunBinding, client_id, writer_client_id
-from datagen.engines.transfer.topics import topics
-from datagen.engines.transfer.wire import SECRET_ENV
 from datagen.pipeline.run import run_build
 from datagen.sample import Sample
+from datagen.transport.broker_url import parse_broker_url
+from datagen.transport.collector import AckCollector
+from datagen.transport.publisher import SamplePublisher
+from datagen.transport.run_binding import RunBinding, client_id, writer_client_id
+from datagen.transport.topics import topics
+from datagen.transport.wire import SECRET_ENV
 
 pytestmark = [pytest.mark.adversarial]
 N = 3

@@ -27,9 +27,9 @@ from adversarial.leaks import (
     secret_forms,
 )
 from datagen.dataset.loader import check_complete
-from datagen.engines.transfer.broker_settings import BrokerSettings
-from datagen.engines.transfer.broker_url import parse_broker_url
-from datagen.engines.transfer.mosquitto import ManagedBroker
+from datagen.transport.broker_settings import BrokerSettings
+from datagen.transport.broker_url import parse_broker_url
+from datagen.transport.mosquitto import ManagedBroker
 
 pytestmark = [pytest.mark.adversarial]
 REPO = Path(__file__).resolve().parents[2]

@@ -10,7 +10,7 @@ from pathlib import Path
 
 import yaml
 
-from datagen.sinks.journal import journal_path
+from datagen.writer.journal import journal_path
 
 REPO = Path(__file__).resolve().parents[2]
 N = 3

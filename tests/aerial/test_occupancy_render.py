@@ -10,8 +10,8 @@ import pytest
 
 from datagen.aerial.episode import plan_aerial_episode
 from datagen.config import config_from_dict
-from datagen.engines.sim.render import keep_renderer_alive
-from datagen.randomisers.volume_scene import sample_aerial_scene
+from datagen.randomisers.volume_scene import draw_aerial_scene
+from datagen.sensing.render import keep_renderer_alive
 from datagen.worlds.volume import AERIAL_CLASS_ID, build_aerial_scene
 
 pytestmark = [pytest.mark.sim]
@@ -40,7 +40,7 @@ def test_every_rendered_point_of_a_solid_is_in_an_occupied_voxel(family, index):
     )
     episode = plan_aerial_episode(config.aerial, 5, index)
     volume = episode.volume
-    values = sample_aerial_scene(config, 5, index, volume.layout, volume.height, 1)
+    values = draw_aerial_scene(config, 5, index, volume.layout, volume.height, 1)
     scene = build_aerial_scene(config, episode, values)
     occupancy, r = volume.occupancy, volume.resolution
     checked = 0

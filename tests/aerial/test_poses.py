@@ -1,4 +1,4 @@
-"""Camera pose files (datagen/engines/sim/encode.py): ``poses.<camera>.txt`` (OpenCV camera axes,
+"""Camera pose files (datagen/sensing/encode.py): ``poses.<camera>.txt`` (OpenCV camera axes,
 world z up) and ``poses_ned.<camera>.txt`` (TartanAir's own convention: camera x forward, y right,
 z down in a NED world). TartanAir's evaluation tools turn a NED trajectory into camera axes by
 ``T P T^-1`` with ``T = [[0,1,0],[0,0,1],[1,0,0]]`` (tartanair_tools, ``ned2cam``): applied to the
@@ -10,7 +10,7 @@ import numpy as np
 from scipy.spatial.transform import Rotation
 
 from datagen.dataset.episode_parts import pose_lines
-from datagen.engines.sim.encode import pose_file, pose_file_ned
+from datagen.sensing.encode import pose_file, pose_file_ned
 
 TARTANAIR_NED_TO_CAMERA = np.array(
     [[0.0, 1.0, 0.0, 0.0], [0.0, 0.0, 1.0, 0.0], [1.0, 0.0, 0.0, 0.0], [0.0, 0.0, 0.0, 1.0]]

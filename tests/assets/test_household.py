@@ -16,13 +16,13 @@ from datagen.assets.tabletop_layout import TRAY_CENTRE, TRAY_FLOOR, TRAY_INNER_H
 from datagen.config import BuildConfig
 from datagen.config.appearance import DistractorsConfig
 from datagen.config.sections import HOUSEHOLD_FAMILIES, SHAPE_FAMILIES, ObjectsConfig, RenderConfig
-from datagen.randomisers.objects import sample_shape
+from datagen.randomisers.objects import draw_shape
 
 SEEDS = range(4)
 
 
 def _shape(family: str, seed: int, size: float = 0.08) -> dict:
-    return sample_shape(np.random.default_rng(seed), family, size)
+    return draw_shape(np.random.default_rng(seed), family, size)
 
 
 def _mesh_bytes(mesh) -> bytes:

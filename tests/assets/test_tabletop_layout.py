@@ -12,9 +12,9 @@ from pxr import Usd, UsdGeom
 
 from datagen.assets.tabletop_layout import static_parts
 from datagen.config import config_from_dict
-from datagen.engines.sim.render import keep_renderer_alive
 from datagen.exports import usd_stage
-from datagen.randomisers import sample_scene
+from datagen.randomisers import draw_scene
+from datagen.sensing.render import keep_renderer_alive
 from datagen.worlds.tabletop import construct_scene
 
 TINY = {"render": {"width": 64, "height": 48}, "objects": {"count": [1, 1]}}
@@ -39,7 +39,7 @@ def _described(surfaces) -> list[tuple]:
 
 def _sampled(texture_probability: float) -> dict:
     config = config_from_dict(TINY | {"materials": {"texture_probability": texture_probability}})
-    return config, sample_scene(config, 1, 0, (0.08, 0.0, 0.76), (0.2, 0.26))
+    return config, draw_scene(config, 1, 0, (0.08, 0.0, 0.76), (0.2, 0.26))
 
 
 @pytest.mark.sim

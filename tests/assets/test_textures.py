@@ -20,15 +20,15 @@ from datagen.assets.tabletop_layout import TRAY_CENTRE, TRAY_INNER_HALF
 from datagen.assets.texture_tiles import (
     TEXTURE_FAMILIES,
     apply_palette,
+    draw_texture,
     pattern,
-    sample_texture,
     surface_uv,
     texture_tile,
 )
 from datagen.assets.uv_mapping import box_mapped
 from datagen.config import config_from_dict
 from datagen.errors import ConfigError
-from datagen.randomisers import sample_scene
+from datagen.randomisers import draw_scene
 from datagen.seeding import sample_rng
 
 RED = [0.8, 0.1, 0.1, 1.0]
@@ -50,7 +50,7 @@ def test_every_family_is_a_seeded_periodic_tile_in_unit_range(family):
 
 
 def test_texture_values_are_json_and_rebuild_the_same_tile():
-    values = sample_texture(np.random.default_rng(3), RED, TEXTURE_FAMILIES, (0.05, 0.2))
+    values = draw_texture(np.random.default_rng(3), RED, TEXTURE_FAMILIES, (0.05, 0.2))
     assert json.loads(json.dumps(values)) == values
     assert values["palette"][0] == RED[:3] and 2 <= len(values["palette"]) <= 4
     assert 0.05 <= values["scale_m"] <= 0.2 and 0 <= values["rotation_deg"] < 360
@@ -187,7 +187,7 @@ def _scene(overrides, seed=5, index=2):
     merged = {**PROCEDURAL_ONLY, **overrides}
     merged["materials"] = {**PROCEDURAL_ONLY["materials"], **overrides.get("materials", {})}
     config = config_from_dict(merged)
-    return sample_scene(config, seed, index, TRAY_CENTRE, TRAY_INNER_HALF)
+    return draw_scene(config, seed, index, TRAY_CENTRE, TRAY_INNER_HALF)
 
 
 def test_textures_come_from_their_own_stream_and_probability_0_gives_flat_colours():
@@ -267,11 +267,11 @@ def test_a_relative_texture_folder_is_found_beside_the_config(tmp_path):
 def test_sample_streams_do_not_depend_on_texture_draws():
     # the texture stream is new: the materials stream draws exactly what it drew before
     rng = sample_rng(5, 2, "materials")
-    from datagen.randomisers.materials import sample_materials
+    from datagen.randomisers.materials import draw_materials
 
     config = config_from_dict({})
     params = _scene({})
-    before = sample_materials(rng, config.materials, len(params["objects"]))
+    before = draw_materials(rng, config.materials, len(params["objects"]))
     assert [m["base_color"] for m in before["objects"]] == [
         m["base_color"] for m in params["materials"]["objects"]
     ]
@@ -279,14 +279,14 @@ def test_sample_streams_do_not_depend_on_texture_draws():
 
 def test_navigation_floors_walls_and_doors_are_textured_from_their_own_stream():
     from datagen.navigation.episode import plan_episode
-    from datagen.randomisers.floorplan_scene import TEXTURED_SURFACES, sample_nav_scene
+    from datagen.randomisers.floorplan_scene import TEXTURED_SURFACES, draw_nav_scene
 
     def values(probability):
         config = config_from_dict(
             {"scene": "navigation", "materials": {"texture_probability": probability}}
         )
         episode = plan_episode(config.navigation, 3, 1)
-        return sample_nav_scene(config, 3, 1, episode.layout)
+        return draw_nav_scene(config, 3, 1, episode.layout)
 
     flat, textured = values(0.0), values(1.0)
     for name in TEXTURED_SURFACES:

@@ -13,15 +13,15 @@ from datagen.dataset.loader import DatasetError, load, verify
 from datagen.sample import Sample
 from datagen.shard_members import scan_members
 from datagen.shards import file_sha256, keys_sha256, read_keys
-from datagen.sinks.finalize import (
+from datagen.writer.finalize import (
     FinalizeError,
     combine,
     drop_copies_held_by_smaller,
     write_part,
 )
-from datagen.sinks.journal import durable_keys, recover
-from datagen.sinks.lock import WriterLock, WriterLocked
-from datagen.sinks.shard_writer import ShardWriter, remove_keys
+from datagen.writer.journal import durable_keys, recover
+from datagen.writer.lock import WriterLock, WriterLocked
+from datagen.writer.shard_writer import ShardWriter, remove_keys
 
 
 def test_items_are_decoded_arrays(tmp_path, make_sample, make_arrays, make_dataset):

@@ -16,9 +16,9 @@ import pytest
 from datagen.dataset.loader import DatasetError, check_complete, load
 from datagen.sample import Sample
 from datagen.shards import read_shard, sample_sha256
-from datagen.sinks.finalize import FinalizeError, combine, write_part
-from datagen.sinks.journal import recover
-from datagen.sinks.shard_writer import ShardWriter, remove_keys
+from datagen.writer.finalize import FinalizeError, combine, write_part
+from datagen.writer.journal import recover
+from datagen.writer.shard_writer import ShardWriter, remove_keys
 
 REPO = Path(__file__).resolve().parents[2]
 

@@ -11,10 +11,10 @@ import pytest
 from datagen.assets.tabletop_layout import TRAY_CENTRE, TRAY_INNER_HALF
 from datagen.assets.texture_tiles import texture_tile
 from datagen.config import config_from_dict
-from datagen.engines.sim.render import keep_renderer_alive
 from datagen.library.catalogue import load_picture, pictures
-from datagen.randomisers import sample_scene
+from datagen.randomisers import draw_scene
 from datagen.scenes.grasp_tabletop import annotate_scene
+from datagen.sensing.render import keep_renderer_alive
 from datagen.worlds.tabletop import CLASSES, build_scene
 
 LOOK_AT_THE_PHOTO = {  # from above the table towards the +x wall, 1.5 m away, photos on walls
@@ -79,7 +79,7 @@ def test_held_out_sources_are_never_drawn_and_the_sources_all_are():
     drawn = [
         texture
         for index in range(60)
-        for texture in _photo_textures(sample_scene(config, 7, index, TRAY_CENTRE, TRAY_INNER_HALF))
+        for texture in _photo_textures(draw_scene(config, 7, index, TRAY_CENTRE, TRAY_INNER_HALF))
     ]
     sources = {t["source"] for t in drawn}
     assert sources == set(config.photos.sources)

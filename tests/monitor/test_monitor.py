@@ -22,14 +22,14 @@ import numpy as np
 import paho.mqtt.client as mqtt
 import pytest
 
-from datagen.engines.transfer.broker_settings import BrokerSettings
-from datagen.engines.transfer.connection import MqttConnection
-from datagen.engines.transfer.mosquitto import ManagedBroker
-from datagen.engines.transfer.topics import LIVE_STATUS_ALL_BUILDS, topics
 from datagen.monitor.server import PageConfig, page_config
 from datagen.pipeline.live_preview import sample_outcome, thumbnail
 from datagen.pipeline.live_status import campaign_summary
 from datagen.sample import Sample
+from datagen.transport.broker_settings import BrokerSettings
+from datagen.transport.connection import MqttConnection
+from datagen.transport.mosquitto import ManagedBroker
+from datagen.transport.topics import LIVE_STATUS_ALL_BUILDS, topics
 
 REPO = Path(__file__).resolve().parents[2]
 DEPLOYMENT = REPO / "docs" / "deployment.md"

@@ -16,12 +16,12 @@ import pytest
 
 from datagen.config import config_from_dict, load_config
 from datagen.config.sections import RenderConfig
-from datagen.engines.sim.render import capture
 from datagen.errors import ConfigError
 from datagen.navigation.episode import plan_episode
-from datagen.randomisers.floorplan_scene import sample_nav_scene
+from datagen.randomisers.floorplan_scene import draw_nav_scene
 from datagen.registries import GROUND_ROBOTS
 from datagen.scenes.navigation_fleet import produce
+from datagen.sensing.render import capture
 from datagen.worlds.floorplan import NAV_CLASS_ID, build_nav_scene
 
 CAR = "configs/nav_plus_maze_car.yaml"
@@ -36,7 +36,7 @@ def _decode(data: bytes) -> np.ndarray:
 def _own_pixels(config, camera: dict, steer: float = 0.0) -> int:
     """Pixels of the robot's own instance in one frame from the middle of episode 0."""
     episode = plan_episode(config.navigation, 0, 0)
-    values = sample_nav_scene(config, 0, 0, episode.layout) | {"camera": camera}
+    values = draw_nav_scene(config, 0, 0, episode.layout) | {"camera": camera}
     scene = build_nav_scene(config, episode, values)
     poses = episode.trajectory.poses
     scene.set_base(*poses[len(poses) // 2], steer)

@@ -12,12 +12,12 @@ from datagen.navigation import (
     Layout,
     PlanningError,
     astar,
+    draw_start_goal,
     follow,
     footprint_collides,
     inflate,
     make_layout,
     path_to_world,
-    sample_start_goal,
     shortest_path_length_m,
     smooth_path,
 )
@@ -31,7 +31,7 @@ SEEDS = range(20)
 
 def episode(family: str, seed: int):
     layout = make_layout(family, sample_rng(seed, 0, "nav_layout"))
-    start, goal = sample_start_goal(sample_rng(seed, 0, "nav_task"), layout, CLEARANCE, 2.0)
+    start, goal = draw_start_goal(sample_rng(seed, 0, "nav_task"), layout, CLEARANCE, 2.0)
     occupied = inflate(layout.grid, CLEARANCE, layout.resolution)
     cells = astar(occupied, start, goal)
     yaw = float(sample_rng(seed, 0, "nav_yaw").uniform(-math.pi, math.pi))
@@ -139,4 +139,4 @@ def test_start_goal_failure_is_explicit():
     grid[5:15, 5:15] = False  # 0.5 m free square
     layout = Layout(grid=grid, resolution=0.05, family="tiny", walls=[])
     with pytest.raises(PlanningError, match="after 5 tries"):
-        sample_start_goal(np.random.default_rng(0), layout, 0.1, 2.0, max_tries=5)
+        draw_start_goal(np.random.default_rng(0), layout, 0.1, 2.0, max_tries=5)

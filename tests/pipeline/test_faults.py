@@ -24,13 +24,13 @@ import yaml
 
 from datagen.config import BuildConfig, config_from_dict
 from datagen.dataset.loader import load, verify
-from datagen.engines.transfer.broker_url import parse_broker_url
-from datagen.engines.transfer.publisher import SamplePublisher
-from datagen.engines.transfer.run_binding import RunBinding, config_digest
-from datagen.engines.transfer.topics import topics
-from datagen.engines.transfer.wire import encode_sample
 from datagen.pipeline.run import run_build
 from datagen.sample import Sample
+from datagen.transport.broker_url import parse_broker_url
+from datagen.transport.publisher import SamplePublisher
+from datagen.transport.run_binding import RunBinding, config_digest
+from datagen.transport.topics import topics
+from datagen.transport.wire import encode_sample
 
 pytestmark = [pytest.mark.sim, pytest.mark.mqtt, pytest.mark.slow]  # real builds
 

@@ -9,8 +9,8 @@ import pytest
 
 from datagen.config import BuildConfig
 from datagen.config.sections import RenderConfig
-from datagen.engines.sim.render import capture
 from datagen.scenes.grasp_tabletop import render_annotated, to_sample
+from datagen.sensing.render import capture
 from datagen.worlds.tabletop import build_scene
 
 pytestmark = pytest.mark.sim

@@ -18,7 +18,7 @@ REPO = Path(__file__).resolve().parents[2]
 FIRST_SAMPLE = """
 import hashlib, json, sys, time
 from datagen.config import config_from_dict
-from datagen.engines.sim.render import keep_renderer_alive
+from datagen.sensing.render import keep_renderer_alive
 from datagen.pipeline.warm_up import warm_up
 from datagen.registries import FAMILIES
 config = config_from_dict({"scene": sys.argv[1], "seed": 7, "render": {"width": 48, "height": 32}})

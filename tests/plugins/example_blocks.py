@@ -20,13 +20,13 @@ import numpy as np
 import sapien
 
 from datagen.config import BuildConfig
-from datagen.engines.sim.annotate import LabelledObject, label_maps, object_view_records
-from datagen.engines.sim.encode import View, encode_view, metadata_bytes
-from datagen.engines.sim.render import capture, keep_renderer_alive
 from datagen.geometry import look_at
 from datagen.registries import SceneFamily
 from datagen.sample import Sample, sample_key
 from datagen.seeding import sample_rng
+from datagen.sensing.annotate import LabelledObject, label_maps, object_view_records
+from datagen.sensing.encode import View, encode_view, metadata_bytes
+from datagen.sensing.render import capture, keep_renderer_alive
 
 CLASSES = ("background", "floor", "block")
 CORNERS = np.array([[x, y, z] for x in (-1, 1) for y in (-1, 1) for z in (-1, 1)], float)

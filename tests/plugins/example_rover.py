@@ -10,8 +10,8 @@ from dataclasses import dataclass
 import numpy as np
 import sapien
 
-from datagen.engines.sim.cameras import add_camera
 from datagen.plugin_records import GroundRobot
+from datagen.sensing.cameras import add_camera
 
 LENGTH, WIDTH, HEIGHT = 1.4, 1.0, 0.5  # footprint radii
 COLOUR = [0.85, 0.45, 0.1, 1.0]

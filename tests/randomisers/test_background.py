@@ -14,10 +14,10 @@ import pytest
 from datagen.assets.tabletop_layout import TRAY_CENTRE, TRAY_INNER_HALF
 from datagen.config import config_from_dict
 from datagen.dataset.loader import load, read_manifest
-from datagen.engines.sim.render import capture, keep_renderer_alive
 from datagen.pipeline.run import run_build
-from datagen.randomisers import sample_scene
+from datagen.randomisers import draw_scene
 from datagen.scenes.grasp_tabletop import annotate_scene
+from datagen.sensing.render import capture, keep_renderer_alive
 from datagen.worlds.tabletop import CLASSES, build_scene, construct_scene
 
 TINY = {"render": {"width": 64, "height": 48}, "objects": {"count": [1, 2]}}
@@ -86,7 +86,7 @@ def test_a_ceiling_does_not_put_the_table_in_the_key_lights_shadow():
 def test_a_textured_scene_is_rebuilt_identically_from_its_stored_values():
     config = _config({"materials": {"texture_probability": 1.0, "normal_maps": True}})
     keep_renderer_alive()
-    params = sample_scene(config, 4, 3, TRAY_CENTRE, TRAY_INNER_HALF)
+    params = draw_scene(config, 4, 3, TRAY_CENTRE, TRAY_INNER_HALF)
     stored = json.loads(json.dumps(params))  # as the metadata keeps them
 
     def image(values):

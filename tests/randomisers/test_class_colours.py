@@ -18,13 +18,13 @@ from datagen.assets.tabletop_layout import TRAY_CENTRE, TRAY_INNER_HALF
 from datagen.config import BuildConfig
 from datagen.config.appearance import PhotosConfig
 from datagen.config.sections import MaterialsConfig
-from datagen.randomisers import sample_scene
-from datagen.randomisers.background import sample_background
+from datagen.randomisers import draw_scene
+from datagen.randomisers.background import draw_background
 from datagen.randomisers.materials import (
     CLASS_FREE_SATURATION,
     CLASS_FREE_VALUE,
     class_free_colours,
-    sample_materials,
+    draw_materials,
 )
 from datagen.randomisers.textures import add_textures
 from datagen.seeding import sample_rng
@@ -35,10 +35,10 @@ NO_PHOTOS = PhotosConfig(enabled=False)  # these tests look at colours and proce
 
 
 def _drawn(index: int, cfg: MaterialsConfig, objects: int = 4) -> dict:
-    """A scene's materials and room, drawn as ``sample_scene`` draws them (photos off)."""
+    """A scene's materials and room, drawn as ``draw_scene`` draws them (photos off)."""
     rng = np.random.default_rng(index)
-    materials = add_textures(rng, cfg, sample_materials(rng, cfg, objects))
-    background = sample_background(rng, BuildConfig().background, cfg, TRAY_CENTRE)
+    materials = add_textures(rng, cfg, draw_materials(rng, cfg, objects))
+    background = draw_background(rng, BuildConfig().background, cfg, TRAY_CENTRE)
     return {"materials": materials, "background": background}
 
 
@@ -113,13 +113,13 @@ def test_probability_0_leaves_the_values_exactly_as_before_and_the_draw_is_per_s
     assert class_free_colours(np.random.default_rng(0), NEVER, params) is params
     never = BuildConfig(materials=NEVER, photos=NO_PHOTOS)
     for index in range(3):
-        scene = sample_scene(never, 5, index, TRAY_CENTRE, TRAY_INNER_HALF)
+        scene = draw_scene(never, 5, index, TRAY_CENTRE, TRAY_INNER_HALF)
         rng = sample_rng(5, index, "materials")
-        materials = sample_materials(rng, never.materials, len(scene["objects"]))
+        materials = draw_materials(rng, never.materials, len(scene["objects"]))
         assert scene["materials"] == add_textures(
             sample_rng(5, index, "textures"), never.materials, materials
         )
-        background = sample_background(
+        background = draw_background(
             sample_rng(5, index, "background"), never.background, never.materials, TRAY_CENTRE
         )
         assert scene["background"] == background
@@ -127,8 +127,8 @@ def test_probability_0_leaves_the_values_exactly_as_before_and_the_draw_is_per_s
     half = dataclasses.replace(never, materials=MaterialsConfig(class_independent_probability=0.5))
     changed = []
     for index in range(16):
-        a = sample_scene(never, 5, index, TRAY_CENTRE, TRAY_INNER_HALF)
-        b = sample_scene(half, 5, index, TRAY_CENTRE, TRAY_INNER_HALF)
+        a = draw_scene(never, 5, index, TRAY_CENTRE, TRAY_INNER_HALF)
+        b = draw_scene(half, 5, index, TRAY_CENTRE, TRAY_INNER_HALF)
         changed.append(a["materials"] != b["materials"])
         for key in a.keys() - {"materials", "background"}:
             assert a[key] == b[key]

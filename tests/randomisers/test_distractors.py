@@ -22,17 +22,17 @@ from datagen.assets.tabletop_layout import (
 from datagen.config import BuildConfig
 from datagen.config.appearance import DistractorsConfig
 from datagen.config.sections import CameraConfig, MaterialsConfig, ObjectsConfig, RenderConfig
-from datagen.randomisers import sample_scene
-from datagen.randomisers.camera import sample_camera
-from datagen.randomisers.distractors import AIR_FRACTION, sample_distractors
+from datagen.randomisers import draw_scene
+from datagen.randomisers.camera import draw_camera
+from datagen.randomisers.distractors import AIR_FRACTION, draw_distractors
 from datagen.seeding import sample_rng
 
 MANY = DistractorsConfig(on_table=(3, 3), in_air=(2, 2), background=(3, 3))
 
 
 def _sampled(seed: int, cfg: DistractorsConfig = MANY) -> tuple[dict, list[dict]]:
-    camera = sample_camera(np.random.default_rng(seed), CameraConfig())
-    return camera, sample_distractors(np.random.default_rng(seed), cfg, MaterialsConfig(), camera)
+    camera = draw_camera(np.random.default_rng(seed), CameraConfig())
+    return camera, draw_distractors(np.random.default_rng(seed), cfg, MaterialsConfig(), camera)
 
 
 def _lowest_z(spec: dict) -> float:
@@ -87,19 +87,17 @@ def test_distractors_have_their_own_stream_and_off_leaves_the_scene_as_it_was():
     on = BuildConfig()
     off = dataclasses.replace(on, distractors=DistractorsConfig(enabled=False))
     for index in range(5):
-        with_distractors = sample_scene(on, 7, index, TRAY_CENTRE, TRAY_INNER_HALF)
-        without = sample_scene(off, 7, index, TRAY_CENTRE, TRAY_INNER_HALF)
+        with_distractors = draw_scene(on, 7, index, TRAY_CENTRE, TRAY_INNER_HALF)
+        without = draw_scene(off, 7, index, TRAY_CENTRE, TRAY_INNER_HALF)
         assert "distractors" not in without
         assert with_distractors.pop("distractors") is not None
         assert with_distractors == without
-    again = sample_scene(on, 7, 0, TRAY_CENTRE, TRAY_INNER_HALF)
-    assert (
-        again["distractors"] == sample_scene(on, 7, 0, TRAY_CENTRE, TRAY_INNER_HALF)["distractors"]
-    )
+    again = draw_scene(on, 7, 0, TRAY_CENTRE, TRAY_INNER_HALF)
+    assert again["distractors"] == draw_scene(on, 7, 0, TRAY_CENTRE, TRAY_INNER_HALF)["distractors"]
     rng = sample_rng(7, 0, "distractors")
     room = again["background"]["room"]  # background distractors stand inside it
     placed = [d for d in again["distractors"] if d["placement"] != "flying"]  # flying: own stream
-    assert placed == sample_distractors(rng, on.distractors, on.materials, again["camera"], room)
+    assert placed == draw_distractors(rng, on.distractors, on.materials, again["camera"], room)
 
 
 # --- real scenes ---
@@ -179,7 +177,7 @@ def test_a_grasp_campaign_never_targets_a_distractor():
             on_table=(3, 3), in_air=(0, 0), background=(0, 0), flying=(0, 0)
         ),
     )
-    params = sample_scene(config, 11, 0, TRAY_CENTRE, TRAY_INNER_HALF)
+    params = draw_scene(config, 11, 0, TRAY_CENTRE, TRAY_INNER_HALF)
     scene = build_scene(config, 11, 0)
     for k, distractor in enumerate(scene.distractors):
         distractor.entity.set_pose(

@@ -1,4 +1,4 @@
-"""Flying distractors (datagen/randomisers/distractors.py, ``sample_flying``): anywhere in the
+"""Flying distractors (datagen/randomisers/distractors.py, ``draw_flying``): anywhere in the
 workspace camera's view at depths from in front of the tray to beyond it, clear of the table,
 the tray's space and the room's walls, from their own stream; labelled ``distractor`` in a real
 render, after the other distractors; a card shows a whole photograph of the library; and
@@ -25,15 +25,15 @@ from datagen.config.appearance import (
     PhotosConfig,
 )
 from datagen.config.sections import CameraConfig, MaterialsConfig, ObjectsConfig, RenderConfig
-from datagen.randomisers import sample_scene
-from datagen.randomisers.background import sample_background
-from datagen.randomisers.camera import sample_camera
+from datagen.randomisers import draw_scene
+from datagen.randomisers.background import draw_background
+from datagen.randomisers.camera import draw_camera
 from datagen.randomisers.distractors import (
     CARD,
     FLYING,
     TRAY_HEADROOM,
-    sample_distractors,
-    sample_flying,
+    draw_distractors,
+    draw_flying,
 )
 from datagen.seeding import sample_rng
 
@@ -52,13 +52,13 @@ def test_flying_distractors_lie_in_view_at_depths_spanning_the_range():
     ws, (lo, hi) = DEFAULT_WORKSPACE, ONLY_FLYING.flying_depth
     fractions, families, tilted, placed = [], set(), 0, 0
     for seed in range(60):
-        camera = sample_camera(np.random.default_rng(seed), CameraConfig())
+        camera = draw_camera(np.random.default_rng(seed), CameraConfig())
         room = None  # half the scenes in a room, half without one
         if seed % 2:
-            room = sample_background(
+            room = draw_background(
                 np.random.default_rng(seed), BackgroundConfig(), MaterialsConfig(), TRAY_CENTRE
             )["room"]
-        flying = sample_flying(
+        flying = draw_flying(
             np.random.default_rng(seed), ONLY_FLYING, MaterialsConfig(), NO_PHOTOS, camera, room,
             ws, ASPECT,
         )  # fmt: skip
@@ -105,8 +105,8 @@ def test_flying_off_leaves_the_scene_as_it_was_and_the_stream_is_their_own():
     off = dataclasses.replace(on, distractors=dataclasses.replace(on.distractors, flying=(0, 0)))
     disabled = dataclasses.replace(on, distractors=DistractorsConfig(enabled=False))
     for index in range(6):
-        with_flying = sample_scene(on, 7, index, TRAY_CENTRE, TRAY_INNER_HALF)
-        without = sample_scene(off, 7, index, TRAY_CENTRE, TRAY_INNER_HALF)
+        with_flying = draw_scene(on, 7, index, TRAY_CENTRE, TRAY_INNER_HALF)
+        without = draw_scene(off, 7, index, TRAY_CENTRE, TRAY_INNER_HALF)
         flying = [d for d in with_flying["distractors"] if d["placement"] == FLYING]
         # after the others, and nothing else moves
         others = with_flying["distractors"][: len(with_flying["distractors"]) - len(flying)]
@@ -114,14 +114,14 @@ def test_flying_off_leaves_the_scene_as_it_was_and_the_stream_is_their_own():
         assert {**with_flying, "distractors": others} == without
         rng = sample_rng(7, index, "distractors")
         room = without["background"]["room"]
-        assert without["distractors"] == sample_distractors(
+        assert without["distractors"] == draw_distractors(
             rng, off.distractors, off.materials, without["camera"], room
         )  # exactly what the scene drew before flying distractors
-        assert flying == sample_flying(
+        assert flying == draw_flying(
             sample_rng(7, index, "distractors.flying"), on.distractors, on.materials, None,
             with_flying["camera"], room, aspect=640 / 480,
         )  # fmt: skip
-        no_distractors = sample_scene(disabled, 7, index, TRAY_CENTRE, TRAY_INNER_HALF)
+        no_distractors = draw_scene(disabled, 7, index, TRAY_CENTRE, TRAY_INNER_HALF)
         assert "distractors" not in no_distractors
         assert no_distractors == {k: v for k, v in without.items() if k != "distractors"}
 

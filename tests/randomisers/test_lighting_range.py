@@ -11,9 +11,9 @@ import sapien
 
 from datagen.config import config_from_dict
 from datagen.config.sections import LightingConfig
-from datagen.engines.sim.render import capture, keep_renderer_alive
 from datagen.geometry import look_at
-from datagen.randomisers.lighting import kelvin_to_rgb, sample_lighting
+from datagen.randomisers.lighting import draw_lighting, kelvin_to_rgb
+from datagen.sensing.render import capture, keep_renderer_alive
 from datagen.worlds.realise import apply_lighting
 
 TARGET = (0.0, 0.0, 0.85)
@@ -31,7 +31,7 @@ def test_6500_k_is_white_and_2700_k_is_redder_than_8000_k():
 def test_6500_k_without_jitter_gives_exactly_white_light():
     cfg = LightingConfig(colour_temperature_k=(6500, 6500), colour_temperature_jitter=0.0)
     for seed in range(5):
-        for light in sample_lighting(np.random.default_rng(seed), cfg, TARGET)["lights"]:
+        for light in draw_lighting(np.random.default_rng(seed), cfg, TARGET)["lights"]:
             assert light["colour"] == [1.0, 1.0, 1.0] and light["temperature_k"] == 6500
 
 
@@ -39,7 +39,7 @@ def test_draws_stay_within_the_configured_ranges():
     cfg = LightingConfig()
     edges, kelvins = [], []
     for seed in range(400):
-        values = sample_lighting(np.random.default_rng(seed), cfg, TARGET)
+        values = draw_lighting(np.random.default_rng(seed), cfg, TARGET)
         assert cfg.ambient[0] <= values["ambient"] <= cfg.ambient[1]
         assert cfg.lights[0] <= len(values["lights"]) <= cfg.lights[1]
         for light in values["lights"]:
@@ -66,7 +66,7 @@ def test_configs_without_the_new_keys_load_and_bad_ranges_are_refused():
     cfg = config_from_dict({**old, **NO_PHOTOS}).lighting
     assert cfg.colour_temperature_k == (2700, 8000) and cfg.soft_shadow_probability == 0.5
     off = config_from_dict({"lighting": {"shadows": False}, **NO_PHOTOS}).lighting
-    assert not sample_lighting(np.random.default_rng(0), off, TARGET)["lights"][0]["shadow"]
+    assert not draw_lighting(np.random.default_rng(0), off, TARGET)["lights"][0]["shadow"]
     for key, value, expected in [
         ("colour_temperature_k", [500, 8000], "expected values in [1000.0, 40000.0]"),
         ("colour_temperature_k", [8000, 2700], "expected [min, max] with min <= max"),

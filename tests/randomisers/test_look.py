@@ -12,7 +12,7 @@ import pytest
 from datagen.config import config_from_dict
 from datagen.config.robot import robot_spec, robot_workspace
 from datagen.errors import ConfigError
-from datagen.randomisers.robot import sample_robot
+from datagen.randomisers.robot import draw_robot
 from datagen.seeding import sample_rng
 
 
@@ -27,7 +27,7 @@ def test_the_look_lies_within_the_configured_ranges(name):
     floor = np.asarray(ws.tray_floor_top, float)
     base = np.asarray(ws.robot_base, float)
     for index in range(100):
-        look = sample_robot(sample_rng(0, index, "robot"), cfg, ws)["look"]
+        look = draw_robot(sample_rng(0, index, "robot"), cfg, ws)["look"]
         eye, target, up = (np.asarray(look[k], float) for k in ("eye", "target", "up"))
         assert target[2] == pytest.approx(floor[2])
         assert (np.abs(target[:2] - floor[:2]) <= cfg.look.offset * ws.scale + 1e-6).all()
@@ -48,8 +48,8 @@ def test_the_look_lies_within_the_configured_ranges(name):
 def test_ready_draws_the_same_joints_and_no_look():
     look, ready = _robot("panda"), _robot("panda", "ready")
     ws = robot_workspace(look)
-    with_look = sample_robot(sample_rng(3, 5, "robot"), look, ws)
-    without = sample_robot(sample_rng(3, 5, "robot"), ready, ws)
+    with_look = draw_robot(sample_rng(3, 5, "robot"), look, ws)
+    without = draw_robot(sample_rng(3, 5, "robot"), ready, ws)
     assert "look" in with_look and "look" not in without
     assert with_look["qpos"] == without["qpos"]
 
@@ -63,7 +63,7 @@ def test_a_narrower_range_is_kept():
     cfg = _robot("panda")
     cfg = replace(cfg, look=replace(cfg.look, height=(0.5, 0.5), tilt_deg=(0.0, 0.0)))
     ws = robot_workspace(cfg)
-    look = sample_robot(sample_rng(0, 0, "robot"), cfg, ws)["look"]
+    look = draw_robot(sample_rng(0, 0, "robot"), cfg, ws)["look"]
     assert look["eye"][2] - ws.tray_floor_top[2] == pytest.approx(0.5)
     assert look["eye"][:2] == pytest.approx(look["target"][:2])
 
@@ -76,6 +76,6 @@ def test_the_look_aims_towards_where_the_objects_were_dropped_within_the_tray():
         (np.add(centre, [0.05, -0.04]), np.add(centre, [0.05, -0.04])),  # near: the aim itself
         (np.add(centre, [1.0, 1.0]), centre + half / 2),  # far off: half the inner half away
     ):
-        look = sample_robot(sample_rng(0, 1, "robot"), cfg, ws, np.asarray(aim))["look"]
+        look = draw_robot(sample_rng(0, 1, "robot"), cfg, ws, np.asarray(aim))["look"]
         off = np.asarray(look["target"][:2]) - expected
         assert (np.abs(off) <= cfg.look.offset + 1e-6).all()

@@ -7,23 +7,23 @@ import numpy as np
 from datagen.assets.shapes import build_geometry
 from datagen.config import BuildConfig
 from datagen.config.sections import ObjectsConfig
-from datagen.randomisers import sample_scene
-from datagen.randomisers.objects import sample_objects
+from datagen.randomisers import draw_scene
+from datagen.randomisers.objects import draw_objects
 from datagen.seeding import sample_rng
 
 TRAY = ((0.08, 0.0, 0.76), (0.2, 0.26))
 
 
 def test_same_seed_and_index_give_identical_values():
-    a = sample_scene(BuildConfig(), 5, 17, *TRAY)
-    b = sample_scene(BuildConfig(), 5, 17, *TRAY)
+    a = draw_scene(BuildConfig(), 5, 17, *TRAY)
+    b = draw_scene(BuildConfig(), 5, 17, *TRAY)
     assert json.dumps(a, sort_keys=True) == json.dumps(b, sort_keys=True)
 
 
 def test_other_index_or_seed_gives_other_values():
-    base = json.dumps(sample_scene(BuildConfig(), 5, 17, *TRAY), sort_keys=True)
-    assert json.dumps(sample_scene(BuildConfig(), 5, 18, *TRAY), sort_keys=True) != base
-    assert json.dumps(sample_scene(BuildConfig(), 6, 17, *TRAY), sort_keys=True) != base
+    base = json.dumps(draw_scene(BuildConfig(), 5, 17, *TRAY), sort_keys=True)
+    assert json.dumps(draw_scene(BuildConfig(), 5, 18, *TRAY), sort_keys=True) != base
+    assert json.dumps(draw_scene(BuildConfig(), 6, 17, *TRAY), sort_keys=True) != base
 
 
 def test_streams_are_independent_of_each_other():
@@ -31,7 +31,7 @@ def test_streams_are_independent_of_each_other():
     wrist camera's look-at point follows the objects; its height and roll are the robot's)."""
     config = BuildConfig()
     fewer = config.replace(objects=ObjectsConfig(count=(1, 1)))
-    a, b = sample_scene(config, 0, 3, *TRAY), sample_scene(fewer, 0, 3, *TRAY)
+    a, b = draw_scene(config, 0, 3, *TRAY), draw_scene(fewer, 0, 3, *TRAY)
     assert a["lighting"] == b["lighting"]
     assert a["camera"] == b["camera"]
     assert a["robot"]["qpos"] == b["robot"]["qpos"]
@@ -43,7 +43,7 @@ def test_streams_are_independent_of_each_other():
 def test_values_are_json_and_within_config_ranges():
     config = BuildConfig()
     for index in range(30):
-        values = sample_scene(config, 1, index, *TRAY)
+        values = draw_scene(config, 1, index, *TRAY)
         json.dumps(values)
         assert config.objects.count[0] <= len(values["objects"]) <= config.objects.count[1]
         assert (
@@ -67,7 +67,7 @@ def test_values_are_json_and_within_config_ranges():
 def test_every_family_builds_convex_parts_of_the_requested_size():
     config = ObjectsConfig()
     for family in config.families:
-        objects = sample_objects(
+        objects = draw_objects(
             sample_rng(0, 0, family), ObjectsConfig(count=(4, 4), families=(family,))
         )
         for obj in objects:

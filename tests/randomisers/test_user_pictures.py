@@ -16,8 +16,8 @@ from datagen.assets.tabletop_layout import TRAY_CENTRE, TRAY_INNER_HALF
 from datagen.assets.texture_tiles import texture_tile
 from datagen.config import config_from_dict
 from datagen.config.appearance import PhotosConfig
-from datagen.randomisers import sample_scene
-from datagen.randomisers.photos import sample_look
+from datagen.randomisers import draw_scene
+from datagen.randomisers.photos import draw_look
 from datagen.randomisers.textures import texture_surfaces
 
 PHOTOS = {  # narrow ranges, none the default: the values must come from here
@@ -30,7 +30,7 @@ PHOTOS = {  # narrow ranges, none the default: the values must come from here
     "surface_scale_m": [0.2, 0.25],
     "backdrop_scale_m": [2.0, 2.5],
 }
-LOOK = list(sample_look(np.random.default_rng(0), PhotosConfig(), 1.0, (1.0, 2.0)))
+LOOK = list(draw_look(np.random.default_rng(0), PhotosConfig(), 1.0, (1.0, 2.0)))
 
 
 @pytest.fixture
@@ -78,7 +78,7 @@ def test_users_pictures_are_cropped_sized_and_jittered_within_the_photos_ranges(
     config = _config(pictures, PHOTOS)
     surfaces, walls = [], []
     for index in range(5):
-        shown = _shown(sample_scene(config, 3, index, TRAY_CENTRE, TRAY_INNER_HALF))
+        shown = _shown(draw_scene(config, 3, index, TRAY_CENTRE, TRAY_INNER_HALF))
         surfaces += shown[0]
         walls += shown[1]
     for values in surfaces + walls:
@@ -99,7 +99,7 @@ def test_a_distractors_picture_takes_the_photos_ranges_too(pictures):
     config = config.replace(distractors=replace(config.distractors, enabled=True, flying=(0, 0)))
     shown = []
     for index in range(8):
-        params = sample_scene(config, 3, index, TRAY_CENTRE, TRAY_INNER_HALF)
+        params = draw_scene(config, 3, index, TRAY_CENTRE, TRAY_INNER_HALF)
         shown += [d["material"].get("texture", {}) for d in params["distractors"]]
     pictures_shown = [t for t in shown if t.get("family") == "image"]
     assert pictures_shown  # texture_probability 1, textures_dir_share 1
@@ -111,11 +111,9 @@ def test_a_distractors_picture_takes_the_photos_ranges_too(pictures):
 
 
 def test_the_look_comes_from_the_randomisers_streams_and_changes_nothing_else(pictures):
-    narrow = sample_scene(_config(pictures, PHOTOS), 3, 1, TRAY_CENTRE, TRAY_INNER_HALF)
-    again = sample_scene(_config(pictures, PHOTOS), 3, 1, TRAY_CENTRE, TRAY_INNER_HALF)
-    default = sample_scene(
-        _config(pictures, {"enabled": False}), 3, 1, TRAY_CENTRE, TRAY_INNER_HALF
-    )
+    narrow = draw_scene(_config(pictures, PHOTOS), 3, 1, TRAY_CENTRE, TRAY_INNER_HALF)
+    again = draw_scene(_config(pictures, PHOTOS), 3, 1, TRAY_CENTRE, TRAY_INNER_HALF)
+    default = draw_scene(_config(pictures, {"enabled": False}), 3, 1, TRAY_CENTRE, TRAY_INNER_HALF)
     assert narrow == again
     assert _shown(narrow) != _shown(default)
     for name in ("objects", "drop_poses", "lighting", "camera", "robot"):

@@ -1,6 +1,6 @@
 """``datagen replay`` for every built-in arm: a grasp sample of each arm (rendered here by SAPIEN,
 96x72), written as a dataset, exported to USD by the real CLI, and rebuilt from its stage alone
-renders the stored images again (the Panda's full build: tests/sinks/test_sinks.py)."""
+renders the stored images again (the Panda's full build: tests/exports/test_multiview_exports.py)."""
 
 from __future__ import annotations
 

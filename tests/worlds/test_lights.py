@@ -11,7 +11,7 @@ import pytest
 import sapien
 
 from datagen.config import load_config
-from datagen.engines.sim.render import keep_renderer_alive
+from datagen.sensing.render import keep_renderer_alive
 from datagen.worlds.realise import light_slots
 from datagen.worlds.tabletop import build_scene
 

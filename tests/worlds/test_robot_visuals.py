@@ -14,7 +14,7 @@ import pytest
 import sapien
 
 from datagen.config import load_config
-from datagen.engines.sim.render import capture, keep_renderer_alive
+from datagen.sensing.render import capture, keep_renderer_alive
 from datagen.worlds.tabletop import GraspScene, build_scene
 
 pytestmark = [pytest.mark.sim]

@@ -18,7 +18,7 @@ from datagen.assets.tabletop_layout import (
     in_tray,
 )
 from datagen.config import load_config
-from datagen.randomisers import sample_scene
+from datagen.randomisers import draw_scene
 from datagen.worlds import tabletop
 from datagen.worlds.tabletop import build_scene
 from datagen.worlds.tray_targets import (
@@ -79,7 +79,7 @@ def test_a_target_outside_the_tray_is_redrawn_and_recorded(index, redraws):
     assert recorded[0]["why"].startswith("object ")
     # only the drop poses were drawn again: every other value is the first draw's
     config = load_config(CONFIG)
-    first = sample_scene(config, SEED, index, (*TRAY_CENTRE[:2], FLOOR_TOP), TRAY_INNER_HALF)
+    first = draw_scene(config, SEED, index, (*TRAY_CENTRE[:2], FLOOR_TOP), TRAY_INNER_HALF)
     assert {k: v for k, v in scene.params.items() if k not in ("drop_poses", "redraws")} == {
         k: v for k, v in first.items() if k != "drop_poses"
     }

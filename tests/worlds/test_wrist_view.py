@@ -16,7 +16,7 @@ import pytest
 from datagen.config import load_config
 from datagen.config.robot import robot_spec, robot_workspace
 from datagen.geometry import look_at
-from datagen.randomisers import sample_scene
+from datagen.randomisers import draw_scene
 from datagen.registries import ROBOTS
 from datagen.scenes.grasp_tabletop import produce
 from datagen.worlds.tabletop import build_scene, construct_scene, take_look_pose
@@ -34,7 +34,7 @@ def test_the_wrist_camera_sits_where_the_randomiser_drew_it(robot):
     config = config.replace(render=replace(config.render, width=64, height=48))
     ws = robot_workspace(config.robot)
     for index in range(3):
-        params = sample_scene(config, 0, index, ws.tray_floor_top, ws.tray_inner_half)
+        params = draw_scene(config, 0, index, ws.tray_floor_top, ws.tray_inner_half)
         look = params["robot"]["look"]
         scene = construct_scene(config, params)
         take_look_pose(scene)  # unsettled: objects may still be where the arm goes

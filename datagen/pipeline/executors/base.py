@@ -16,9 +16,9 @@ import os
 from dataclasses import dataclass, field
 from typing import Any, Protocol
 
-from datagen.engines.transfer.run_binding import RunBinding
 from datagen.pipeline.production import Task
 from datagen.records import WorkerEvent
+from datagen.transport.run_binding import RunBinding
 
 # The coordinator stops its workers gracefully only once the dataset is finalized: every sample
 # is durable then, and a worker still publishing holds a duplicate of a re-issued sample that it

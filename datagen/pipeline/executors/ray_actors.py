@@ -33,9 +33,9 @@ class SceneWorker:
 
     def __init__(self, worker_id: int, spec: WorkerSpec):
         from datagen.config import config_from_dict
-        from datagen.engines.transfer.publisher import SamplePublisher
-        from datagen.engines.transfer.run_binding import client_id
         from datagen.pipeline.warm_up import warm_up
+        from datagen.transport.publisher import SamplePublisher
+        from datagen.transport.run_binding import client_id
 
         logging.basicConfig(
             level=os.environ.get("DATAGEN_LOG_LEVEL", "WARNING"),
