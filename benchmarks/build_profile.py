@@ -35,20 +35,22 @@ import sapien
 
 REPO = Path(__file__).resolve().parents[1]
 
-# (name in datagen.worlds.tabletop, stage label); sapien.Scene is timed through the module too
+# (name in datagen.worlds.tabletop, stage label); sapien.Scene is timed through the module too;
+# realise:<type> times the realiser of that scene value type (``realise`` dispatches on it)
 STAGES = (
     ("draw_scene", "sample the randomised values"),
     ("Scene", "sapien.Scene()"),
     ("_add_part", "table, tray, floor (textured)"),
     ("add_background", "room: walls, ceiling, room lights"),
     ("load_arm", "robot articulation"),
-    ("apply_robot", "robot joint pose"),
+    ("realise:ArmPose", "robot joint pose"),
     ("add_objects", "objects (geometry, collision, render meshes)"),
     ("build_geometry", "  of which, with distractors: geometry (trimesh)"),
     ("add_distractors", "distractors"),
-    ("apply_lighting", "lights"),
+    ("realise:Lighting", "lights"),
     ("pad_lights", "unlit lights (padding)"),
     ("add_camera", "cameras"),
+    ("realise:CameraPose", "camera poses"),
     ("settle", "settle (physics steps)"),
 )
 
@@ -81,8 +83,16 @@ def _instrument(table: dict, counters: dict) -> None:
     tabletop.sapien = _SapienWithTimedScene(table)
     realise.build_geometry = _timed(table, "build_geometry", realise.build_geometry)
     for name, _ in STAGES:
-        if name not in {"Scene", "build_geometry"}:
+        if name not in {"Scene", "build_geometry"} and not name.startswith("realise:"):
             setattr(tabletop, name, _timed(table, name, getattr(tabletop, name)))
+    realise_value = tabletop.realise
+
+    def timed_realise(value, *args, **kwargs):
+        return _timed(table, f"realise:{type(value).__name__}", realise_value)(
+            value, *args, **kwargs
+        )
+
+    tabletop.realise = timed_realise
     construct = tabletop.construct_scene
 
     def counted_construct(*args, **kwargs):

@@ -22,6 +22,7 @@ customData).
 from __future__ import annotations
 
 import json
+from functools import singledispatch
 from pathlib import Path
 from typing import Any
 
@@ -33,6 +34,7 @@ from datagen.assets.backdrop import wall_boxes
 from datagen.assets.shapes import build_geometry
 from datagen.assets.tabletop_layout import DEFAULT_WORKSPACE, Workspace, static_parts
 from datagen.exports import usd_looks, usd_robot
+from datagen.scene_values.lighting import Lighting
 
 APERTURE_PER_PIXEL = 0.01  # USD camera aperture units per image pixel (only ratios matter)
 _CV_TO_USD_CAMERA = np.diag(
@@ -51,30 +53,40 @@ def _xform(stage, path: str, pose: np.ndarray | None = None) -> UsdGeom.Xform:
     return xform
 
 
-def _lights(stage, lighting: dict[str, Any]) -> None:
+@singledispatch
+def add_to_stage(value: object, stage: Usd.Stage, **options: Any) -> None:
+    """Makes the scene value ``value`` prims of ``stage``, chosen by the value's type; a type
+    without a USD realiser is an error (the SAPIEN side: ``datagen.worlds.realise.realise``)."""
+    raise TypeError(f"no USD realiser for scene values of type {type(value).__name__}")
+
+
+@add_to_stage.register
+def _lights(lighting: Lighting, stage: Usd.Stage) -> None:
     dome = UsdLux.DomeLight.Define(stage, "/World/Lights/ambient")
-    dome.CreateIntensityAttr(float(lighting["ambient"]))
-    for i, light in enumerate(lighting["lights"]):
-        colour = Gf.Vec3f(*map(float, light["colour"]))
-        direction = np.asarray(light["direction"], float)
-        # a rotation taking the light's -z axis onto its direction of travel
-        z = -direction / np.linalg.norm(direction)
-        x = np.cross([0.0, 1.0, 0.0] if abs(z[1]) < 0.9 else [1.0, 0.0, 0.0], z)
-        x /= np.linalg.norm(x)
+    dome.CreateIntensityAttr(float(lighting.ambient))
+    for i, light in enumerate(lighting.lights):
+        colour = Gf.Vec3f(*map(float, light.colour))
         pose = np.eye(4)
-        pose[:3, :3] = np.stack([x, np.cross(z, x), z], axis=1)
-        if light["type"] == "directional":
+        if light.direction is not None:
+            direction = np.asarray(light.direction, float)
+            # a rotation taking the light's -z axis onto its direction of travel
+            z = -direction / np.linalg.norm(direction)
+            x = np.cross([0.0, 1.0, 0.0] if abs(z[1]) < 0.9 else [1.0, 0.0, 0.0], z)
+            x /= np.linalg.norm(x)
+            pose[:3, :3] = np.stack([x, np.cross(z, x), z], axis=1)
+        if light.kind == "directional":
             usd_light = UsdLux.DistantLight.Define(stage, f"/World/Lights/key_{i}")
         else:
-            pose[:3, 3] = light["position"]
-            usd_light = UsdLux.SphereLight.Define(stage, f"/World/Lights/{light['type']}_{i}")
+            pose[:3, 3] = light.position
+            usd_light = UsdLux.SphereLight.Define(stage, f"/World/Lights/{light.kind}_{i}")
             usd_light.CreateRadiusAttr(0.02)
-            shaping = UsdLux.ShapingAPI.Apply(usd_light.GetPrim())
-            shaping.CreateShapingConeAngleAttr(float(light["outer_fov_deg"]) / 2)
-        usd_light.CreateIntensityAttr(float(light["intensity"]))
+            if light.outer_fov_deg is not None:
+                shaping = UsdLux.ShapingAPI.Apply(usd_light.GetPrim())
+                shaping.CreateShapingConeAngleAttr(float(light.outer_fov_deg) / 2)
+        usd_light.CreateIntensityAttr(float(light.intensity))
         usd_light.CreateColorAttr(colour)
         usd_light.AddTransformOp().Set(_matrix(pose))
-        usd_light.GetPrim().SetCustomDataByKey("datagen:shadow", bool(light["shadow"]))
+        usd_light.GetPrim().SetCustomDataByKey("datagen:shadow", bool(light.shadow))
 
 
 def _camera(stage, name: str, camera: dict[str, Any]) -> None:
@@ -204,7 +216,7 @@ def scene_stage(meta: dict[str, Any], out_dir: str | Path | None = None) -> Usd.
     _distractors(stage, key, meta["randomisation"].get("distractors", []), out_dir)
     usd_robot.define_robot(stage, "/World/Robot", meta["robot"], key)
     _xform(stage, "/World/Lights")
-    _lights(stage, meta["randomisation"]["lighting"])
+    add_to_stage(Lighting.from_json(meta["randomisation"]["lighting"]), stage)
     _xform(stage, "/World/Cameras")
     for name, view in meta["views"].items():
         _camera(stage, name, view["camera"])

@@ -95,7 +95,7 @@ def draw_scene(
             room,
             ws,
             config.render.width / config.render.height,
-            wrist_view="look" in params["robot"],
+            wrist_view=params["robot"].look is not None,
         )
     if config.render.views > 1:  # absent for one view: a one-view sample stays as it was
         names = [extra_view_name(k) for k in range(1, config.render.views)]

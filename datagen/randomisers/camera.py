@@ -7,14 +7,13 @@ tray from different sides at the same distance), then is jittered the same way."
 
 from __future__ import annotations
 
-from typing import Any
-
 import numpy as np
 
 from datagen.config.sections import CameraConfig
+from datagen.scene_values.camera import CameraPose
 
 
-def draw_camera(rng: np.random.Generator, cfg: CameraConfig) -> dict[str, Any]:
+def draw_camera(rng: np.random.Generator, cfg: CameraConfig) -> CameraPose:
     """The workspace camera (view 0): the nominal eye and target, each jittered."""
     return _jittered(rng, cfg, np.asarray(cfg.eye, float))
 
@@ -24,10 +23,10 @@ def extra_view_name(k: int) -> str:
     return f"view{k}"
 
 
-def draw_extra_view(rng: np.random.Generator, cfg: CameraConfig) -> dict[str, Any]:
+def draw_extra_view(rng: np.random.Generator, cfg: CameraConfig) -> CameraPose:
     """An extra view: the nominal eye turned about the target's vertical, then jittered."""
     azimuth = float(rng.uniform(-cfg.orbit_deg, cfg.orbit_deg))
-    return {"azimuth_deg": round(azimuth, 6)} | _jittered(rng, cfg, orbited_eye(cfg, azimuth))
+    return _jittered(rng, cfg, orbited_eye(cfg, azimuth), round(azimuth, 6))
 
 
 def orbited_eye(cfg: CameraConfig, azimuth_deg: float) -> np.ndarray:
@@ -38,11 +37,14 @@ def orbited_eye(cfg: CameraConfig, azimuth_deg: float) -> np.ndarray:
     return target + np.array([c * x - s * y, s * x + c * y, z])
 
 
-def _jittered(rng: np.random.Generator, cfg: CameraConfig, eye: np.ndarray) -> dict[str, Any]:
+def _jittered(
+    rng: np.random.Generator, cfg: CameraConfig, eye: np.ndarray, azimuth: float | None = None
+) -> CameraPose:
     eye = eye + rng.uniform(-cfg.eye_jitter, cfg.eye_jitter, 3)
     target = np.asarray(cfg.target) + rng.uniform(-cfg.target_jitter, cfg.target_jitter, 3)
-    return {
-        "eye": np.round(eye, 6).tolist(),
-        "target": np.round(target, 6).tolist(),
-        "fovy_deg": round(float(rng.uniform(*cfg.fovy_deg)), 6),
-    }
+    return CameraPose(
+        eye=tuple(np.round(eye, 6).tolist()),
+        target=tuple(np.round(target, 6).tolist()),
+        fovy_deg=round(float(rng.uniform(*cfg.fovy_deg)), 6),
+        azimuth_deg=azimuth,
+    )

@@ -40,6 +40,7 @@ from datagen.randomisers.materials import random_material
 from datagen.randomisers.objects import draw_shape
 from datagen.randomisers.photos import draw_photo
 from datagen.randomisers.textures import DEFAULT_PHOTOS, maybe_texture
+from datagen.scene_values.camera import CameraPose
 
 PLACEMENTS = ("table", "air", "background")
 ROBOT_CLEARANCE = 0.3  # metres around the robot base kept free of table distractors
@@ -72,14 +73,14 @@ class _View:
 
     @classmethod
     def of(
-        cls, camera: dict[str, Any], ws: Workspace = DEFAULT_WORKSPACE, aspect: float = 1.0
+        cls, camera: CameraPose, ws: Workspace = DEFAULT_WORKSPACE, aspect: float = 1.0
     ) -> _View:
-        eye, target = np.asarray(camera["eye"], float), np.asarray(camera["target"], float)
+        eye, target = np.asarray(camera.eye, float), np.asarray(camera.target, float)
         distance = float(np.linalg.norm(target - eye))
         forward = (target - eye) / distance
         right = np.cross(forward, [0.0, 0.0, 1.0])
         right /= np.linalg.norm(right)
-        tan_half = float(np.tan(np.deg2rad(camera["fovy_deg"]) / 2))
+        tan_half = float(np.tan(np.deg2rad(camera.fovy_deg) / 2))
         up = np.cross(right, forward)
         return cls(eye, forward, right, up, tan_half, distance, ws, aspect)
 
@@ -183,7 +184,7 @@ def draw_distractors(
     rng: np.random.Generator,
     cfg: DistractorsConfig,
     materials: MaterialsConfig,
-    camera: dict[str, Any],
+    camera: CameraPose,
     room: dict[str, Any] | None = None,
     ws: Workspace = DEFAULT_WORKSPACE,
     photos: PhotosConfig | None = None,
@@ -285,7 +286,7 @@ def draw_flying(
     cfg: DistractorsConfig,
     materials: MaterialsConfig,
     photos: PhotosConfig | None,
-    camera: dict[str, Any],
+    camera: CameraPose,
     room: dict[str, Any] | None = None,
     ws: Workspace = DEFAULT_WORKSPACE,
     aspect: float = 1.0,

@@ -17,6 +17,7 @@ from datagen.randomisers.materials import random_colour, random_material
 from datagen.randomisers.textures import texture_surfaces
 from datagen.registries import GROUND_ROBOTS
 from datagen.registry import resolve
+from datagen.scene_values.lighting import Light, Lighting
 from datagen.seeding import sample_rng
 
 # HSV value ranges that keep rooms plausible; obstacles use the config's full colour range.
@@ -56,7 +57,7 @@ def draw_nav_materials(rng, config: BuildConfig, obstacles: int) -> dict[str, An
     return out
 
 
-def draw_nav_lighting(rng, config: BuildConfig, layout: Layout, top: float) -> dict[str, Any]:
+def draw_nav_lighting(rng, config: BuildConfig, layout: Layout, top: float) -> Lighting:
     """A directional key light with a shadow volume over the whole floor plan, and ceiling
     point lights over free cells for the other lights the config asks for."""
     cfg = config.lighting
@@ -68,26 +69,24 @@ def draw_nav_lighting(rng, config: BuildConfig, layout: Layout, top: float) -> d
     lights = []
     for i in range(int(rng.integers(max(cfg.lights[0], 1), max(cfg.lights[1], 1) + 1))):
         tint = 1.0 + rng.uniform(-cfg.colour_temperature_jitter, cfg.colour_temperature_jitter, 3)
-        light = {
-            "type": "directional" if i == 0 else "point",
-            "colour": np.round(tint / tint.max(), 6).tolist(),
-            "intensity": _u(rng, cfg.intensity),
-            "shadow": bool(cfg.shadows and i == 0),
-        }
+        colour = tuple(np.round(tint / tint.max(), 6).tolist())
+        intensity = _u(rng, cfg.intensity)
+        shadow = bool(cfg.shadows and i == 0)
         if i == 0:
-            light["direction"] = np.round(light_direction(rng, cfg), 6).tolist()
+            direction = tuple(np.round(light_direction(rng, cfg), 6).tolist())
+            lights.append(Light("directional", colour, intensity, shadow, direction=direction))
         else:
             r, c = free[rng.integers(len(free))]
             res = layout.resolution
             z = top - CEILING_LIGHT_BELOW_TOP
-            light["position"] = [round((c + 0.5) * res, 4), round((r + 0.5) * res, 4), z]
-        lights.append(light)
-    return {
-        "ambient": _u(rng, cfg.ambient),
-        "lights": lights,
-        "shadow_centre": [round(width / 2, 4), round(depth / 2, 4), round(top / 2, 4)],
-        "shadow_half_extent": round(max(width, depth) / 2 + 0.5, 4),
-    }
+            position = (round((c + 0.5) * res, 4), round((r + 0.5) * res, 4), z)
+            lights.append(Light("point", colour, intensity, shadow, position=position))
+    return Lighting(
+        ambient=_u(rng, cfg.ambient),
+        lights=tuple(lights),
+        shadow_centre=(round(width / 2, 4), round(depth / 2, 4), round(top / 2, 4)),
+        shadow_half_extent=round(max(width, depth) / 2 + 0.5, 4),
+    )
 
 
 def draw_nav_scene(

@@ -6,11 +6,12 @@ light is realised as a cluster of shadowed spot lights (:func:`datagen.worlds.re
 
 from __future__ import annotations
 
-from typing import Any
+from typing import Literal
 
 import numpy as np
 
 from datagen.config.sections import LightingConfig
+from datagen.scene_values.lighting import Light, Lighting
 
 FILL_DISTANCE = (1.0, 1.8)  # metres from the light target
 WHITE_K = 6500.0  # kelvin: the black body whose colour is white ([1, 1, 1])
@@ -85,38 +86,59 @@ def light_colour(rng: np.random.Generator, cfg: LightingConfig) -> tuple[list[fl
     return np.round(rgb / rgb.max(), 6).tolist(), round(kelvin, 3)
 
 
-def _key_shadow(rng: np.random.Generator, cfg: LightingConfig) -> dict[str, Any]:
-    """The key light's shadow: hard, or soft from an area light of a drawn radius (metres);
-    probability 0 draws nothing."""
+def _key_shadow(
+    rng: np.random.Generator, cfg: LightingConfig
+) -> tuple[bool, Literal["hard", "soft"] | None, float | None]:
+    """The key light's shadow, its edge and the radius (metres) of the area light a soft one
+    comes from; probability 0 draws nothing."""
     if not cfg.shadows:
-        return {"shadow": False}
+        return False, None, None
     if cfg.soft_shadow_probability > 0 and rng.uniform() < cfg.soft_shadow_probability:
-        radius = round(float(rng.uniform(*cfg.soft_shadow_radius_m)), 6)
-        return {"shadow": True, "shadow_edge": "soft", "area_radius_m": radius}
-    return {"shadow": True, "shadow_edge": "hard"}
+        return True, "soft", round(float(rng.uniform(*cfg.soft_shadow_radius_m)), 6)
+    return True, "hard", None
 
 
 def draw_lighting(
     rng: np.random.Generator, cfg: LightingConfig, target: tuple[float, float, float]
-) -> dict[str, Any]:
+) -> Lighting:
+    """The ambient level, a directional key light and spot fill lights aimed at ``target``
+    (the tray, metres) from ``FILL_DISTANCE``."""
     lights = []
     for i in range(int(rng.integers(cfg.lights[0], cfg.lights[1] + 1))):
         direction = light_direction(rng, cfg)
         colour, kelvin = light_colour(rng, cfg)
-        light = {
-            "type": "directional" if i == 0 else "spot",
-            "direction": np.round(direction, 6).tolist(),
-            "colour": colour,
-            "temperature_k": kelvin,
-            "intensity": round(float(rng.uniform(*cfg.intensity)), 6),
-        }
+        towards = tuple(np.round(direction, 6).tolist())
+        intensity = round(float(rng.uniform(*cfg.intensity)), 6)
         if i == 0:
-            light.update(_key_shadow(rng, cfg))
-        else:
-            light["shadow"] = bool(cfg.shadows and rng.uniform() < 0.5)
-            distance = rng.uniform(*FILL_DISTANCE)
-            light["position"] = np.round(np.asarray(target) - direction * distance, 6).tolist()
-            light["outer_fov_deg"] = round(float(rng.uniform(50, 90)), 6)
-        lights.append(light)
+            shadow, edge, radius = _key_shadow(rng, cfg)
+            lights.append(
+                Light(
+                    "directional",
+                    tuple(colour),
+                    intensity,
+                    shadow,
+                    direction=towards,
+                    temperature_k=kelvin,
+                    shadow_edge=edge,
+                    area_radius_m=radius,
+                )
+            )
+            continue
+        shadow = bool(cfg.shadows and rng.uniform() < 0.5)
+        distance = rng.uniform(*FILL_DISTANCE)
+        position = tuple(np.round(np.asarray(target) - direction * distance, 6).tolist())
+        fov = round(float(rng.uniform(50, 90)), 6)
+        lights.append(
+            Light(
+                "spot",
+                tuple(colour),
+                intensity,
+                shadow,
+                towards,
+                position,
+                kelvin,
+                outer_fov_deg=fov,
+            )
+        )
     ambient = round(float(rng.uniform(*cfg.ambient)), 6)
-    return {"ambient": ambient, "target": [float(x) for x in target], "lights": lights}
+    return Lighting(ambient, tuple(lights), target=tuple(float(x) for x in target))

@@ -4,17 +4,16 @@ joints that put it there: :mod:`datagen.worlds.look_pose`)."""
 
 from __future__ import annotations
 
-from typing import Any
-
 import numpy as np
 
 from datagen.assets.tabletop_layout import Workspace
 from datagen.config.robot import LookConfig, RobotConfig, robot_spec
+from datagen.scene_values.arm import ArmPose, WristLook
 
 
 def draw_robot(
     rng: np.random.Generator, cfg: RobotConfig, ws: Workspace, aim: np.ndarray | None = None
-) -> dict[str, Any]:
+) -> ArmPose:
     """Joint positions: the arm's ready pose jittered, the finger joints (two prismatic fingers,
     or one jaw) opened alike within their travel (radians, metres), in the order of the record's
     ``joint_names``; and with ``robot.pose: look`` the wrist camera's ``look`` (world metres),
@@ -24,12 +23,11 @@ def draw_robot(
     arm = np.asarray(ready) + rng.uniform(-cfg.joint_jitter, cfg.joint_jitter, len(ready))
     finger = float(rng.uniform(*spec.gripper.finger_travel))
     fingers = [finger] * len(spec.gripper.finger_joints)
-    values: dict[str, Any] = {"qpos": np.round(np.append(arm, fingers), 6).tolist()}
-    if cfg.pose == "look":
-        values["look"] = draw_wrist_look(
-            rng, cfg.look, ws, spec.approach_in_base_plane, spec.look_scale, aim
-        )
-    return values
+    qpos = tuple(np.round(np.append(arm, fingers), 6).tolist())
+    if cfg.pose != "look":
+        return ArmPose(qpos)
+    look = draw_wrist_look(rng, cfg.look, ws, spec.approach_in_base_plane, spec.look_scale, aim)
+    return ArmPose(qpos, look)
 
 
 def draw_wrist_look(
@@ -39,7 +37,7 @@ def draw_wrist_look(
     in_base_plane: bool,
     look_scale: float = 1.0,
     aim: np.ndarray | None = None,
-) -> dict[str, list[float]]:
+) -> WristLook:
     """The wrist camera's ``eye``, the ``target`` it looks at on the tray floor (within
     ``offset`` of the tray's centre, or of ``aim`` brought within half the tray's inner half of
     it) and the world direction its image's ``up`` turns towards (metres, world frame; heights
@@ -62,8 +60,8 @@ def draw_wrist_look(
     eye = target + lean * height / np.cos(tilt)
     roll = np.deg2rad(rng.uniform(*cfg.roll_deg))
     up = [np.cos(roll), np.sin(roll), 0.0]
-    return {
-        "eye": np.round(eye, 6).tolist(),
-        "target": np.round(target, 6).tolist(),
-        "up": np.round(up, 6).tolist(),
-    }
+    return WristLook(
+        eye=tuple(np.round(eye, 6).tolist()),
+        target=tuple(np.round(target, 6).tolist()),
+        up=tuple(np.round(up, 6).tolist()),
+    )

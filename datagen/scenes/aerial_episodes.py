@@ -34,6 +34,7 @@ from datagen.dataset.flow_png import encode_kitti
 from datagen.outcomes import agents_outcome, spl
 from datagen.randomisers.volume_scene import draw_aerial_scene
 from datagen.sample import Sample, sample_key
+from datagen.scene_values.checks import as_json
 from datagen.scenes.navigation_episodes import rounded, things_in_view
 from datagen.seeding import sample_rng
 from datagen.sensing.encode import (
@@ -275,7 +276,7 @@ def produce(config: BuildConfig, seed: int, index: int, attempt: int = 0) -> Sam
         },
         "imu": imu_metadata(cfg.imu_hz, cfg.imu_noise),
         "frames": frames,
-        "randomisation": values,
+        "randomisation": as_json(values),
     }
     parts["json"] = metadata_bytes(metadata)
     return Sample(index, parts)

@@ -16,6 +16,7 @@ import sapien
 from datagen.config import BuildConfig
 from datagen.geometry import pose_record
 from datagen.sample import Sample, sample_key
+from datagen.scene_values.checks import as_json
 from datagen.seeding import sample_rng
 from datagen.sensing.annotate import (
     LabelledObject,
@@ -199,7 +200,7 @@ def annotate_scene(
             if scene.workspace.object_scale != 1.0
             else {}
         ),
-        "randomisation": scene.params,
+        "randomisation": as_json(scene.params),
     }
     return AnnotatedSample(index, views, metadata)
 

@@ -27,6 +27,7 @@ from datagen.randomisers.floorplan_scene import draw_nav_scene
 from datagen.registries import GROUND_ROBOTS
 from datagen.registry import resolve
 from datagen.sample import Sample, sample_key
+from datagen.scene_values.checks import as_json
 from datagen.sensing.encode import (
     POSE_CONVENTION,
     View,
@@ -256,7 +257,7 @@ def produce(config: BuildConfig, seed: int, index: int, attempt: int = 0) -> Sam
         "frames": frames,
         "poses_convention": POSE_CONVENTION,
         "robot": robot_record(config, scene),
-        "randomisation": values,
+        "randomisation": as_json(values),
     }
     parts["json"] = metadata_bytes(metadata)
     return Sample(index, parts)

@@ -24,6 +24,7 @@ from datagen.outcomes import agents_outcome, spl
 from datagen.randomisers.floorplan_scene import draw_nav_scene
 from datagen.registries import GROUND_ROBOTS
 from datagen.sample import Sample, sample_key
+from datagen.scene_values.checks import as_json
 from datagen.scenes.navigation_episodes import (
     camera_record,
     layout_record,
@@ -186,7 +187,7 @@ def produce_fleet(config: BuildConfig, seed: int, index: int, attempt: int = 0) 
         "frames": frames,
         "poses_convention": POSE_CONVENTION,
         "robot": robot_record(config, scene),
-        "randomisation": values,
+        "randomisation": as_json(values),
     }
     parts["json"] = metadata_bytes(metadata)
     return Sample(index, parts)

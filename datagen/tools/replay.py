@@ -180,6 +180,7 @@ def replay(root: str | Path, key: str) -> dict[str, np.ndarray]:
     """RGB image (H, W, 3) per camera of the replayed scene."""
     from datagen.dataset.assets import check_asset_paths
     from datagen.dataset.loader import load
+    from datagen.scene_values.bundles import tabletop_values
     from datagen.sensing.render import capture, keep_renderer_alive
     from datagen.tools.sample_checks import read_metadata
     from datagen.worlds.tabletop import construct_scene
@@ -205,7 +206,8 @@ def replay(root: str | Path, key: str) -> dict[str, np.ndarray]:
         raise DatasetError(f"{root}: sample {key}: {exc}") from None
     params, poses, qpos = stored_description(usd_path, meta["randomisation"])
     keep_renderer_alive()
-    scene = construct_scene(config, params | {"drop_poses": poses})
+    values = tabletop_values(params, f"{usd_path}: datagen:randomisation")  # checked, typed
+    scene = construct_scene(config, values | {"drop_poses": poses})
     if len(qpos) != scene.robot.dof:
         raise DatasetError(
             f"{usd_path}: /World/Robot: {len(qpos)} joint positions, the robot has {scene.robot.dof}"

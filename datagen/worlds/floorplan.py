@@ -23,7 +23,7 @@ from datagen.registry import resolve
 from datagen.robot_specs import maniskill_asset
 from datagen.sensing.cameras import add_camera
 from datagen.worlds.class_names import NAV_CLASSES
-from datagen.worlds.realise import apply_lighting, light_slots, pad_lights
+from datagen.worlds.realise import light_slots, pad_lights, realise
 from datagen.worlds.robots import FETCH, load_robot
 from datagen.worlds.surfaces import box_entity, render_material
 
@@ -260,7 +260,7 @@ def build_floorplan_scene(
             instance_lut[entity.per_scene_id] = thing.instance_id
             class_lut[entity.per_scene_id] = NAV_CLASS_ID[thing.class_name]
 
-    apply_lighting(scene, values["lighting"], config.render.shadow_map_size)
+    realise(values["lighting"], scene, shadow_map_size=config.render.shadow_map_size)
     # a key light and ceiling point lights (randomisers/floorplan_scene.py)
     pad_lights(scene, light_slots(0, max(config.lighting.lights[1], 1) - 1))
     return NavScene(scene, cams, robots, things, instance_lut, class_lut)

@@ -5,7 +5,6 @@ kinematics of the arm's own description (mplib's Pinocchio model; no simulator o
 from __future__ import annotations
 
 from functools import lru_cache
-from typing import Any
 
 import numpy as np
 import transforms3d.quaternions as tq
@@ -13,6 +12,7 @@ from mplib.pymp.kinematics.pinocchio import PinocchioModel
 
 from datagen.geometry import look_at
 from datagen.robot_specs import CameraMount, RobotSpec, wrist_mount
+from datagen.scene_values.arm import WristLook
 
 IK_TOLERANCE = 1e-4  # norm of the remaining SE(3) error (metres, radians)
 N_FIXED_STARTS = 8  # starts after the sampled and the ready pose
@@ -38,16 +38,16 @@ def mount_transform(mount: CameraMount) -> np.ndarray:
 
 
 def look_qpos(
-    spec: RobotSpec, base_position: np.ndarray, look: dict[str, Any], qpos: list[float]
+    spec: RobotSpec, base_position: np.ndarray, look: WristLook, qpos: tuple[float, ...]
 ) -> list[float]:
     """Joint positions (``spec.joint_names`` order, fingers as in ``seed_qpos``) whose wrist
-    camera sits at ``look["eye"]`` looking at ``look["target"]`` with the image's up towards
-    ``look["up"]`` (world metres; the base unrotated at ``base_position``). The IK starts from
+    camera sits at ``look.eye`` looking at ``look.target`` with the image's up towards
+    ``look.up`` (world metres; the base unrotated at ``base_position``). The IK starts from
     ``qpos`` (the jittered ready pose: it picks the elbow of a redundant arm), then from
     the ready pose, then fixed others; raises :class:`LookPoseUnreachable` when none converges
     within the joint limits."""
     mount = wrist_mount(spec)
-    camera = look_at(look["eye"], look["target"], look["up"])
+    camera = look_at(look.eye, look.target, look.up)
     link = camera @ np.linalg.inv(mount_transform(mount))
     link[:3, 3] -= base_position
     goal = np.concatenate([link[:3, 3], tq.mat2quat(link[:3, :3])])
@@ -62,7 +62,7 @@ def look_qpos(
             return np.round(q, 6).tolist()
     raise LookPoseUnreachable(
         f"robot.pose: look: the {spec.name}'s wrist camera cannot reach the drawn pose (eye "
-        f"{look['eye']}, target {look['target']}; robot.look sets the range)"
+        f"{list(look.eye)}, target {list(look.target)}; robot.look sets the range)"
     )
 
 

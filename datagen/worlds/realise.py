@@ -6,6 +6,8 @@ rebuilt from its stored values alone. Materials, textures and boxes: :mod:`datag
 
 from __future__ import annotations
 
+from dataclasses import dataclass, replace
+from functools import singledispatch
 from typing import Any
 
 import numpy as np
@@ -15,6 +17,9 @@ from datagen.assets.backdrop import wall_boxes
 from datagen.assets.shapes import ObjectGeometry, build_geometry
 from datagen.geometry import look_at
 from datagen.robot_specs import HOLD_DAMPING, HOLD_STIFFNESS
+from datagen.scene_values.arm import ArmPose
+from datagen.scene_values.camera import CameraPose
+from datagen.scene_values.lighting import Light, Lighting
 from datagen.worlds.surfaces import render_shape, surface_entity
 
 SHADOW_CENTRE = [0, 0, 1]  # metres: the key light's shadow volume centre, unless the values say
@@ -43,11 +48,12 @@ def _radiance_at(light: dict[str, Any], target) -> list[float]:
     return (np.asarray(light["colour"]) * light["intensity"] * distance_sq).tolist()
 
 
-def _shadow_near(lighting: dict[str, Any]) -> float:
+def _shadow_near(lighting: Lighting) -> float:
     """Where the key light's shadow casters begin, metres along the light from its centre."""
-    return lighting.get(
-        "shadow_near", -2.0 * lighting.get("shadow_half_extent", SHADOW_HALF_EXTENT)
-    )
+    if lighting.shadow_near is not None:
+        return lighting.shadow_near
+    half = lighting.shadow_half_extent
+    return -2.0 * (SHADOW_HALF_EXTENT if half is None else half)
 
 
 def add_objects(
@@ -119,94 +125,131 @@ def add_background(scene: sapien.Scene, values: dict[str, Any] | None) -> list[s
     return entities
 
 
-def lit_by_room(lighting: dict[str, Any], room: dict[str, Any] | None) -> dict[str, Any]:
-    """The lighting values to apply under this room (``randomisation.background``): with a
-    ceiling, the key light's shadow casters stop ``CEILING_SHADOW_GAP`` below it, so the ceiling
-    does not shade the whole scene; unchanged without one."""
+def lit_by_room(lighting: Lighting, room: dict[str, Any] | None) -> Lighting:
+    """The lighting to apply under this room (``randomisation.background``): with a ceiling,
+    the key light's shadow casters stop ``CEILING_SHADOW_GAP`` below it, so the ceiling does
+    not shade the whole scene; unchanged without one."""
     if not room or not room["ceiling"]:
         return lighting
-    centre_z = lighting.get("shadow_centre", SHADOW_CENTRE)[2]
+    centre_z = (lighting.shadow_centre or SHADOW_CENTRE)[2]
     near = max(-(room["room"]["height"] - centre_z - CEILING_SHADOW_GAP), _shadow_near(lighting))
-    return {**lighting, "shadow_near": near}
+    return replace(lighting, shadow_near=near)
 
 
-def soft_key_spots(light: dict[str, Any], target) -> list[dict[str, Any]]:
+@dataclass(frozen=True)
+class _Spot:
+    """A spot light as SAPIEN gets it: a fill light, or one of a soft key light's cluster."""
+
+    position: np.ndarray  # metres
+    direction: np.ndarray
+    colour: tuple[float, ...]
+    intensity: float
+    outer_fov_deg: float
+    shadow: bool
+    soft: bool = False  # of a soft key light: a smaller shadow map
+
+    @classmethod
+    def of(cls, light: Light) -> _Spot:
+        assert light.position is not None and light.direction is not None
+        assert light.outer_fov_deg is not None
+        return cls(
+            np.asarray(light.position, float),
+            np.asarray(light.direction, float),
+            light.colour,
+            light.intensity,
+            light.outer_fov_deg,
+            light.shadow,
+        )
+
+
+def soft_key_spots(light: Light, target) -> list[_Spot]:
     """A soft key light as ``SOFT_LIGHT_SPOTS`` spot lights on a disc of radius
-    ``light["area_radius_m"]`` facing the target from ``SOFT_LIGHT_DISTANCE`` back along the
+    ``light.area_radius_m`` facing the target from ``SOFT_LIGHT_DISTANCE`` back along the
     light's direction (a sunflower pattern), sharing its radiance at the target: their shadows
     overlap into a penumbra that widens with the occluder's height, as under an area light."""
-    direction = np.asarray(light["direction"], float)
+    assert light.direction is not None and light.area_radius_m is not None
+    direction = np.asarray(light.direction, float)
     side = np.cross(direction, [0.0, 0.0, 1.0])
     side = side / np.linalg.norm(side) if np.linalg.norm(side) > 1e-6 else np.array([1.0, 0, 0])
     up = np.cross(direction, side)
     centre = np.asarray(target, float) - direction * SOFT_LIGHT_DISTANCE
     spots = []
     for i in range(SOFT_LIGHT_SPOTS):
-        radius = light["area_radius_m"] * np.sqrt((i + 0.5) / SOFT_LIGHT_SPOTS)
+        radius = light.area_radius_m * np.sqrt((i + 0.5) / SOFT_LIGHT_SPOTS)
         angle = i * np.pi * (3 - np.sqrt(5))  # radians: the golden angle
         position = centre + radius * (np.cos(angle) * side + np.sin(angle) * up)
         spots.append(
-            {
-                "position": position.tolist(),
-                "direction": (np.asarray(target) - position).tolist(),
-                "colour": light["colour"],
-                "intensity": light["intensity"] / SOFT_LIGHT_SPOTS,
-                "outer_fov_deg": SOFT_LIGHT_FOV_DEG,
-                "shadow": True,
-                "soft": True,
-            }
+            _Spot(
+                position,
+                np.asarray(target) - position,
+                light.colour,
+                light.intensity / SOFT_LIGHT_SPOTS,
+                SOFT_LIGHT_FOV_DEG,
+                shadow=True,
+                soft=True,
+            )
         )
     return spots
 
 
-def _add_spot(scene: sapien.Scene, light: dict[str, Any], target, shadow_map_size: int) -> None:
-    outer = np.deg2rad(light["outer_fov_deg"])
+def _add_spot(scene: sapien.Scene, spot: _Spot, target, shadow_map_size: int) -> None:
+    outer = np.deg2rad(spot.outer_fov_deg)
+    distance_sq = float(np.sum((spot.position - np.asarray(target)) ** 2))
     scene.add_spot_light(
-        light["position"],
-        light["direction"],
+        spot.position.tolist(),
+        spot.direction.tolist(),
         inner_fov=outer * 0.6,
         outer_fov=outer,
-        color=_radiance_at(light, target),
-        shadow=light["shadow"],
+        color=(np.asarray(spot.colour) * spot.intensity * distance_sq).tolist(),
+        shadow=spot.shadow,
         shadow_near=0.1,
         shadow_far=5.0,
         shadow_map_size=shadow_map_size,
     )
 
 
-def apply_lighting(scene: sapien.Scene, values: dict[str, Any], shadow_map_size: int) -> None:
+@singledispatch
+def realise(value: object, into: Any, **options: Any) -> None:
+    """Makes the scene value ``value`` SAPIEN things in ``into`` (a scene, a camera, an arm),
+    chosen by the value's type; a type without a SAPIEN realiser is an error."""
+    raise TypeError(f"no SAPIEN realiser for scene values of type {type(value).__name__}")
+
+
+@realise.register
+def apply_lighting(values: Lighting, scene: sapien.Scene, shadow_map_size: int) -> None:
     """The ambient level, the directional key light (or the spots of a soft one) and the spot
     (or point) lights; spots past ``MAX_SPOT_SHADOWS`` shadowed ones lose their shadow."""
-    scene.set_ambient_light([values["ambient"]] * 3)
-    spots = []
-    for light in values["lights"]:
-        colour = np.asarray(light["colour"]) * light["intensity"]
-        if light["type"] == "directional" and light.get("shadow_edge") == "soft":
-            spots = soft_key_spots(light, values["target"]) + spots
-        elif light["type"] == "directional":
+    scene.set_ambient_light([values.ambient] * 3)
+    spots: list[_Spot] = []
+    for light in values.lights:
+        colour = np.asarray(light.colour) * light.intensity
+        if light.kind == "directional" and light.soft:
+            spots = soft_key_spots(light, values.target) + spots
+        elif light.kind == "directional":
             # the shadow volume (metres around its centre) must cover what the cameras see
-            scale = values.get("shadow_half_extent", SHADOW_HALF_EXTENT)
+            scale = values.shadow_half_extent
+            scale = SHADOW_HALF_EXTENT if scale is None else scale
             scene.add_directional_light(
-                light["direction"],
+                list(light.direction or ()),
                 colour.tolist(),
-                shadow=light["shadow"],
-                position=values.get("shadow_centre", SHADOW_CENTRE),
+                shadow=light.shadow,
+                position=list(values.shadow_centre or SHADOW_CENTRE),
                 shadow_scale=scale,
                 shadow_near=_shadow_near(values),
                 shadow_far=2.0 * scale,
                 shadow_map_size=shadow_map_size,
             )
-        elif light["type"] == "point":
+        elif light.kind == "point":
             colour = colour * POINT_LIGHT_REFERENCE_SQ
-            scene.add_point_light(light["position"], colour.tolist(), shadow=False)
+            scene.add_point_light(list(light.position or ()), colour.tolist(), shadow=False)
         else:
-            spots.append(light)
+            spots.append(_Spot.of(light))
     shadowed = 0
-    for light in spots:
-        shadow = light["shadow"] and shadowed < MAX_SPOT_SHADOWS
+    for spot in spots:
+        shadow = spot.shadow and shadowed < MAX_SPOT_SHADOWS
         shadowed += shadow
-        size = shadow_map_size // SOFT_SHADOW_MAP_SCALE if light.get("soft") else shadow_map_size
-        _add_spot(scene, {**light, "shadow": shadow}, values["target"], size)
+        size = shadow_map_size // SOFT_SHADOW_MAP_SCALE if spot.soft else shadow_map_size
+        _add_spot(scene, replace(spot, shadow=shadow), values.target, size)
 
 
 def light_slots(spots: int, points: int) -> dict[str, int]:
@@ -235,16 +278,18 @@ def pad_lights(scene: sapien.Scene, slots: dict[str, int]) -> None:
         scene.add_spot_light(UNLIT_PLACE, [0.0, 0.0, -1.0], 0.5, 1.0, black, shadow=False)
 
 
-def apply_camera(camera: sapien.render.RenderCameraComponent, values: dict[str, Any]) -> None:
+@realise.register
+def apply_camera(values: CameraPose, camera: sapien.render.RenderCameraComponent) -> None:
     """A camera's field of view and its pose looking from ``eye`` at ``target``."""
-    camera.set_fovy(np.deg2rad(values["fovy_deg"]), compute_x=True)
-    camera.entity.set_pose(sapien.Pose(look_at(values["eye"], values["target"])))
+    camera.set_fovy(np.deg2rad(values.fovy_deg), compute_x=True)
+    camera.entity.set_pose(sapien.Pose(look_at(values.eye, values.target)))
 
 
+@realise.register
 def apply_robot(
-    robot: sapien.physx.PhysxArticulation, values: dict[str, Any], joint_names: tuple[str, ...]
+    values: ArmPose, robot: sapien.physx.PhysxArticulation, joint_names: tuple[str, ...]
 ) -> None:
-    """Sets the joints (``values["qpos"]`` in the order of ``joint_names``: the arm's, then the
+    """Sets the joints (``values.qpos`` in the order of ``joint_names``: the arm's, then the
     fingers') and holds them there with stiff PD drives (stiffness N·m/rad)."""
     joints = robot.get_active_joints()
     if sorted(j.name for j in joints) != sorted(joint_names):
@@ -252,7 +297,7 @@ def apply_robot(
             f"the robot's active joints are {[j.name for j in joints]}, its record names "
             f"{list(joint_names)}"
         )
-    sampled = dict(zip(joint_names, values["qpos"], strict=True))
+    sampled = dict(zip(joint_names, values.qpos, strict=True))
     qpos = np.asarray([sampled[j.name] for j in joints], np.float32)
     robot.set_qpos(qpos)
     for joint, target in zip(joints, qpos, strict=True):

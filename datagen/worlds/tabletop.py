@@ -20,6 +20,7 @@ from datagen.config import BuildConfig
 from datagen.config.robot import robot_spec, robot_workspace
 from datagen.randomisers import draw_scene, redrawn_drop_poses
 from datagen.robot_specs import RobotSpec, wrist_mount
+from datagen.scene_values.arm import ArmPose
 from datagen.sensing.cameras import add_camera
 from datagen.worlds.arm_clearance import link_bodies, meets, part_bodies
 from datagen.worlds.class_names import (
@@ -34,12 +35,10 @@ from datagen.worlds.realise import (
     add_background,
     add_distractors,
     add_objects,
-    apply_camera,
-    apply_lighting,
-    apply_robot,
     light_slots,
     lit_by_room,
     pad_lights,
+    realise,
 )
 from datagen.worlds.robots import load_robot
 from datagen.worlds.settle import settle
@@ -137,11 +136,11 @@ def take_look_pose(scene: GraspScene) -> list[str]:
     """Moves the arm of a settled scene to its look pose (``randomisation.robot.look``; nothing
     without one); one line per object its links then come within ``LOOK_CLEARANCE`` of."""
     values = scene.params["robot"]
-    if "look" not in values:
+    if values.look is None:
         return []
     base = np.add(scene.workspace.robot_base, scene.spec.mount)
-    qpos = look_qpos(scene.spec, base, **values)
-    apply_robot(scene.robot, {"qpos": qpos}, scene.spec.joint_names)
+    qpos = look_qpos(scene.spec, base, values.look, values.qpos)
+    realise(ArmPose(tuple(qpos)), scene.robot, joint_names=scene.spec.joint_names)
     arm = link_bodies(scene.robot.get_links())
     return [
         f"object {obj.instance_id} ({obj.class_name}) meets the arm at its look pose"
@@ -188,7 +187,7 @@ def construct_scene(config: BuildConfig, params: dict[str, Any]) -> GraspScene:
 
     robot = load_arm(scene, spec, config.render.robot_triangles)
     robot.set_root_pose(sapien.Pose(list(np.add(ws.robot_base, spec.mount))))
-    apply_robot(robot, params["robot"], spec.joint_names)
+    realise(params["robot"], robot, joint_names=spec.joint_names)
     for link in robot.get_links():
         gripper = link.name in spec.gripper.links
         stuff[link.entity.per_scene_id] = GRIPPER_CLASS if gripper else "robot"
@@ -206,17 +205,16 @@ def construct_scene(config: BuildConfig, params: dict[str, Any]) -> GraspScene:
         )
     ]
     r = config.render
-    apply_lighting(
-        scene, lit_by_room(params["lighting"], params.get("background")), r.shadow_map_size
-    )
+    lighting = lit_by_room(params["lighting"], params.get("background"))
+    realise(lighting, scene, shadow_map_size=r.shadow_map_size)
     pad_lights(scene, _light_slots(config))
 
     workspace = add_camera(scene, "workspace", r.width, r.height, 1.0, r.near, r.far)
-    apply_camera(workspace, params["camera"])
+    realise(params["camera"], workspace)
     cameras = {"workspace": workspace}
     for name, values in params.get("extra_views", {}).items():  # render.views > 1
         cameras[name] = add_camera(scene, name, r.width, r.height, 1.0, r.near, r.far)
-        apply_camera(cameras[name], values)
+        realise(values, cameras[name])
     if r.wrist_camera:
         mount = wrist_mount(spec)
         link = next(link for link in robot.get_links() if link.name == mount.link)

@@ -26,7 +26,7 @@ from datagen.registries import AIRFRAMES
 from datagen.sensing.cameras import add_camera
 from datagen.worlds.class_names import AERIAL_CLASSES
 from datagen.worlds.floorplan import Thing, rect_box
-from datagen.worlds.realise import apply_lighting, light_slots, pad_lights
+from datagen.worlds.realise import light_slots, pad_lights, realise
 from datagen.worlds.surfaces import box_entity, render_material, render_shape
 
 AERIAL_CLASS_ID = {name: i for i, name in enumerate(AERIAL_CLASSES)}
@@ -165,6 +165,6 @@ def build_aerial_scene(
         for entity in thing.entities:
             instance_lut[entity.per_scene_id] = thing.instance_id
             class_lut[entity.per_scene_id] = AERIAL_CLASS_ID[thing.class_name]
-    apply_lighting(scene, values["lighting"], r.shadow_map_size)
+    realise(values["lighting"], scene, shadow_map_size=r.shadow_map_size)
     pad_lights(scene, light_slots(0, max(config.lighting.lights[1], 1) - 1))
     return AerialScene(scene, drones, cameras, camera_in_body, things, instance_lut, class_lut)

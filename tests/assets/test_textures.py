@@ -29,6 +29,7 @@ from datagen.assets.uv_mapping import box_mapped
 from datagen.config import config_from_dict
 from datagen.errors import ConfigError
 from datagen.randomisers import draw_scene
+from datagen.scene_values.checks import as_json
 from datagen.seeding import sample_rng
 
 RED = [0.8, 0.1, 0.1, 1.0]
@@ -201,7 +202,7 @@ def test_textures_come_from_their_own_stream_and_probability_0_gives_flat_colour
         assert without == flat["materials"][surface]  # the colours are drawn as before
     for name in ("objects", "drop_poses", "lighting", "camera", "robot"):
         assert textured[name] == flat[name]
-    assert json.loads(json.dumps(textured)) == textured
+    assert json.loads(json.dumps(as_json(textured))) == as_json(textured)
     assert _scene({"materials": {"texture_probability": 1.0}}) == textured
 
 

@@ -16,6 +16,8 @@ from datagen.config import config_from_dict
 from datagen.dataset.loader import load, read_manifest
 from datagen.pipeline.run import run_build
 from datagen.randomisers import draw_scene
+from datagen.scene_values.bundles import tabletop_values
+from datagen.scene_values.checks import as_json
 from datagen.scenes.grasp_tabletop import annotate_scene
 from datagen.sensing.render import capture, keep_renderer_alive
 from datagen.worlds.tabletop import CLASSES, build_scene, construct_scene
@@ -87,7 +89,7 @@ def test_a_textured_scene_is_rebuilt_identically_from_its_stored_values():
     config = _config({"materials": {"texture_probability": 1.0, "normal_maps": True}})
     keep_renderer_alive()
     params = draw_scene(config, 4, 3, TRAY_CENTRE, TRAY_INNER_HALF)
-    stored = json.loads(json.dumps(params))  # as the metadata keeps them
+    stored = tabletop_values(json.loads(json.dumps(as_json(params))))  # as a replay reads them
 
     def image(values):
         scene = construct_scene(config, values)

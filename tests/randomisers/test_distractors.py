@@ -63,7 +63,7 @@ def test_each_placement_puts_its_distractors_where_it_says():
                 assert _lowest_z(spec) == pytest.approx(0.0, abs=1e-5)  # on the floor
                 assert abs(x) > TABLE_HALF[0] or abs(y) > TABLE_HALF[1]
             else:
-                eye, target = np.asarray(camera["eye"]), np.asarray(camera["target"])
+                eye, target = np.asarray(camera.eye), np.asarray(camera.target)
                 along = np.dot(np.subtract([x, y, z], eye), target - eye) / np.linalg.norm(
                     target - eye
                 )
@@ -215,6 +215,7 @@ def test_usd_export_and_a_rebuild_from_the_metadata_carry_the_distractors(annota
     from pxr import Usd, UsdGeom
 
     from datagen.exports.usd_stage import validation_errors, write_usd
+    from datagen.scene_values.bundles import tabletop_values
     from datagen.scenes.grasp_tabletop import annotate_scene
     from datagen.worlds.tabletop import construct_scene
 
@@ -234,7 +235,7 @@ def test_usd_export_and_a_rebuild_from_the_metadata_carry_the_distractors(annota
         {"position": o["pose_world"]["position"], "quat_wxyz": o["pose_world"]["quat_wxyz"]}
         for o in meta["objects"]
     ]
-    scene = construct_scene(TINY, meta["randomisation"] | {"drop_poses": poses})
+    scene = construct_scene(TINY, tabletop_values(meta["randomisation"]) | {"drop_poses": poses})
     scene.robot.set_qpos(np.asarray(meta["robot"]["qpos"], np.float32))
     again = annotate_scene(scene, TINY, 11, 0)
     original = annotated.views["workspace"]

@@ -64,11 +64,11 @@ def test_flying_distractors_lie_in_view_at_depths_spanning_the_range():
         )  # fmt: skip
         assert json.loads(json.dumps(flying)) == flying  # plain JSON values
         placed += len(flying)
-        eye, target = np.asarray(camera["eye"]), np.asarray(camera["target"])
+        eye, target = np.asarray(camera.eye), np.asarray(camera.target)
         distance = np.linalg.norm(target - eye)
         forward = (target - eye) / distance
         right = np.cross(forward, [0, 0, 1]) / np.linalg.norm(np.cross(forward, [0, 0, 1]))
-        up, tan_half = np.cross(right, forward), np.tan(np.deg2rad(camera["fovy_deg"]) / 2)
+        up, tan_half = np.cross(right, forward), np.tan(np.deg2rad(camera.fovy_deg) / 2)
         for spec in flying:
             assert spec["placement"] == FLYING
             centre = _centre(spec)

@@ -13,6 +13,7 @@ from datagen.config import config_from_dict
 from datagen.config.sections import LightingConfig
 from datagen.geometry import look_at
 from datagen.randomisers.lighting import draw_lighting, kelvin_to_rgb
+from datagen.scene_values.lighting import Light, Lighting
 from datagen.sensing.render import capture, keep_renderer_alive
 from datagen.worlds.realise import apply_lighting
 
@@ -31,8 +32,8 @@ def test_6500_k_is_white_and_2700_k_is_redder_than_8000_k():
 def test_6500_k_without_jitter_gives_exactly_white_light():
     cfg = LightingConfig(colour_temperature_k=(6500, 6500), colour_temperature_jitter=0.0)
     for seed in range(5):
-        for light in draw_lighting(np.random.default_rng(seed), cfg, TARGET)["lights"]:
-            assert light["colour"] == [1.0, 1.0, 1.0] and light["temperature_k"] == 6500
+        for light in draw_lighting(np.random.default_rng(seed), cfg, TARGET).lights:
+            assert light.colour == (1.0, 1.0, 1.0) and light.temperature_k == 6500
 
 
 def test_draws_stay_within_the_configured_ranges():
@@ -40,20 +41,18 @@ def test_draws_stay_within_the_configured_ranges():
     edges, kelvins = [], []
     for seed in range(400):
         values = draw_lighting(np.random.default_rng(seed), cfg, TARGET)
-        assert cfg.ambient[0] <= values["ambient"] <= cfg.ambient[1]
-        assert cfg.lights[0] <= len(values["lights"]) <= cfg.lights[1]
-        for light in values["lights"]:
-            assert cfg.intensity[0] <= light["intensity"] <= cfg.intensity[1]
-            kelvins.append(light["temperature_k"])
-            assert max(light["colour"]) == 1.0 and min(light["colour"]) >= 0.0
-            elevation = np.degrees(np.arcsin(-light["direction"][2]))
+        assert cfg.ambient[0] <= values.ambient <= cfg.ambient[1]
+        assert cfg.lights[0] <= len(values.lights) <= cfg.lights[1]
+        for light in values.lights:
+            assert cfg.intensity[0] <= light.intensity <= cfg.intensity[1]
+            kelvins.append(light.temperature_k)
+            assert max(light.colour) == 1.0 and min(light.colour) >= 0.0
+            elevation = np.degrees(np.arcsin(-light.direction[2]))
             assert cfg.elevation_deg[0] - 1e-3 <= elevation <= cfg.elevation_deg[1] + 1e-3
-        key = values["lights"][0]
-        edges.append(key["shadow_edge"])
-        if key["shadow_edge"] == "soft":
-            assert (
-                cfg.soft_shadow_radius_m[0] <= key["area_radius_m"] <= cfg.soft_shadow_radius_m[1]
-            )
+        key = values.lights[0]
+        edges.append(key.shadow_edge)
+        if key.shadow_edge == "soft":
+            assert cfg.soft_shadow_radius_m[0] <= key.area_radius_m <= cfg.soft_shadow_radius_m[1]
     assert min(kelvins) >= 2700 and max(kelvins) <= 8000
     assert np.ptp(kelvins) > 4500, "the whole temperature range is drawn"
     assert 0.4 < edges.count("soft") / len(edges) < 0.6
@@ -66,7 +65,7 @@ def test_configs_without_the_new_keys_load_and_bad_ranges_are_refused():
     cfg = config_from_dict({**old, **NO_PHOTOS}).lighting
     assert cfg.colour_temperature_k == (2700, 8000) and cfg.soft_shadow_probability == 0.5
     off = config_from_dict({"lighting": {"shadows": False}, **NO_PHOTOS}).lighting
-    assert not draw_lighting(np.random.default_rng(0), off, TARGET)["lights"][0]["shadow"]
+    assert not draw_lighting(np.random.default_rng(0), off, TARGET).lights[0].shadow
     for key, value, expected in [
         ("colour_temperature_k", [500, 8000], "expected values in [1000.0, 40000.0]"),
         ("colour_temperature_k", [8000, 2700], "expected [min, max] with min <= max"),
@@ -87,9 +86,9 @@ def _shadow_profile(edge: str) -> np.ndarray:
         builder = scene.create_actor_builder()
         builder.add_box_visual(half_size=half, material=grey)
         builder.build_static().set_pose(sapien.Pose(centre))
-    key = {"type": "directional", "direction": [-0.707107, 0, -0.707107], "colour": [1, 1, 1],
-           "intensity": 2.0, "shadow": True, "shadow_edge": edge, "area_radius_m": 0.25}  # fmt: skip
-    apply_lighting(scene, {"ambient": 0.1, "target": list(TARGET), "lights": [key]}, 1024)
+    key = Light("directional", (1, 1, 1), 2.0, True, direction=(-0.707107, 0, -0.707107),
+                shadow_edge=edge, area_radius_m=0.25)  # fmt: skip
+    apply_lighting(Lighting(0.1, (key,), target=tuple(TARGET)), scene, 1024)
     camera = scene.add_camera("top", 320, 240, np.deg2rad(50), 0.05, 5.0)
     camera.entity.set_pose(sapien.Pose(look_at([0.0, -0.01, 1.6], TARGET)))
     scene.update_render()

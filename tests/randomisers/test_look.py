@@ -27,8 +27,8 @@ def test_the_look_lies_within_the_configured_ranges(name):
     floor = np.asarray(ws.tray_floor_top, float)
     base = np.asarray(ws.robot_base, float)
     for index in range(100):
-        look = draw_robot(sample_rng(0, index, "robot"), cfg, ws)["look"]
-        eye, target, up = (np.asarray(look[k], float) for k in ("eye", "target", "up"))
+        look = draw_robot(sample_rng(0, index, "robot"), cfg, ws).look
+        eye, target, up = (np.asarray(v, float) for v in (look.eye, look.target, look.up))
         assert target[2] == pytest.approx(floor[2])
         assert (np.abs(target[:2] - floor[:2]) <= cfg.look.offset * ws.scale + 1e-6).all()
         height = eye[2] - floor[2]
@@ -50,8 +50,8 @@ def test_ready_draws_the_same_joints_and_no_look():
     ws = robot_workspace(look)
     with_look = draw_robot(sample_rng(3, 5, "robot"), look, ws)
     without = draw_robot(sample_rng(3, 5, "robot"), ready, ws)
-    assert "look" in with_look and "look" not in without
-    assert with_look["qpos"] == without["qpos"]
+    assert with_look.look is not None and without.look is None
+    assert with_look.qpos == without.qpos
 
 
 def test_an_unknown_pose_is_refused_naming_the_key():
@@ -63,9 +63,9 @@ def test_a_narrower_range_is_kept():
     cfg = _robot("panda")
     cfg = replace(cfg, look=replace(cfg.look, height=(0.5, 0.5), tilt_deg=(0.0, 0.0)))
     ws = robot_workspace(cfg)
-    look = draw_robot(sample_rng(0, 0, "robot"), cfg, ws)["look"]
-    assert look["eye"][2] - ws.tray_floor_top[2] == pytest.approx(0.5)
-    assert look["eye"][:2] == pytest.approx(look["target"][:2])
+    look = draw_robot(sample_rng(0, 0, "robot"), cfg, ws).look
+    assert look.eye[2] - ws.tray_floor_top[2] == pytest.approx(0.5)
+    assert look.eye[:2] == pytest.approx(look.target[:2])
 
 
 def test_the_look_aims_towards_where_the_objects_were_dropped_within_the_tray():
@@ -76,6 +76,6 @@ def test_the_look_aims_towards_where_the_objects_were_dropped_within_the_tray():
         (np.add(centre, [0.05, -0.04]), np.add(centre, [0.05, -0.04])),  # near: the aim itself
         (np.add(centre, [1.0, 1.0]), centre + half / 2),  # far off: half the inner half away
     ):
-        look = draw_robot(sample_rng(0, 1, "robot"), cfg, ws, np.asarray(aim))["look"]
-        off = np.asarray(look["target"][:2]) - expected
+        look = draw_robot(sample_rng(0, 1, "robot"), cfg, ws, np.asarray(aim)).look
+        off = np.asarray(look.target[:2]) - expected
         assert (np.abs(off) <= cfg.look.offset + 1e-6).all()

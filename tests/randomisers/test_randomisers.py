@@ -9,6 +9,7 @@ from datagen.config import BuildConfig
 from datagen.config.sections import ObjectsConfig
 from datagen.randomisers import draw_scene
 from datagen.randomisers.objects import draw_objects
+from datagen.scene_values.checks import as_json
 from datagen.seeding import sample_rng
 
 TRAY = ((0.08, 0.0, 0.76), (0.2, 0.26))
@@ -17,13 +18,13 @@ TRAY = ((0.08, 0.0, 0.76), (0.2, 0.26))
 def test_same_seed_and_index_give_identical_values():
     a = draw_scene(BuildConfig(), 5, 17, *TRAY)
     b = draw_scene(BuildConfig(), 5, 17, *TRAY)
-    assert json.dumps(a, sort_keys=True) == json.dumps(b, sort_keys=True)
+    assert json.dumps(as_json(a), sort_keys=True) == json.dumps(as_json(b), sort_keys=True)
 
 
 def test_other_index_or_seed_gives_other_values():
-    base = json.dumps(draw_scene(BuildConfig(), 5, 17, *TRAY), sort_keys=True)
-    assert json.dumps(draw_scene(BuildConfig(), 5, 18, *TRAY), sort_keys=True) != base
-    assert json.dumps(draw_scene(BuildConfig(), 6, 17, *TRAY), sort_keys=True) != base
+    base = json.dumps(as_json(draw_scene(BuildConfig(), 5, 17, *TRAY)), sort_keys=True)
+    assert json.dumps(as_json(draw_scene(BuildConfig(), 5, 18, *TRAY)), sort_keys=True) != base
+    assert json.dumps(as_json(draw_scene(BuildConfig(), 6, 17, *TRAY)), sort_keys=True) != base
 
 
 def test_streams_are_independent_of_each_other():
@@ -34,17 +35,17 @@ def test_streams_are_independent_of_each_other():
     a, b = draw_scene(config, 0, 3, *TRAY), draw_scene(fewer, 0, 3, *TRAY)
     assert a["lighting"] == b["lighting"]
     assert a["camera"] == b["camera"]
-    assert a["robot"]["qpos"] == b["robot"]["qpos"]
-    looks = a["robot"]["look"], b["robot"]["look"]
-    assert looks[0]["up"] == looks[1]["up"] and looks[0]["eye"][2] == looks[1]["eye"][2]
-    assert looks[0]["target"] != looks[1]["target"]
+    assert a["robot"].qpos == b["robot"].qpos
+    looks = a["robot"].look, b["robot"].look
+    assert looks[0].up == looks[1].up and looks[0].eye[2] == looks[1].eye[2]
+    assert looks[0].target != looks[1].target
 
 
 def test_values_are_json_and_within_config_ranges():
     config = BuildConfig()
     for index in range(30):
         values = draw_scene(config, 1, index, *TRAY)
-        json.dumps(values)
+        json.dumps(as_json(values))
         assert config.objects.count[0] <= len(values["objects"]) <= config.objects.count[1]
         assert (
             len(values["drop_poses"])
@@ -52,13 +53,9 @@ def test_values_are_json_and_within_config_ranges():
             == len(values["materials"]["objects"])
         )
         assert (
-            config.lighting.lights[0]
-            <= len(values["lighting"]["lights"])
-            <= config.lighting.lights[1]
+            config.lighting.lights[0] <= len(values["lighting"].lights) <= config.lighting.lights[1]
         )
-        assert (
-            config.camera.fovy_deg[0] <= values["camera"]["fovy_deg"] <= config.camera.fovy_deg[1]
-        )
+        assert config.camera.fovy_deg[0] <= values["camera"].fovy_deg <= config.camera.fovy_deg[1]
         for obj in values["objects"]:
             assert config.objects.density[0] <= obj["density"] <= config.objects.density[1]
             assert config.objects.friction[0] <= obj["friction"] <= config.objects.friction[1]

@@ -152,12 +152,10 @@ def test_extra_views_come_from_their_own_streams_around_the_nominal_target():
     )
     still = CameraConfig(eye_jitter=0.0, target_jitter=0.0, orbit_deg=90.0)
     values = draw_extra_view(np.random.default_rng(3), still)
-    assert abs(values["azimuth_deg"]) <= 90
-    np.testing.assert_allclose(values["eye"], orbited_eye(still, values["azimuth_deg"]), atol=1e-6)
+    assert abs(values.azimuth_deg) <= 90
+    np.testing.assert_allclose(values.eye, orbited_eye(still, values.azimuth_deg), atol=1e-6)
     radius = np.hypot(*(np.subtract(still.eye, still.target)[:2]))
-    assert np.hypot(*np.subtract(values["eye"], still.target)[:2]) == pytest.approx(
-        radius, abs=1e-5
-    )
+    assert np.hypot(*np.subtract(values.eye, still.target)[:2]) == pytest.approx(radius, abs=1e-5)
     np.testing.assert_allclose(orbited_eye(still, 0.0), still.eye)
 
 

@@ -8,6 +8,7 @@ import pytest
 import sapien
 
 from datagen.registries import ROBOTS
+from datagen.scene_values.arm import ArmPose
 from datagen.worlds.realise import apply_robot
 from datagen.worlds.settle import CHECK_EVERY, REST_CHECKS, at_rest, settle, surface_speeds
 from datagen.worlds.tabletop import load_arm
@@ -62,7 +63,7 @@ def test_the_robot_keeps_its_joints_while_objects_settle_and_wakes_after():
     robot = load_arm(scene, ROBOTS["panda"].load())
     robot.set_root_pose(sapien.Pose([-0.6, 0, 0]))  # clear of the falling box
     qpos = [0.0, -0.95, 0.0, -2.75, 0.0, 1.95, 0.785, 0.02, 0.02]
-    apply_robot(robot, {"qpos": qpos}, ROBOTS["panda"].load().joint_names)
+    apply_robot(ArmPose(tuple(qpos)), robot, ROBOTS["panda"].load().joint_names)
     settle(scene, [body], [HALF], robot, 300, 0.0)
     assert np.abs(robot.get_qpos() - np.asarray(qpos, np.float32)).max() < 1e-5
     assert not robot.get_links()[0].sleeping
@@ -70,7 +71,16 @@ def test_the_robot_keeps_its_joints_while_objects_settle_and_wakes_after():
     awake.set_timestep(0.005)
     sagging = load_arm(awake, ROBOTS["panda"].load())
     sagging.set_root_pose(sapien.Pose([-0.6, 0, 0]))
-    apply_robot(sagging, {"qpos": qpos}, ROBOTS["panda"].load().joint_names)
+    apply_robot(ArmPose(tuple(qpos)), sagging, ROBOTS["panda"].load().joint_names)
     for _ in range(300):
         awake.step()
     assert np.abs(sagging.get_qpos() - np.asarray(qpos, np.float32)).max() > 1e-3
+
+
+@pytest.mark.sim
+def test_a_value_type_without_a_sapien_realiser_is_an_error():
+    from datagen.scene_values.arm import WristLook
+    from datagen.worlds.realise import realise
+
+    with pytest.raises(TypeError, match="no SAPIEN realiser for scene values of type WristLook"):
+        realise(WristLook((0, 0, 1), (0, 0, 0), (1, 0, 0)), sapien.Scene())

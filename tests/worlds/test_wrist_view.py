@@ -35,17 +35,17 @@ def test_the_wrist_camera_sits_where_the_randomiser_drew_it(robot):
     ws = robot_workspace(config.robot)
     for index in range(3):
         params = draw_scene(config, 0, index, ws.tray_floor_top, ws.tray_inner_half)
-        look = params["robot"]["look"]
+        look = params["robot"].look
         scene = construct_scene(config, params)
         take_look_pose(scene)  # unsettled: objects may still be where the arm goes
         scene.scene.update_render()  # a camera on a link follows it when the render is updated
         pose = np.asarray(scene.cameras["wrist"].get_global_pose().to_transformation_matrix())
-        drawn = look_at(look["eye"], look["target"], look["up"])
+        drawn = look_at(look.eye, look.target, look.up)
         where = f"{robot} sample {index}"
         assert np.linalg.norm(pose[:3, 3] - drawn[:3, 3]) < 1e-3, where  # metres
         cosines = np.clip(np.einsum("ij,ij->j", pose[:3, :3], drawn[:3, :3]), -1, 1)
         assert np.degrees(np.arccos(cosines)).max() < 0.1, where
-        above = look["eye"][2] - ws.tray_floor_top[2]
+        above = look.eye[2] - ws.tray_floor_top[2]
         low, high = np.multiply(config.robot.look.height, robot_spec(config.robot).look_scale)
         assert low - 1e-6 <= above <= high + 1e-6, where
         qpos = scene.robot.get_qpos()
