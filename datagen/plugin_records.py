@@ -65,6 +65,11 @@ class MetadataFormat:
         found = getattr(importlib.import_module(self.module), name, None)
         return found if callable(found) else None
 
+    def parts(self) -> tuple[Any, ...]:
+        """The rules of the parts of its own (``PARTS``: ``datagen.dataset.part_rules.PartRule``
+        s; none when it writes only the parts every sample may have)."""
+        return tuple(getattr(importlib.import_module(self.module), "PARTS", ()))
+
 
 @dataclass(frozen=True)
 class ExportFormat:

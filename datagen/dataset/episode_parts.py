@@ -1,15 +1,52 @@
-"""Decoding the episode-level parts of an aerial sample: camera pose files, the voxel grid and the
-drones' IMU streams (the images go through :func:`datagen.dataset.parts.decode_parts`)."""
+"""The parts episodes share and how they are read: frames over time (``f0003.rgb.png``, one
+camera; ``f0003.d0.rgb.png`` and ``.flow.png``, several), camera pose files, the map pictures
+and occupancy grids; and the decoders of an aerial episode's voxel grid and IMU streams. The
+formats that write them list these rules in their ``PARTS`` (``datagen.formats``)."""
 
 from __future__ import annotations
 
 import io
+import re
 import zipfile
 from typing import Any
 
 import numpy as np
 
 from datagen.dataset.manifest import DatasetError
+from datagen.dataset.part_rules import (
+    CAMERA_NAME,
+    IMAGE_KINDS,
+    Decoding,
+    PartRule,
+    image_rule,
+)
+
+# one camera over time: f0003.rgb.png; several: f0003.d0.rgb.png, f0003.d1_down.flow.png
+FRAME_PART = re.compile(rf"f(\d{{4}})\.({IMAGE_KINDS})\.png")
+CAMERA_FRAME_PART = re.compile(rf"f(\d{{4}})\.({CAMERA_NAME})\.({IMAGE_KINDS}|flow)\.png")
+
+
+def _camera_frame(decoding: Decoding, match: re.Match[str]) -> dict[str, Any]:
+    return decoding.frame(int(match[1])).setdefault("cameras", {}).setdefault(match[2], {})
+
+
+def _pose_file(decoding: Decoding, match: re.Match[str], data: bytes) -> None:
+    decoding.item.setdefault(match[1], {})[match[2]] = pose_lines(data, match[0])
+
+
+def _picture(decoding: Decoding, match: re.Match[str], data: bytes) -> None:
+    decoding.image(decoding.item, match[1], "rgb.png", data)
+
+
+def _occupancy_picture(decoding: Decoding, match: re.Match[str], data: bytes) -> None:
+    decoding.image(decoding.item, "occupancy", "occupancy.png", data)
+
+
+FRAME_IMAGES = image_rule(FRAME_PART.pattern, lambda d, m: d.frame(int(m[1])))
+CAMERA_FRAMES = image_rule(CAMERA_FRAME_PART.pattern, _camera_frame)
+POSE_FILES = PartRule(re.compile(rf"(poses|poses_ned)\.({CAMERA_NAME})\.txt"), _pose_file)
+MAP_PICTURES = PartRule(re.compile(r"(map|side)\.png"), _picture)  # RGB
+OCCUPANCY_PICTURE = PartRule(re.compile(r"occupancy\.png"), _occupancy_picture)  # True: occupied
 
 
 def pose_lines(data: bytes, name: str) -> np.ndarray:

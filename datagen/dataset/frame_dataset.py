@@ -8,10 +8,11 @@ from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
-from datagen.dataset.episode_parts import imu_for_frame
+from datagen.dataset.episode_parts import CAMERA_FRAME_PART, FRAME_PART, imu_for_frame
 from datagen.dataset.loader import ShardDataset
 from datagen.dataset.manifest import DatasetError
-from datagen.dataset.parts import CAMERA_FRAME_PART, FRAME_PART, IMAGE_PARTS, decode_parts
+from datagen.dataset.part_rules import IMAGE_PARTS
+from datagen.dataset.parts import decode_parts
 from datagen.records import SampleMetadata
 
 
@@ -33,9 +34,9 @@ class FrameDataset:
         for i in range(len(self.episodes)):
             frames = set()
             for part in self.episodes.part_names(i):
-                if m := FRAME_PART.match(part):
+                if m := FRAME_PART.fullmatch(part):
                     frames.add(("", int(m[1])))
-                elif m := CAMERA_FRAME_PART.match(part):
+                elif m := CAMERA_FRAME_PART.fullmatch(part):
                     frames.add((m[2], int(m[1])))
             self.index.extend((i, k, camera) for camera, k in sorted(frames))
         if len(self.episodes) and not self.index:

@@ -5,6 +5,7 @@ thread pool. Hostile input: every image and JSON part is bounded before it is de
 
 from __future__ import annotations
 
+import functools
 import os
 import re
 import sys
@@ -14,43 +15,49 @@ from typing import Any, cast
 import cv2
 import numpy as np
 
-from datagen.dataset.episode_parts import imu_stream, pose_lines, voxel_grid
 from datagen.dataset.flow_png import decode_flow_image
 from datagen.dataset.manifest import DatasetError
-from datagen.dataset.trajectory import decode_trajectory
+from datagen.dataset.part_rules import (
+    CAMERA_NAME,
+    IMAGE_KINDS,
+    IMAGE_PARTS,
+    Decoding,
+    PartRule,
+    image_rule,
+)
 from datagen.images import ImageInputError, decode_image
 from datagen.records import SampleMetadata
 from datagen.safe_json import JsonInputError, loads_bounded
 
-# part name -> item field, for the parts decoded as images (depth_sensor.png: the sensor
-# model's depth, rgb_clean.png: colour before the camera effects; only where the build made them)
-IMAGE_PARTS = {
-    "rgb.png": "rgb",
-    "depth.png": "depth",
-    "seg.png": "seg",
-    "semantic.png": "semantic",
-    "depth_sensor.png": "depth_sensor",
-    "rgb_clean.png": "rgb_clean",
-}
 _COLOUR_PARTS = ("rgb.png", "rgb_clean.png")  # stored BGR by OpenCV, returned RGB
-_KINDS = "rgb|rgb_clean|depth|depth_sensor|seg|semantic"
 
-FRAME_PART = re.compile(rf"^f(\d{{4}})\.({_KINDS})\.png$")
-# a frame of one of several cameras (aerial episodes): f0003.d0.rgb.png, f0003.d1_down.flow.png
-CAMERA_FRAME_PART = re.compile(rf"^f(\d{{4}})\.([A-Za-z][\w-]*)\.({_KINDS}|flow)\.png$")
-_POSES_PART = re.compile(r"^(poses|poses_ned)\.([A-Za-z][\w-]*)\.txt$")
-_IMU_PART = re.compile(r"^imu\.(d\d+)\.npz$")
-# another camera of a sample: wrist.rgb.png, view1.depth.png, post.seg.png, ...
-_CAMERA_PART = re.compile(rf"^([A-Za-z][\w-]*)\.({_KINDS})\.png$")
-# a grasp attempt's film: frame3.rgb.png (workspace camera), frame3.wrist.rgb.png
-_FILM_PART = re.compile(r"^frame(\d+)\.(?:(wrist)\.)?rgb\.png$")
+
+def _other_camera(decoding: Decoding, match: re.Match[str]) -> dict[str, Any]:
+    return decoding.cameras.setdefault(match[1], {})
+
+
+# another camera of a sample: wrist.rgb.png, view1.depth.png, post.seg.png, ... (after the
+# formats' rules: a film's frame3.rgb.png or an episode's f0003.rgb.png is theirs)
+OTHER_CAMERAS = image_rule(rf"({CAMERA_NAME})\.({IMAGE_KINDS})\.png", _other_camera)
+
+
+@functools.cache
+def part_rules() -> tuple[PartRule, ...]:
+    """The rules of every registered metadata format's parts (``PARTS`` in its module), each
+    once, in the formats' order, then the other cameras' images."""
+    from datagen.registries import METADATA_FORMATS
+
+    rules: dict[PartRule, None] = {}
+    for metadata_format in METADATA_FORMATS.values():
+        rules |= dict.fromkeys(metadata_format.parts())
+    return (*rules, OTHER_CAMERAS)
 
 
 def decode_parts(parts: dict[str, bytes]) -> dict[str, Any]:
     """Encoded parts -> arrays: rgb HxWx3 uint8 RGB, depth HxW uint16 mm, seg HxW instance ids,
     semantic HxW class ids, meta dict; where the build made them, depth_sensor HxW uint16 mm
     (0 = no reading) and rgb_clean HxWx3 uint8 RGB; unknown parts stay bytes under their own
-    name.
+    name. The parts of each metadata format are read by its rules (:func:`part_rules`).
 
     The images of a sample's other cameras are under ``views`` by camera name
     (``item["views"]["view1"]["rgb"]``, ``["wrist"]``, ...; the main camera's stay at the top).
@@ -61,51 +68,22 @@ def decode_parts(parts: dict[str, bytes]) -> dict[str, Any]:
     pixels with ``flow_valid``) and ``meta``; ``map`` and ``side`` (RGB pictures),
     ``occupancy`` (bool voxels (nz, ny, nx), True = occupied) with ``occupancy_resolution``
     (metres), ``poses`` and ``poses_ned`` (camera name -> (T, 7) tx ty tz qx qy qz qw, conventions
-    in ``meta["poses_convention"]``), ``imu`` (``d<k>`` -> drone k's IMU stream). A recorded grasp attempt gets ``trajectory``: the arrays of its
-    ``trajectory.npz`` and its ``names`` (``datagen.dataset.trajectory``), with ``frames`` (a list
-    in time order of dicts with ``time``, ``rgb`` and, if filmed, ``wrist_rgb``) when it was
-    filmed. The PNGs of one call are decoded on a small thread pool (OpenCV releases the GIL)."""
-    item: dict[str, Any] = {}
-    frames: dict[int, dict[str, Any]] = {}
-    cameras: dict[str, dict[str, Any]] = {}
-    film: dict[int, dict[str, Any]] = {}
-    jobs: list[tuple[dict[str, Any], str, str, bytes]] = []  # (into, field, image kind, data)
+    in ``meta["poses_convention"]``), ``imu`` (``d<k>`` -> drone k's IMU stream). A recorded
+    grasp attempt gets ``trajectory``: the arrays of its ``trajectory.npz`` and its ``names``
+    (``datagen.dataset.trajectory``), with ``frames`` (a list in time order of dicts with
+    ``time``, ``rgb`` and, if filmed, ``wrist_rgb``) when it was filmed. The PNGs of one call
+    are decoded on a small thread pool (OpenCV releases the GIL)."""
+    decoding = Decoding()
+    item = decoding.item
+    rules = part_rules()
     for name, data in parts.items():
         if name == "json":
             item["meta"] = metadata_of(data, "part 'json'")
         elif name in IMAGE_PARTS:
-            jobs.append((item, IMAGE_PARTS[name], name, data))
-        elif name == "trajectory.npz":
-            item["trajectory"] = decode_trajectory(data)
-        elif match := _FILM_PART.match(name):
-            field = "wrist_rgb" if match[2] else "rgb"
-            jobs.append((film.setdefault(int(match[1]), {}), field, "rgb.png", data))
-        elif match := FRAME_PART.match(name):
-            kind = f"{match[2]}.png"
-            jobs.append((frames.setdefault(int(match[1]), {}), IMAGE_PARTS[kind], kind, data))
-        elif match := CAMERA_FRAME_PART.match(name):
-            kind = f"{match[3]}.png"
-            into = (
-                frames.setdefault(int(match[1]), {})
-                .setdefault("cameras", {})
-                .setdefault(match[2], {})
-            )
-            jobs.append((into, IMAGE_PARTS.get(kind, "flow"), kind, data))
-        elif match := _POSES_PART.match(name):
-            item.setdefault(match[1], {})[match[2]] = pose_lines(data, name)
-        elif match := _IMU_PART.match(name):
-            item.setdefault("imu", {})[match[1]] = imu_stream(data, name)
-        elif name == "occupancy.npz":
-            item["occupancy"], item["occupancy_resolution"] = voxel_grid(data)
-        elif match := _CAMERA_PART.match(name):
-            kind = f"{match[2]}.png"
-            jobs.append((cameras.setdefault(match[1], {}), IMAGE_PARTS[kind], kind, data))
-        elif name in ("map.png", "side.png"):
-            jobs.append((item, name[:-4], "rgb.png", data))
-        elif name == "occupancy.png":
-            jobs.append((item, "occupancy", name, data))
-        else:
+            decoding.image(item, IMAGE_PARTS[name], name, data)
+        elif not any(rule.apply(decoding, name, data) for rule in rules):
             item[name] = data
+    jobs = decoding.jobs
     pool = _decoder_pool() if len(jobs) > 1 else None
     images = (
         pool.map(lambda job: _decode_png(job[2], job[3]), jobs)
@@ -117,11 +95,12 @@ def decode_parts(parts: dict[str, bytes]) -> dict[str, Any]:
             into["flow"], into["flow_valid"] = decode_flow_image(image)
         else:
             into[field] = image > 0 if field == "occupancy" else image
-    if cameras:
-        item["views"] = cameras
-    if film:
-        _attach_film(item, film)
-    if frames:
+    if decoding.cameras:
+        item["views"] = decoding.cameras
+    if decoding.film:
+        _attach_film(item, decoding.film)
+    if decoding.frames:
+        frames = decoding.frames
         records = item.get("meta", {}).get("frames", [])
         records = records if isinstance(records, list) else []
         item["frames"] = [

@@ -16,6 +16,10 @@ A format's module defines:
 - ``episodes(meta, dataset, i, manifest)``: the :class:`datagen.exports.episodes.Episode` s the
   sample holds (LeRobot, robomimic), ``[]`` for none;
 
-and may define ``check(meta)`` (raises what its plots cannot take) and ``pictures(metas,
-title)``: file name -> ``draw(path)`` of inspect's pictures of its own.
+and may define ``check(meta)`` (raises what its plots cannot take), ``pictures(metas,
+title)``: file name -> ``draw(path)`` of inspect's pictures of its own, and ``PARTS``: the
+rules that read its parts beyond the images every sample may have
+(:class:`datagen.dataset.part_rules.PartRule`: a name pattern and what a matching part adds to
+the loaded item; ``datagen.dataset.episode_parts`` has those episodes share). The loader
+applies every registered format's rules, so no reader names a family's parts.
 """

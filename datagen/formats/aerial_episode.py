@@ -5,11 +5,20 @@ volume's pictures and voxels."""
 
 from __future__ import annotations
 
+import re
 from collections.abc import Mapping, Sequence
 from typing import Any
 
 import numpy as np
 
+from datagen.dataset.episode_parts import (
+    CAMERA_FRAMES,
+    MAP_PICTURES,
+    POSE_FILES,
+    imu_stream,
+    voxel_grid,
+)
+from datagen.dataset.part_rules import Decoding, PartRule
 from datagen.dataset.views import camera_sequence_views
 from datagen.exports.episodes import Episode, on_grid, words
 from datagen.formats.counting import agent_fields, agents_summary
@@ -18,6 +27,25 @@ from datagen.tools.aerial_preview import aerial_tile
 
 views = camera_sequence_views
 tile = aerial_tile
+
+
+def _imu(decoding: Decoding, match: re.Match[str], data: bytes) -> None:
+    decoding.item.setdefault("imu", {})[match[1]] = imu_stream(data, match[0])
+
+
+def _voxels(decoding: Decoding, match: re.Match[str], data: bytes) -> None:
+    decoding.item["occupancy"], decoding.item["occupancy_resolution"] = voxel_grid(data)
+
+
+# its cameras' frames and pose files, the top-down and side pictures, each drone's IMU stream
+# (imu.d0.npz) and the voxel grid (occupancy.npz)
+PARTS = (
+    CAMERA_FRAMES,
+    POSE_FILES,
+    MAP_PICTURES,
+    PartRule(re.compile(r"imu\.(d\d+)\.npz"), _imu),
+    PartRule(re.compile(r"occupancy\.npz"), _voxels),
+)
 
 
 def _agents(metas: Sequence[SampleMetadata]) -> list[dict[str, Any]]:

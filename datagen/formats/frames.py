@@ -5,6 +5,7 @@ images unprefixed, another camera's prefixed by its name), and for a grasp attem
 
 from __future__ import annotations
 
+import re
 from collections import Counter
 from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
@@ -12,6 +13,7 @@ from typing import Any
 
 import numpy as np
 
+from datagen.dataset.part_rules import Decoding, PartRule
 from datagen.dataset.trajectory import decode_trajectory
 from datagen.dataset.views import camera_views
 from datagen.errors import DatasetError
@@ -24,6 +26,23 @@ from datagen.tools.sample_checks import check_plottable
 
 views = camera_views
 tile = camera_tile
+
+
+def _trajectory(decoding: Decoding, match: re.Match[str], data: bytes) -> None:
+    decoding.item["trajectory"] = decode_trajectory(data)
+
+
+def _film_frame(decoding: Decoding, match: re.Match[str], data: bytes) -> None:
+    into = decoding.film.setdefault(int(match[1]), {})
+    decoding.image(into, "wrist_rgb" if match[2] else "rgb", "rgb.png", data)
+
+
+# a grasp attempt's recorded trajectory, and its film: frame3.rgb.png (the workspace camera),
+# frame3.wrist.rgb.png, each matched to a frame time of the trajectory
+PARTS = (
+    PartRule(re.compile(r"trajectory\.npz"), _trajectory),
+    PartRule(re.compile(r"frame(\d+)\.(?:(wrist)\.)?rgb\.png"), _film_frame),
+)
 
 # name -> the values of one sample; a name whose fields a family's metadata lacks is left out
 _SAMPLE_VALUES: dict[str, Callable[[SampleMetadata], list[float]]] = {

@@ -10,6 +10,12 @@ from typing import Any
 
 import numpy as np
 
+from datagen.dataset.episode_parts import (
+    FRAME_IMAGES,
+    MAP_PICTURES,
+    OCCUPANCY_PICTURE,
+    POSE_FILES,
+)
 from datagen.dataset.views import labelled_views, sequence_views
 from datagen.exports.episodes import Episode, frame_actions, ground_episode, on_grid
 from datagen.formats.counting import histogram
@@ -18,6 +24,7 @@ from datagen.records import ExportedDataset, Manifest, SampleMetadata
 from datagen.tools.preview import navigation_tile
 
 views = sequence_views
+PARTS = (FRAME_IMAGES, POSE_FILES, MAP_PICTURES, OCCUPANCY_PICTURE)
 
 
 def summary(metas: Sequence[SampleMetadata]) -> dict[str, Any]:

@@ -9,6 +9,12 @@ from typing import Any
 
 import numpy as np
 
+from datagen.dataset.episode_parts import (
+    CAMERA_FRAMES,
+    MAP_PICTURES,
+    OCCUPANCY_PICTURE,
+    POSE_FILES,
+)
 from datagen.dataset.views import camera_sequence_views
 from datagen.exports.episodes import Episode, frame_actions, ground_episode, on_grid
 from datagen.formats.counting import agent_fields, agents_summary
@@ -16,6 +22,7 @@ from datagen.records import ExportedDataset, Manifest, SampleMetadata
 from datagen.tools.preview import navigation_tile
 
 views = camera_sequence_views
+PARTS = (CAMERA_FRAMES, POSE_FILES, MAP_PICTURES, OCCUPANCY_PICTURE)
 
 
 def _agents(metas: Sequence[SampleMetadata]) -> list[dict[str, Any]]:

@@ -7,11 +7,13 @@ from __future__ import annotations
 import cv2
 import numpy as np
 
+from datagen.dataset.episode_parts import FRAME_IMAGES
 from datagen.dataset.views import sequence_views
 from datagen.exports.episodes import Episode
 from datagen.registries import MetadataFormat
 
 views = sequence_views  # one camera over time: a shape datagen.dataset.views has
+PARTS = (FRAME_IMAGES,)  # its frames' images, read as one camera over time (the rule datagen has)
 
 
 def summary(metas):
