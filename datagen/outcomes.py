@@ -10,7 +10,7 @@ An outcome is plain JSON: ``{"kind": "grasp", "success", "sampler", "family", "f
 
 from __future__ import annotations
 
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Mapping, Sequence
 from typing import Any
 
 from datagen.records import Outcome
@@ -38,7 +38,7 @@ def spl(success: bool, shortest_m: float, travelled_m: float) -> float:
     return round(float(success) * shortest_m / max(travelled_m, shortest_m, 1e-9), 6)
 
 
-def agents_outcome(agents: list[Mapping[str, Any]]) -> dict[str, Any]:
+def agents_outcome(agents: Sequence[Mapping[str, Any]]) -> dict[str, Any]:
     """An episode of several agents (drones, robots) as a whole, from each agent's record: every
     one succeeded; SPL and path lengths averaged over them (``round``: 6 decimals)."""
     mean = lambda key: round(sum(float(a[key]) for a in agents) / len(agents), 6)  # noqa: E731

@@ -83,7 +83,11 @@ def robot_spec(cfg: RobotConfig, source: str = "<config>") -> RobotSpec:
 
 def robot_workspace(cfg: RobotConfig) -> Workspace:
     """The table, tray and base scaled to the configured arm (``RobotSpec.workspace_scale``)."""
-    spec = robot_spec(cfg)
+    return arm_workspace(robot_spec(cfg))
+
+
+def arm_workspace(spec: RobotSpec) -> Workspace:
+    """The table, tray and base scaled to the arm ``spec``."""
     return Workspace(spec.workspace_scale, spec.object_scale)
 
 

@@ -17,7 +17,7 @@ from __future__ import annotations
 
 import functools
 from pathlib import Path
-from typing import Any
+from typing import Any, cast
 
 import cv2
 import numpy as np
@@ -36,7 +36,7 @@ from datagen.exports.checks import (
 )
 from datagen.exports.files import inside, written
 from datagen.images import decode_image
-from datagen.records import ExportedDataset, Manifest, SampleProgress
+from datagen.records import ExportedDataset, Manifest, SampleMetadata, SampleProgress
 
 SPLIT = "train_pbr"  # BOP's name for synthetic training scenes (bop_toolkit's split_type "pbr")
 NO_BOX = [-1, -1, -1, -1]  # BOP's box of an empty mask
@@ -109,7 +109,7 @@ def _view_images(
 def _object_to_camera(obj: dict[str, Any], view: LabelledView) -> np.ndarray:
     """The view's ``pose_camera`` of the object, else world pose seen through the extrinsics."""
     where = f"{view_name(view)}: instance {obj['instance_id']!r}"
-    for seen in view.record.get("objects", []):
+    for seen in cast(dict[str, Any], view.record).get("objects", []):
         if seen.get("instance_id") == obj["instance_id"] and "pose_camera" in seen:
             return pose_matrix(seen["pose_camera"]["matrix"], f"{where} pose_camera.matrix")
     E = view_camera(view)[1]
@@ -121,7 +121,7 @@ def _export_view(
     im_id: int,
     view: LabelledView,
     raw: dict[str, bytes],
-    meta: dict[str, Any],
+    meta: SampleMetadata,
     models: ModelSet,
 ) -> tuple[dict[str, Any], list[dict[str, Any]], list[dict[str, Any]]]:
     """Writes one image's files; returns its scene_camera record and scene_gt, scene_gt_info lists."""
@@ -144,7 +144,8 @@ def _export_view(
         "datagen_view": view.name or "workspace",
     }
     gts, infos = [], []
-    for gt_id, obj in enumerate(meta["objects"]):
+    for gt_id, stored in enumerate(meta["objects"]):
+        obj = cast(dict[str, Any], stored)  # read as the JSON the sample stored
         model = models.model(obj, meta["key"])
         pose = model.to_model(_object_to_camera(obj, view))
         whole = silhouette(model, pose, K, (w, h), float(view.camera.get("near", 0.01)))
@@ -179,7 +180,7 @@ def _export_view(
 
 
 def _export_scene(
-    dataset: ExportedDataset, i: int, meta: dict[str, Any], scene: Path, models: ModelSet
+    dataset: ExportedDataset, i: int, meta: SampleMetadata, scene: Path, models: ModelSet
 ) -> None:
     for sub in ("rgb", "depth", "mask", "mask_visib"):
         (scene / sub).mkdir(parents=True)

@@ -18,6 +18,7 @@ from __future__ import annotations
 import hashlib
 import itertools
 import json
+from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -105,7 +106,7 @@ def _diameter(vertices: np.ndarray) -> float:
     return float(np.sqrt(best))
 
 
-def dump_json(path: Path, doc: dict[str, Any]) -> None:
+def dump_json(path: Path, doc: Mapping[Any, Any]) -> None:
     """JSON as bop_toolkit writes it: one line per top-level key."""
     finite_json(doc, path.name)
     lines = ",\n".join(

@@ -242,6 +242,7 @@ class _Writer:
             else:
                 stats[key] = meta.numeric_stats(values)
         schema = self.data.schema
+        assert schema is not None  # set when the dataset's features were known
         table = pa.table([meta.column(columns[f.name], f.type) for f in schema], schema=schema)
         chunk, file = self.data.position()
         self.data.write(table)

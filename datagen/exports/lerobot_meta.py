@@ -85,8 +85,8 @@ class ParquetFiles:
     def __init__(self, root: Path, folder: str, schema: pa.Schema | None, limit_bytes: int):
         self.root, self.folder, self.schema, self.limit_bytes = root, folder, schema, limit_bytes
         self.chunk, self.file = 0, -1
-        self.sink: pa.NativeFile | None = None
-        self.writer: pq.ParquetWriter | None = None
+        self.sink: Any = None  # pyarrow's file and writer, while a file is open
+        self.writer: Any = None
         self.written: list[Path] = []
 
     def position(self) -> tuple[int, int]:

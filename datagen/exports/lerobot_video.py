@@ -15,6 +15,7 @@ import itertools
 from collections.abc import Iterable
 from fractions import Fraction
 from pathlib import Path
+from typing import Any
 
 import av
 import numpy as np
@@ -57,7 +58,8 @@ class VideoFiles:
         self.limit_bytes, self.chunks_size = limit_bytes, chunks_size
         self.chunk, self.file = 0, -1
         self.path: Path | None = None
-        self.container = self.stream = None
+        self.container: Any = None  # av's output container and stream, while a file is open
+        self.stream: Any = None
         self.frames = self.bytes = 0  # frames and encoded bytes in the open file
         self.shape: tuple[int, int] | None = None  # (height, width)
         self.written: list[Path] = []
@@ -75,6 +77,7 @@ class VideoFiles:
         )
         options = {"crf": str(CRF), "g": str(GOP), "preset": PRESET}
         self.stream = self.container.add_stream(CODEC, rate=self.fps, options=options)
+        assert self.shape is not None  # known before the first file opens
         self.stream.height, self.stream.width = self.shape
         self.stream.pix_fmt = PIX_FMT
         self.stream.codec_context.time_base = Fraction(1, self.fps)

@@ -14,7 +14,7 @@ from __future__ import annotations
 
 import json
 from pathlib import Path
-from typing import Any
+from typing import Any, cast
 
 import h5py
 import numpy as np
@@ -80,9 +80,10 @@ def normalise(action: np.ndarray, low: np.ndarray, high: np.ndarray) -> np.ndarr
 
 
 def _env_args(dataset: ExportedDataset, manifest: Manifest, first: int | None) -> dict[str, Any]:
-    robot = dataset.metadata(first).get("robot", {}) if first is not None else {}
+    meta = cast(dict[str, Any], dataset.metadata(first)) if first is not None else {}
+    robot = meta.get("robot", {})
     scene = manifest.get("scene", "")
-    version = manifest.get("versions", {}).get("datagen", "")
+    version = cast(dict[str, str], manifest.get("versions", {})).get("datagen", "")
     return {  # robomimic reads env_name, type and env_kwargs (EnvUtils.get_env_type: "type")
         "env_name": f"datagen/{scene}",
         "type": ENV_TYPE,
@@ -101,7 +102,7 @@ def _env_args(dataset: ExportedDataset, manifest: Manifest, first: int | None) -
 def _write(f: h5py.File, dataset, manifest, scale, first, on_progress) -> None:
     data = f.create_group("data")
     low, high = scale
-    names = {"train": [], "valid": []}
+    names: dict[str, list[str]] = {"train": [], "valid": []}
     total, left = 0, LeftOut()
     for i in range(len(dataset)):
         written = {"json", "trajectory.npz"}  # the metadata and trajectory the demos come from
@@ -165,8 +166,8 @@ def _low_dim(episode: Episode) -> tuple[dict[str, np.ndarray], np.ndarray, list[
     obs = {k: v.astype(np.float32) for k, v in obs.items()}
     states = np.concatenate([state, qvel, target], axis=1).astype(np.float64)
     joints = list(episode.state_names)
-    pose = ["x", "y", "z", "qw", "qx", "qy", "qz"]
-    return obs, states, [*joints, *(f"{j}.vel" for j in joints), *(f"target.{p}" for p in pose)]
+    axes = ["x", "y", "z", "qw", "qx", "qy", "qz"]
+    return obs, states, [*joints, *(f"{j}.vel" for j in joints), *(f"target.{p}" for p in axes)]
 
 
 def _put(group: h5py.Group, name: str, values: np.ndarray) -> None:

@@ -76,8 +76,10 @@ def mesh_file_parts(path: Path, max_faces: int = MAX_FACES_PER_LINK) -> tuple[Pa
         loaded = trimesh.load(path)
     except (OSError, ValueError) as exc:
         raise ValueError(f"{path}: cannot read this robot mesh ({exc})") from None
-    meshes = loaded.dump() if isinstance(loaded, trimesh.Scene) else [loaded]
-    meshes = [m for m in meshes if isinstance(m, trimesh.Trimesh) and len(m.faces)]
+    found = loaded.dump() if isinstance(loaded, trimesh.Scene) else [loaded]
+    meshes: list[trimesh.Trimesh] = [
+        m for m in found if isinstance(m, trimesh.Trimesh) and len(m.faces)
+    ]
     budgets = face_budgets([len(m.faces) for m in meshes], max_faces)
     return tuple(
         Part(*decimated(mesh.vertices, mesh.faces, budget), _colour(mesh))

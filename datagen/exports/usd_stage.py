@@ -218,12 +218,14 @@ def scene_stage(meta: dict[str, Any], out_dir: str | Path | None = None) -> Usd.
     _xform(stage, "/World/Lights")
     add_to_stage(Lighting.from_json(meta["randomisation"]["lighting"]), stage)
     _xform(stage, "/World/Cameras")
-    for name, view in meta["views"].items():
-        _camera(stage, name, view["camera"])
-        for part in ("camera_effects", "depth_sensor"):  # values that make those images again
-            if part in view:
-                prim = stage.GetPrimAtPath(f"/World/Cameras/{name}")
-                prim.SetCustomDataByKey(f"datagen:{part}", json.dumps(view[part], allow_nan=False))
+    for camera, view in meta["views"].items():
+        _camera(stage, camera, view["camera"])
+        for effect in ("camera_effects", "depth_sensor"):  # values that make those images again
+            if effect in view:
+                prim = stage.GetPrimAtPath(f"/World/Cameras/{camera}")
+                prim.SetCustomDataByKey(
+                    f"datagen:{effect}", json.dumps(view[effect], allow_nan=False)
+                )
     return stage
 
 

@@ -77,7 +77,7 @@ def sat_twin(config: BuildConfig, settled: GraspScene) -> GraspScene:
     poses, its robot at its joint positions, the drawn values (``params``) its own."""
     poses = [{"position": o.entity.pose.p, "quat_wxyz": o.entity.pose.q} for o in settled.objects]
     with sat_contacts():
-        twin = construct_scene(config, settled.params | {"drop_poses": poses})
+        twin = construct_scene(config, settled.params | {"drop_poses": poses}, settled.spec)
     convex_statics(twin.scene)
     twin.robot.set_qpos(settled.robot.get_qpos())
     twin.params = settled.params

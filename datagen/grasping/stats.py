@@ -13,7 +13,7 @@ def _rate(successes: int, attempts: int) -> float:
 
 
 def campaign_stats(
-    outcomes: Iterable[Mapping[str, Any]], seconds: float | None = None
+    outcomes: Iterable[Mapping[str, Any] | None], seconds: float | None = None
 ) -> dict[str, Any]:
     """Success rates overall, per sampler and per shape family, and failure-mode counts, of
     grasp outcomes (each sample counted once). ``disturbed`` attempts (an object moved faster

@@ -9,7 +9,7 @@ from typing import Any
 import numpy as np
 
 from datagen.config import BuildConfig
-from datagen.config.robot import robot_workspace
+from datagen.config.robot import arm_workspace, robot_spec
 from datagen.randomisers.background import draw_background
 from datagen.randomisers.camera import draw_camera, draw_extra_view, extra_view_name
 from datagen.randomisers.distractors import draw_distractors, draw_flying
@@ -21,6 +21,7 @@ from datagen.randomisers.poses import draw_drop_poses
 from datagen.randomisers.robot import draw_robot
 from datagen.randomisers.textures import add_textures
 from datagen.randomisers.workspace import scaled_to_robot
+from datagen.robot_specs import RobotSpec
 from datagen.seeding import sample_rng
 
 
@@ -28,22 +29,27 @@ def draw_scene(
     config: BuildConfig,
     seed: int,
     index: int,
-    tray_centre: tuple[float, float, float],
+    tray_floor_top: tuple[float, float, float],
     tray_inner_half: tuple[float, float],
     attempt: int = 0,
+    arm: RobotSpec | None = None,
 ) -> dict[str, Any]:
-    """All randomised values of one scene; stored verbatim in the sample's metadata. The
-    workspace camera is ``camera``; the extra views of ``render.views`` > 1 are under
-    ``extra_views`` by name (``view1``, ...), each from its own stream."""
+    """All randomised values of one scene, by name (typed values: ``datagen.scene_values``);
+    stored in the sample's metadata as ``as_json`` writes them. Objects drop into the tray
+    whose floor's top centre is ``tray_floor_top`` (metres), within ``tray_inner_half``; lights
+    aim there. The workspace camera is ``camera``; the extra views of ``render.views`` > 1 are
+    under ``extra_views`` by name (``view1``, ...), each from its own stream. ``arm``: the
+    configured arm, resolved once per sample by the caller (else here)."""
 
     def rng(name: str):
         return sample_rng(seed, index, name, attempt)
 
-    config = scaled_to_robot(config)  # a small arm's scene; the config itself for scale 1
-    ws = robot_workspace(config.robot)
+    arm = arm or robot_spec(config.robot)
+    config = scaled_to_robot(config, arm)  # a small arm's scene; the config itself for scale 1
+    ws = arm_workspace(arm)
     objects = draw_objects(rng("objects"), config.objects)
     drops = draw_drop_poses(
-        rng("drop_poses"), config.objects, len(objects), tray_centre, tray_inner_half
+        rng("drop_poses"), config.objects, len(objects), tray_floor_top, tray_inner_half
     )
     dropped_at = np.mean([pose["position"][:2] for pose in drops], axis=0)
     params: dict[str, Any] = {
@@ -56,13 +62,13 @@ def draw_scene(
             draw_materials(rng("materials"), config.materials, len(objects)),
             config.photos,
         ),
-        "lighting": draw_lighting(rng("lighting"), config.lighting, tray_centre),
+        "lighting": draw_lighting(rng("lighting"), config.lighting, tray_floor_top),
         "camera": draw_camera(rng("camera"), config.camera),
-        "robot": draw_robot(rng("robot"), config.robot, ws, dropped_at),
+        "robot": draw_robot(rng("robot"), config.robot, ws, dropped_at, arm),
     }
     if config.background.enabled:  # absent when off: the scene stays as it was
         params["background"] = draw_background(
-            rng("background"), config.background, config.materials, tray_centre, config.photos
+            rng("background"), config.background, config.materials, tray_floor_top, config.photos
         )
     if config.photos.enabled:  # photographs over what was drawn, from streams of their own
         params["materials"] = add_photo_surfaces(
@@ -111,14 +117,15 @@ def redrawn_drop_poses(
     index: int,
     redraw: int,
     count: int,
-    tray_centre: tuple[float, float, float],
+    tray_floor_top: tuple[float, float, float],
     tray_inner_half: tuple[float, float],
     attempt: int = 0,
+    arm: RobotSpec | None = None,
 ) -> tuple[str, list[dict[str, Any]]]:
     """Re-draw ``redraw`` (1, 2, ...) of the drop poses, when a target settled outside the tray:
     (the stream's name, the poses) from stream ``drop_poses.redraw<k>``, still a function of
     (seed, index, attempt) alone."""
     stream = f"drop_poses.redraw{redraw}"
     rng = sample_rng(seed, index, stream, attempt)
-    objects = scaled_to_robot(config).objects
-    return stream, draw_drop_poses(rng, objects, count, tray_centre, tray_inner_half)
+    objects = scaled_to_robot(config, arm or robot_spec(config.robot)).objects
+    return stream, draw_drop_poses(rng, objects, count, tray_floor_top, tray_inner_half)

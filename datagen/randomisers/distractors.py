@@ -203,6 +203,7 @@ def draw_distractors(
             shape = draw_shape(rng, str(rng.choice(SHAPE_FAMILIES)), size)
             material = _material(rng, materials, photos)
             radius = size / 2
+            position: list[float] | None
             if placement == "air":
                 quat, position = random_quaternion(rng), _air_position(rng, view, radius)
             else:
@@ -308,6 +309,7 @@ def draw_flying(
             continue
         centre, size = spot
         if with_photo:
+            assert photos is not None  # a share above 0 needs photos on
             shape, material = _photo_card(rng, photos, materials, size)
         else:
             family = str(rng.choice([*SHAPE_FAMILIES, CARD]))

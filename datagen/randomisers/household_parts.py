@@ -141,7 +141,7 @@ def _tool(rng: np.random.Generator, size: float) -> list[dict[str, Any]]:
     if rng.uniform() < 0.5:
         head = size * rng.uniform(0.1, 0.16)  # the head's square section
         handle_length = size - head
-        head_part = {
+        head_part: dict[str, Any] = {
             "kind": "box",
             "extents": _round([head, head, size * rng.uniform(0.3, 0.45)]),
             "offset": _round([size / 2 - head / 2, 0, 0]),

@@ -8,17 +8,23 @@ import numpy as np
 
 from datagen.assets.tabletop_layout import Workspace
 from datagen.config.robot import LookConfig, RobotConfig, robot_spec
+from datagen.robot_specs import RobotSpec
 from datagen.scene_values.arm import ArmPose, WristLook
 
 
 def draw_robot(
-    rng: np.random.Generator, cfg: RobotConfig, ws: Workspace, aim: np.ndarray | None = None
+    rng: np.random.Generator,
+    cfg: RobotConfig,
+    ws: Workspace,
+    aim: np.ndarray | None = None,
+    spec: RobotSpec | None = None,
 ) -> ArmPose:
     """Joint positions: the arm's ready pose jittered, the finger joints (two prismatic fingers,
     or one jaw) opened alike within their travel (radians, metres), in the order of the record's
     ``joint_names``; and with ``robot.pose: look`` the wrist camera's ``look`` (world metres),
-    aimed towards ``aim`` (world x, y: where the objects were dropped) when given."""
-    spec = robot_spec(cfg)
+    aimed towards ``aim`` (world x, y: where the objects were dropped) when given. ``spec``:
+    the configured arm, resolved (else resolved here)."""
+    spec = spec or robot_spec(cfg)
     ready = spec.ready_pose
     arm = np.asarray(ready) + rng.uniform(-cfg.joint_jitter, cfg.joint_jitter, len(ready))
     finger = float(rng.uniform(*spec.gripper.finger_travel))

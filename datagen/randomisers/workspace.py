@@ -11,16 +11,16 @@ from __future__ import annotations
 import dataclasses
 
 from datagen.config import BuildConfig
-from datagen.config.robot import robot_spec
+from datagen.robot_specs import RobotSpec
 
 
 def _times(values: tuple[float, ...], scale: float) -> tuple[float, ...]:
     return tuple(round(v * scale, 9) for v in values)
 
 
-def scaled_to_robot(config: BuildConfig) -> BuildConfig:
-    """``config`` with its workspace lengths scaled to the arm; itself for a scale of 1."""
-    spec = robot_spec(config.robot)
+def scaled_to_robot(config: BuildConfig, spec: RobotSpec) -> BuildConfig:
+    """``config`` with its workspace lengths scaled to the arm ``spec`` (the configured one,
+    resolved); itself for a scale of 1."""
     s, o = spec.workspace_scale, spec.object_scale
     if s == 1.0 and o == 1.0:
         return config

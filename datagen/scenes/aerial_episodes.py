@@ -105,7 +105,8 @@ def render_frames(
     """Parts, per-frame records and each camera's pose lines, rendering every camera at every
     time (flow of frame k is written once frame k+1 is rendered)."""
     parts: dict[str, bytes] = {}
-    records, poses = [], {name: [] for name in scene.cameras}
+    records: list[dict[str, Any]] = []
+    poses: dict[str, list[np.ndarray]] = {name: [] for name in scene.cameras}
     boxes = episode.volume.boxes()
     states = [agent.states(times) for agent in episode.agents]
     instance_of = {

@@ -126,9 +126,9 @@ def _model_view(pre: AnnotatedSample, camera: str) -> DepthView:
 
 def produce(config: BuildConfig, seed: int, index: int, attempt: int = 0) -> Sample:
     keep_renderer_alive()
-    campaign = scaled_to_robot(config).campaign  # pre-grasp and lift distances for a small arm
     # settled as grasp_tabletop's, then built again where PCM launches nothing (its module)
     scene = sat_twin(config, build_scene(config, seed, index, attempt))
+    campaign = scaled_to_robot(config, scene.spec).campaign  # pre-grasp and lift for a small arm
     pre = annotate_scene(scene, config, seed, index, attempt=attempt)
     workspace = pre.metadata["views"]["workspace"]
     target = choose_target(sample_rng(seed, index, "grasp_target", attempt), scene, workspace)

@@ -127,6 +127,7 @@ def render_episode(
                 "things": things_in_view(scene.things, instance, skip=robot_labels()),
             }
         )
+    assert camera_in_robot is not None  # set at the first frame
     camera = camera_record(config.render, scene.camera.fovy, camera_in_robot, intrinsics)
     parts["poses.head.txt"] = pose_file(extrinsics)
     return parts, records, camera

@@ -113,13 +113,16 @@ def produce_fleet(config: BuildConfig, seed: int, index: int, attempt: int = 0) 
     every = max(1, round(1.0 / (nav.frame_rate_hz * fleet.dt)))
     steps = sorted({*range(0, fleet.steps + 1, every), fleet.steps})
     parts: dict[str, bytes] = {}
-    frames, mounts, extrinsics = [], {}, {k: [] for k in range(len(scene.cameras))}
+    frames: list[dict[str, Any]] = []
+    mounts: dict[int, tuple[np.ndarray, np.ndarray]] = {}  # robot -> camera in robot, K
+    extrinsics: dict[int, list[np.ndarray]] = {k: [] for k in range(len(scene.cameras))}
     level = config.output.png_level
     for f, step in enumerate(steps):
         states = _agent_states(fleet, step, nav.robot_radius, every)
         for k, state in enumerate(states):
             steer = state["command"][1] if GROUND_ROBOTS[nav.robot].steers else 0.0
-            scene.set_base(*state["pose"], steer, k=k)
+            x, y, yaw = state["pose"]
+            scene.set_base(x, y, yaw, steer, k=k)
         scene.scene.update_render()
         record: dict[str, Any] = {
             "frame": f,

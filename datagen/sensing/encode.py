@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import json
 import os
+from collections.abc import Mapping
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 from typing import Any
@@ -98,7 +99,7 @@ def encode_view(
         return {name: future.result() for name, future in futures.items()}
 
 
-def metadata_bytes(metadata: SampleMetadata) -> bytes:
+def metadata_bytes(metadata: SampleMetadata | Mapping[str, Any]) -> bytes:
     """Strict JSON: writers refuse ``NaN``/``Infinity`` (datagen.safe_json), so a non-finite
     value fails here, naming where it is, instead of the sample being refused on the bus."""
     with timed("encode"):

@@ -151,7 +151,7 @@ class Opener:
         """Counts a message a receiver dropped after opening it (a ``stale_bind``...)."""
         self._drop(reason)
 
-    def open(self, topic: str, payload: bytes) -> dict[str, Any] | None:
+    def open(self, topic: str, payload: bytes | bytearray) -> dict[str, Any] | None:
         """The body of a message of the current run, or None (dropped; counted, unless it is
         a duplicate or outside any run)."""
         opened = self.open_any_run(topic, payload)
@@ -166,7 +166,9 @@ class Opener:
             return None
         return self._drop("wrong_run")
 
-    def open_any_run(self, topic: str, payload: bytes) -> tuple[str, dict[str, Any]] | None:
+    def open_any_run(
+        self, topic: str, payload: bytes | bytearray
+    ) -> tuple[str, dict[str, Any]] | None:
         """(the run it belongs to, the body) of a genuine message of any run, or None (dropped
         and counted). Without a secret every message is of the current run."""
         limit = MAX_MESSAGE_BYTES.get(purpose_of(self.topics, topic) or "", 2**20)

@@ -110,7 +110,7 @@ def encode_sample(
 
 
 def decode_sample(
-    payload: bytes,
+    payload: bytes | bytearray,
     max_bytes: int | None = None,
     secret: bytes | None = None,
     run: RunBinding | None = None,

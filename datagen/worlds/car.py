@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import cast
 
 import numpy as np
 import sapien
@@ -95,7 +96,8 @@ def build_car(scene: sapien.Scene, radius: float, materials: dict) -> CarBody:
     mast.apply_translation([POD_AHEAD * r, 0.0, (CAMERA_HEIGHT * r + clearance + height) / 2])
     pod = trimesh.creation.box(extents=[v * r for v in POD])
     pod.apply_translation([POD_AHEAD * r, 0.0, CAMERA_HEIGHT * r])
-    body.attach(_shape(trimesh.util.concatenate([mast, pod]), materials["mast"]))
+    mast_and_pod = cast(trimesh.Trimesh, trimesh.util.concatenate([mast, pod]))
+    body.attach(_shape(mast_and_pod, materials["mast"]))
     chassis = sapien.Entity()
     chassis.name = "car"
     chassis.add_component(body)

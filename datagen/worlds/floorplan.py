@@ -62,7 +62,7 @@ class Thing:
 
 
 # Fetch (an articulation whose first joints are x, y, yaw), or a body with set_base (the car)
-Robot = sapien.physx.PhysxArticulation | Any
+Robot = Any
 
 
 @dataclass

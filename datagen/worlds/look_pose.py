@@ -49,7 +49,7 @@ def look_qpos(
     mount = wrist_mount(spec)
     camera = look_at(look.eye, look.target, look.up)
     link = camera @ np.linalg.inv(mount_transform(mount))
-    link[:3, 3] -= base_position
+    link[:3, 3] = link[:3, 3] - np.asarray(base_position, float)
     goal = np.concatenate([link[:3, 3], tq.mat2quat(link[:3, :3])])
     model = _kinematics(spec)
     limits = map(_limits, model.get_joint_limits())

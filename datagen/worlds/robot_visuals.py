@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import hashlib
 from pathlib import Path
+from typing import cast
 
 import sapien
 import trimesh
@@ -55,7 +56,7 @@ def _part_file(source: str, index: int, part, max_faces: int) -> Path:
     if not path.is_file():
         vertices, faces, normals = simplified_with_normals(part.vertices, part.triangles, max_faces)
         mesh = trimesh.Trimesh(vertices, faces, vertex_normals=normals, process=False)
-        data = mesh.export(file_type="glb", include_normals=True)
+        data = cast(bytes, mesh.export(file_type="glb", include_normals=True))  # a GLB: bytes
         path.parent.mkdir(parents=True, exist_ok=True)
         replace_file(path, lambda tmp: tmp.write_bytes(data))
     return path

@@ -17,7 +17,7 @@ import sapien
 from datagen.assets.shapes import ObjectGeometry
 from datagen.assets.tabletop_layout import StaticPart, Workspace, static_parts
 from datagen.config import BuildConfig
-from datagen.config.robot import robot_spec, robot_workspace
+from datagen.config.robot import arm_workspace, robot_spec
 from datagen.randomisers import draw_scene, redrawn_drop_poses
 from datagen.robot_specs import RobotSpec, wrist_mount
 from datagen.scene_values.arm import ArmPose
@@ -109,12 +109,13 @@ def build_scene(config: BuildConfig, seed: int, index: int, attempt: int = 0) ->
     (the objects settle under the arm at its ready pose: dropped, they would meet the hand): a
     scene where a target is outside or the posed arm meets one is built again from re-drawn drop
     poses (``datagen.worlds.tray_targets``); raises TargetsOutsideTray after ``MAX_REDRAWS``."""
-    ws = robot_workspace(config.robot)
+    arm = robot_spec(config.robot)  # resolved once for the sample, passed down
+    ws = arm_workspace(arm)
     tray_floor_top, tray_inner_half = ws.tray_floor_top, ws.tray_inner_half
-    params = draw_scene(config, seed, index, tray_floor_top, tray_inner_half, attempt)
+    params = draw_scene(config, seed, index, tray_floor_top, tray_inner_half, attempt, arm)
     redraws: list[dict[str, str]] = []
     while True:
-        scene = construct_scene(config, params)
+        scene = construct_scene(config, params, arm)
         settle_scene(config, scene)
         outside = outside_tray(scene.objects, ws) or take_look_pose(scene)
         if not outside:
@@ -125,8 +126,9 @@ def build_scene(config: BuildConfig, seed: int, index: int, attempt: int = 0) ->
                 + "; ".join(outside)
             )
         count = len(params["objects"])
+        redraw = len(redraws) + 1
         stream, poses = redrawn_drop_poses(
-            config, seed, index, len(redraws) + 1, count, tray_floor_top, tray_inner_half, attempt
+            config, seed, index, redraw, count, tray_floor_top, tray_inner_half, attempt, arm
         )
         redraws = [*redraws, {"stream": stream, "why": "; ".join(outside)}]
         params = {**params, "drop_poses": poses, "redraws": redraws}
@@ -169,16 +171,19 @@ def settle_scene(config: BuildConfig, scene: GraspScene) -> int:
     )
 
 
-def construct_scene(config: BuildConfig, params: dict[str, Any]) -> GraspScene:
-    """The scene described by ``params`` (the sampled values; objects at ``drop_poses``), not
-    yet settled. Replay passes the stored values with the settled poses instead."""
+def construct_scene(
+    config: BuildConfig, params: dict[str, Any], arm: RobotSpec | None = None
+) -> GraspScene:
+    """The scene described by ``params`` (the drawn values; objects at ``drop_poses``), not
+    yet settled, with the configured arm (``arm``: resolved already, else here). Replay passes
+    the stored values with the settled poses instead."""
     materials = params["materials"]
     scene = sapien.Scene()
     scene.set_timestep(config.physics.timestep)
     stuff: dict[int, str] = {}
 
-    spec = robot_spec(config.robot)
-    ws = Workspace(spec.workspace_scale, spec.object_scale)
+    spec = arm or robot_spec(config.robot)
+    ws = arm_workspace(spec)
     for part in static_parts(ws):
         for entity in _add_part(scene, part, materials[part.surface]):
             stuff[entity.per_scene_id] = part.surface

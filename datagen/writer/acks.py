@@ -32,6 +32,6 @@ def others_acked_keys(opener: Opener, msg: mqtt.MQTTMessage, writer_id: str) -> 
     """The keys another writer's genuine ack says are durable (none for our own, or a forgery)."""
     obj = opener.open(msg.topic, msg.payload)
     indices = ack_indices(obj) if obj is not None else None
-    if indices is None or obj.get("writer") == writer_id:
+    if obj is None or indices is None or obj.get("writer") == writer_id:
         return set()
     return {sample_key(i) for i in indices}

@@ -196,7 +196,9 @@ class DatasetWriter:
                 return EXIT_OK
             return code
         except Exception as exc:
-            if is_disk_full(exc):  # one line, by run(); recovery cuts the open shard
+            if isinstance(exc, OSError) and is_disk_full(
+                exc
+            ):  # one line, by run(); recovery cuts the open shard
                 durable.abandon()
                 self._status.publish("error", reason=disk_full_message(exc, self.out_dir))
                 self._conn.close()
@@ -262,7 +264,8 @@ class DatasetWriter:
             elif self._binding.bound:
                 pending.append((msg, self._accept(msg)))
             elif not self._binding.hold(msg):
-                pending.append((msg, self._reject(msg, "no run yet: not bound by a coordinator")))
+                self._reject(msg, "no run yet: not bound by a coordinator")
+                pending.append((msg, None))
         self._commit(pending)
         return None
 
@@ -285,7 +288,8 @@ class DatasetWriter:
                 if run is not None and (why := run.metadata_mismatch(meta, sample.index)):
                     raise WireError(f"sample {sample.key}: {why}")
         except WireError as exc:
-            return self._reject(msg, exc)
+            self._reject(msg, exc)
+            return None
         self._durable.keep(sample)
         return sample
 
