@@ -90,7 +90,7 @@ def _grow(base: Path, out: Path, samples: int) -> None:
     from datagen.dataset.loader import load
     from datagen.dataset.manifest import read_manifest
     from datagen.sample import Sample, sample_key
-    from datagen.shards import keys_sha256, write_manifest
+    from datagen.shards import keys_sha256, write_json_durably
     from datagen.writer.journal import journal_path
     from datagen.writer.shard_writer import ShardWriter
 
@@ -113,7 +113,7 @@ def _grow(base: Path, out: Path, samples: int) -> None:
         "shards": [s.to_json() for s in sink.shards],
         "keys_sha256": keys_sha256(keys),
     }
-    write_manifest(out, manifest)
+    write_json_durably(out, manifest)
     journal_path(out, "0").unlink()
 
 

@@ -3,7 +3,7 @@
 Shards are WebDataset tars ``shard-{writer_id}-{n:06d}.tar`` with members ``{key}.{part}``;
 ``manifest.json`` (``dataset_format`` ``DATASET_FORMAT``) lists them (``ShardInfo``: name,
 samples, sha256, bytes, and each sample's ``sample_sha256``) with the digest of all keys
-(``keys_sha256``), written atomically by ``write_manifest``. ``read_shard`` re-reads a whole
+(``keys_sha256``), written atomically by ``write_json_durably``. ``read_shard`` re-reads a whole
 shard in one pass for its digests, a megabyte at a time, its members read and checked as
 ``datagen.shard_members`` reads every shard's. The format is specified in
 docs/dataset-format.md.
@@ -90,11 +90,12 @@ def keys_sha256(keys: Iterable[str]) -> str:
     return hashlib.sha256("".join(f"{k}\n" for k in sorted(keys)).encode()).hexdigest()
 
 
-def write_manifest(
+def write_json_durably(
     out_dir: str | Path, doc: Mapping[str, Any], name: str = MANIFEST, mode: int = 0o644
 ) -> Path:
-    """Writes ``doc`` as JSON atomically and durably (temp file, fsync, rename, fsync dir); on
-    failure the old file is intact and the temp file removed."""
+    """Writes ``doc`` as JSON into ``out_dir/name`` (the manifest unless named otherwise: the
+    build state, an export record) atomically and durably (temp file, fsync, rename, fsync
+    dir); on failure the old file is intact and the temp file removed."""
     out = Path(out_dir)
     tmp = out / (name + ".tmp")
     try:

@@ -19,7 +19,7 @@ import pytest
 import yaml
 
 from datagen.sample import Sample
-from datagen.shards import keys_sha256, write_manifest
+from datagen.shards import keys_sha256, write_json_durably
 from datagen.transport.mosquitto import ManagedBroker
 from datagen.writer.journal import journal_path
 from datagen.writer.shard_writer import ShardWriter
@@ -99,7 +99,7 @@ def write_dataset(
         "shards": [s.to_json() for s in sink.shards],
         "keys_sha256": keys_sha256(s.key for s in samples),
     }
-    write_manifest(out, doc)
+    write_json_durably(out, doc)
     journal_path(out, writer_id).unlink()
     return out
 

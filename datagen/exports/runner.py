@@ -32,7 +32,7 @@ from datagen.exports.files import disk_full, fsync_tree, inside
 from datagen.images import ImageInputError
 from datagen.records import ExportedDataset, ExportRecord, Manifest
 from datagen.registries import EXPORTS, FAMILIES, STORE, ExportFormat
-from datagen.shards import fsync_dir, write_manifest
+from datagen.shards import fsync_dir, write_json_durably
 
 log = logging.getLogger(__name__)
 ExportProgress = Callable[[str, int, int], None]  # (format name, samples done, samples in all)
@@ -155,7 +155,7 @@ def _export(
         "seconds": round(time.monotonic() - start, 3),
     }
     try:
-        write_manifest(root, read_manifest(root) | {"exports": done | {fmt.name: record}})
+        write_json_durably(root, read_manifest(root) | {"exports": done | {fmt.name: record}})
     except BaseException as exc:  # as it was: the older copy back in place
         os.replace(final, tmp)
         if aside.exists() or aside.is_symlink():

@@ -21,7 +21,7 @@ from datagen.errors import BuildError, OutDirError
 from datagen.pipeline import finished_build
 from datagen.registries import EXPORTS
 from datagen.safe_json import loads_bounded
-from datagen.shards import DATASET_FORMAT, MANIFEST, write_manifest
+from datagen.shards import DATASET_FORMAT, MANIFEST, write_json_durably
 from datagen.transport.wire import SECRET_ENV, parse_secret
 
 BUILD_STATE = "build.json"
@@ -94,7 +94,7 @@ def prepare_out_dir(
         "config": config.to_dict(),
         "started_utc": now_utc(),
     }
-    write_manifest(out_dir, state, name=BUILD_STATE, mode=0o600)  # it holds the secret
+    write_json_durably(out_dir, state, name=BUILD_STATE, mode=0o600)  # it holds the secret
     return identity, False
 
 

@@ -21,7 +21,7 @@ from datagen.pipeline.result import BuildResult, Observer, ProgressCallback
 from datagen.pipeline.worker import die_with_parent
 from datagen.registries import FAMILIES
 from datagen.registry import resolve
-from datagen.shards import MANIFEST, write_manifest
+from datagen.shards import MANIFEST, write_json_durably
 from datagen.transport.broker_settings import BrokerSettings
 from datagen.transport.mosquitto import ManagedBroker
 
@@ -87,7 +87,7 @@ def run_build(
         made = result.samples - result.resumed_from
         extra = resolve(finish)(out_dir, made, result.seconds)
         manifest = json.loads((out_dir / MANIFEST).read_text())
-        write_manifest(out_dir, manifest | extra)
+        write_json_durably(out_dir, manifest | extra)
     if (out_dir / MANIFEST).is_file():
         run_exports(out_dir, config.output.formats, on_progress=on_export_progress)
     return result

@@ -90,10 +90,12 @@ def render_episode(
     parts: dict[str, bytes] = {}
     records, extrinsics = [], []
     camera_in_robot = None
+    steers = GROUND_ROBOTS[config.navigation.robot].steers  # the robot's record, once
+    unlisted = robot_labels()
     for k, step in enumerate(steps):
         x, y, yaw = (float(v) for v in traj.poses[step])
         command = traj.commands[step] if step < len(traj.commands) else (0.0, 0.0)
-        steer = float(command[1]) if GROUND_ROBOTS[config.navigation.robot].steers else 0.0
+        steer = float(command[1]) if steers else 0.0
         scene.set_base(x, y, yaw, steer)
         scene.scene.update_render()
         frame = capture(scene.camera)
@@ -124,7 +126,7 @@ def render_episode(
                 ),
                 "collision": bool(traj.collision[step]),
                 "extrinsics_world_to_camera": rounded(frame.extrinsics, 7),
-                "things": things_in_view(scene.things, instance, skip=robot_labels()),
+                "things": things_in_view(scene.things, instance, skip=unlisted),
             }
         )
     assert camera_in_robot is not None  # set at the first frame

@@ -117,10 +117,11 @@ def produce_fleet(config: BuildConfig, seed: int, index: int, attempt: int = 0) 
     mounts: dict[int, tuple[np.ndarray, np.ndarray]] = {}  # robot -> camera in robot, K
     extrinsics: dict[int, list[np.ndarray]] = {k: [] for k in range(len(scene.cameras))}
     level = config.output.png_level
+    steers = GROUND_ROBOTS[nav.robot].steers  # the robot's record, once
     for f, step in enumerate(steps):
         states = _agent_states(fleet, step, nav.robot_radius, every)
         for k, state in enumerate(states):
-            steer = state["command"][1] if GROUND_ROBOTS[nav.robot].steers else 0.0
+            steer = state["command"][1] if steers else 0.0
             x, y, yaw = state["pose"]
             scene.set_base(x, y, yaw, steer, k=k)
         scene.scene.update_render()

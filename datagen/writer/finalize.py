@@ -30,7 +30,7 @@ from datagen.shards import (
     read_keys,
     read_shard,
     shards_by_writer,
-    write_manifest,
+    write_json_durably,
 )
 from datagen.writer.journal import append_journal, whole_shard_entry
 from datagen.writer.shard_rewrite import remove_keys
@@ -88,7 +88,7 @@ def drop_copies_held_by_smaller(
 
 def write_part(out_dir: str | Path, writer_id: str, round_id: str, **fields: Any) -> Path:
     doc = {"format": PART_FORMAT, "writer": writer_id, "round": round_id, **fields}
-    return write_manifest(out_dir, doc, name=part_path(out_dir, writer_id).name)
+    return write_json_durably(out_dir, doc, name=part_path(out_dir, writer_id).name)
 
 
 def read_part(out_dir: str | Path, writer_id: str, round_id: str) -> dict[str, Any]:

@@ -25,7 +25,7 @@ import logging
 from pathlib import Path
 from typing import Any
 
-from datagen.shards import DATASET_FORMAT, ShardInfo, valid_writer_id, write_manifest
+from datagen.shards import DATASET_FORMAT, ShardInfo, valid_writer_id, write_json_durably
 from datagen.transport.topics import DEFAULT_FINALIZE_TIMEOUT_S
 from datagen.writer.finalize import (
     FinalizeError,
@@ -108,7 +108,7 @@ def run_round(
             doc = combine(out_dir, writers, round_id, args["expected"])
             manifest = {**args["manifest"], "build_id": build_id, "format": "webdataset"}
             manifest["dataset_format"] = DATASET_FORMAT  # what this writer wrote
-            write_manifest(out_dir, {**manifest, **doc})
+            write_json_durably(out_dir, {**manifest, **doc})
             total = doc["samples"]
         else:
             total = status.wait([leader], round_id, {"finalized"}, deadline)[leader]["samples"]

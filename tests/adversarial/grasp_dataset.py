@@ -18,7 +18,7 @@ from datagen.cli import main
 from datagen.config import config_from_dict
 from datagen.registries import FAMILIES
 from datagen.sample import Sample
-from datagen.shards import write_manifest
+from datagen.shards import write_json_durably
 
 CONFIG = {
     "scene": "grasp_tabletop",
@@ -55,7 +55,7 @@ def write_grasp_dataset(out: Path, samples: list[Sample], make_dataset: Callable
         "classes": list(FAMILIES[config.scene].class_names(config)),
         "config": config.to_dict(),
     }
-    write_manifest(out, manifest | extra)
+    write_json_durably(out, manifest | extra)
     return out
 
 

@@ -27,7 +27,7 @@ from adversarial.forged_datasets import resign, rewrite_shard, tiny_build
 from adversarial.grasp_dataset import cli as cli  # the in-process command line, for the tests
 from datagen.config import config_from_dict
 from datagen.registries import FAMILIES
-from datagen.shards import write_manifest
+from datagen.shards import write_json_durably
 
 REPO = Path(__file__).resolve().parents[2]
 GRASP_KEY = "000000000"  # the first grasp sample, alone in shard-0-000000.tar
@@ -66,7 +66,7 @@ def navigation_source(tmp_path_factory) -> Path:
         write_dataset(out, [family.produce_sample(config, config.seed, 0)], 1)
         manifest = json.loads((out / "manifest.json").read_text())
         extra = {"scene": config.scene, "classes": list(family.class_names(config))}
-        write_manifest(out, manifest | extra | {"config": config.to_dict()})
+        write_json_durably(out, manifest | extra | {"config": config.to_dict()})
         _stamp(out, "navigation-1", config.seed)
         _BUILT["navigation"] = out
     return _BUILT["navigation"]
@@ -77,7 +77,7 @@ def _stamp(root: Path, build_id: str, seed: int) -> None:
     versions = {"datagen": "0.1.0", "python": "3.11.0", "platform": "Linux"}
     stamp = {"build_id": build_id, "seed": seed, "num_samples": manifest["samples"]}
     made = {"versions": versions, "created_utc": "2025-01-01T00:00:00Z"}
-    write_manifest(root, manifest | stamp | made)
+    write_json_durably(root, manifest | stamp | made)
 
 
 def forged(

@@ -18,7 +18,7 @@ import pytest
 from datagen.cli import parser
 from datagen.cli.build_commands import resume_command
 from datagen.cli.progress import PlainProgress
-from datagen.shards import write_manifest
+from datagen.shards import write_json_durably
 
 pytestmark = [pytest.mark.adversarial]
 REPO = Path(__file__).resolve().parents[2]
@@ -142,7 +142,7 @@ def test_the_resume_command_repeats_every_option_given_and_hides_the_password(tm
 def test_replay_on_a_navigation_dataset_says_it_is_grasp_only(tmp_path, make_dataset, make_sample):
     out = make_dataset(tmp_path / "nav", [make_sample(i) for i in range(2)])
     manifest = json.loads((out / "manifest.json").read_text())
-    write_manifest(out, manifest | {"scene": "navigation"})
+    write_json_durably(out, manifest | {"scene": "navigation"})
     result = datagen("replay", str(out), "000000000")
     assert result.returncode == 2, result.stderr
     assert result.stderr.count("\n") == 1 and "Traceback" not in result.stderr

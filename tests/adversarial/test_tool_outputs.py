@@ -38,7 +38,7 @@ from adversarial.grasp_dataset import (
     write_grasp_dataset,
 )
 from adversarial.refusals import refused
-from datagen.shards import write_manifest
+from datagen.shards import write_json_durably
 
 pytestmark = [pytest.mark.adversarial, pytest.mark.sim]
 KEY = "000000000"
@@ -209,7 +209,7 @@ def _dataset_naming(exported: Path, tmp_path: Path, attack) -> Path:
     ds = write_grasp_dataset(tmp_path / "ds", samples, write_dataset)
     manifest = json.loads((ds / "manifest.json").read_text())
     manifest["config"]["materials"]["textures_dir"] = str(pictures)
-    write_manifest(ds, manifest)
+    write_json_durably(ds, manifest)
     shutil.copytree(exported / "usd", ds / "usd")
     _stage_with(ds / "usd" / f"{KEY}.usda", meta["randomisation"])
     return ds

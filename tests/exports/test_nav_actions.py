@@ -24,7 +24,7 @@ from datagen.config import config_from_dict
 from datagen.exports.runner import run_exports
 from datagen.pipeline.manifest import build_manifest
 from datagen.scenes.navigation_fleet import produce
-from datagen.shards import write_manifest
+from datagen.shards import write_json_durably
 
 pytestmark = [pytest.mark.sim, pytest.mark.slow]
 CAR = {"robot": "car", "robot_radius": 0.25, "lookahead": 0.7, "max_linear": 0.8}
@@ -93,7 +93,7 @@ def _build(root: Path, navigation: dict, episodes: int) -> Path:
     )
     write_dataset(root, [produce(config, 5, i) for i in range(episodes)])
     manifest = json.loads((root / "manifest.json").read_text())
-    write_manifest(root, manifest | build_manifest(config, "actions", 1))
+    write_json_durably(root, manifest | build_manifest(config, "actions", 1))
     run_exports(root, ["lerobot", "robomimic", "hdf5"])
     return root
 

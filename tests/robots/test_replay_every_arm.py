@@ -12,7 +12,7 @@ from conftest import write_dataset  # tests/conftest.py: shards and a manifest, 
 
 from datagen.config import config_from_dict
 from datagen.registries import FAMILIES, ROBOTS
-from datagen.shards import write_manifest
+from datagen.shards import write_json_durably
 
 pytestmark = [pytest.mark.sim]
 
@@ -32,7 +32,7 @@ def test_replay_from_the_usd_renders_the_stored_images(name, tmp_path):
     out = write_dataset(tmp_path / "ds", [sample])
     manifest = json.loads((out / "manifest.json").read_text())
     classes = list(FAMILIES[config.scene].class_names(config))
-    write_manifest(
+    write_json_durably(
         out, manifest | {"scene": config.scene, "classes": classes, "config": config.to_dict()}
     )
     code, _, err = cli("export", out, "--to", "usd")

@@ -141,5 +141,5 @@ def test_a_chain_of_20000_links_is_read_and_posed_in_linear_time(tmp_path):
         return time.process_time() - started
 
     quarter = min(read_and_pose(5_000, copy) for copy in range(2))
-    whole = read_and_pose(20_000, 0)
+    whole = min(read_and_pose(20_000, copy) for copy in range(2))  # the least disturbed of two
     assert whole < 10 * quarter, (whole, quarter)  # linear: 4 (6 measured); quadratic: 16
