@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import errno
 import os
+from typing import TypeGuard
 
 
 class DatagenError(Exception):
@@ -36,7 +37,7 @@ class BuildError(DatagenError, RuntimeError):
     """The build cannot finish; the message says what is missing and why."""
 
 
-def is_disk_full(exc: BaseException) -> bool:
+def is_disk_full(exc: BaseException) -> TypeGuard[OSError]:
     """An OSError of a full file system or an exhausted quota (ENOSPC, EDQUOT)."""
     return isinstance(exc, OSError) and exc.errno in (errno.ENOSPC, errno.EDQUOT)
 

@@ -20,8 +20,6 @@ TABLETOP_TYPES: dict[str, FromJson] = {
     "camera": CameraPose.from_json,
     "robot": ArmPose.from_json,
 }
-FLOOR_PLAN_TYPES: dict[str, FromJson] = {"lighting": Lighting.from_json}
-VOLUME_TYPES = FLOOR_PLAN_TYPES
 
 
 def tabletop_values(stored: Any, where: str = "randomisation") -> dict[str, Any]:

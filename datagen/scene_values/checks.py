@@ -6,17 +6,13 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping
-from typing import Any, Protocol
+from typing import Any
 
 from datagen.errors import DatasetError
 
 
 class SceneValueError(DatasetError):
     """A scene value out of its range, or stored JSON that is not one."""
-
-
-class SceneValue(Protocol):
-    def to_json(self) -> dict[str, Any]: ...
 
 
 def as_json(values: Any) -> Any:

@@ -6,7 +6,7 @@ raised: docs/mqtt-pitfalls.md, pitfalls 1, 4 and 9."""
 from __future__ import annotations
 
 import os
-from dataclasses import dataclass, fields, replace
+from dataclasses import dataclass, fields
 from pathlib import Path
 
 from datagen.errors import DatagenError
@@ -81,10 +81,6 @@ class BrokerSettings:
     @property
     def tls(self) -> bool:
         return self.tls_cert is not None
-
-    def but(self, **changes) -> BrokerSettings:
-        """These settings with ``changes`` (validated again)."""
-        return replace(self, **changes)
 
 
 def service_settings(

@@ -41,11 +41,11 @@ _LIGHT_KIND = {
 }
 
 
-def _radiance_at(light: dict[str, Any], target) -> list[float]:
-    """A light's colour times its intensity, scaled by the squared distance to ``target``:
-    radiance falls off with it, so intensity means the same at the target (the tray)."""
-    distance_sq = float(np.sum((np.asarray(light["position"]) - target) ** 2))
-    return (np.asarray(light["colour"]) * light["intensity"] * distance_sq).tolist()
+def _radiance_at(position, colour, intensity: float, target) -> list[float]:
+    """A light's colour times its intensity, scaled by the squared distance from ``position``
+    to ``target``: radiance falls off with it, so intensity means the same at the target."""
+    distance_sq = float(np.sum((np.asarray(position) - np.asarray(target)) ** 2))
+    return (np.asarray(colour) * intensity * distance_sq).tolist()
 
 
 def _shadow_near(lighting: Lighting) -> float:
@@ -120,7 +120,9 @@ def add_background(scene: sapien.Scene, values: dict[str, Any] | None) -> list[s
         entities.append(entity)
     for light in values["lights"]:
         scene.add_point_light(
-            light["position"], _radiance_at(light, values["target"]), shadow=False
+            light["position"],
+            _radiance_at(light["position"], light["colour"], light["intensity"], values["target"]),
+            shadow=False,
         )
     return entities
 
@@ -194,13 +196,12 @@ def soft_key_spots(light: Light, target) -> list[_Spot]:
 
 def _add_spot(scene: sapien.Scene, spot: _Spot, target, shadow_map_size: int) -> None:
     outer = np.deg2rad(spot.outer_fov_deg)
-    distance_sq = float(np.sum((spot.position - np.asarray(target)) ** 2))
     scene.add_spot_light(
         spot.position.tolist(),
         spot.direction.tolist(),
         inner_fov=outer * 0.6,
         outer_fov=outer,
-        color=(np.asarray(spot.colour) * spot.intensity * distance_sq).tolist(),
+        color=_radiance_at(spot.position, spot.colour, spot.intensity, target),
         shadow=spot.shadow,
         shadow_near=0.1,
         shadow_far=5.0,

@@ -196,9 +196,7 @@ class DatasetWriter:
                 return EXIT_OK
             return code
         except Exception as exc:
-            if isinstance(exc, OSError) and is_disk_full(
-                exc
-            ):  # one line, by run(); recovery cuts the open shard
+            if is_disk_full(exc):  # one line, by run(); recovery cuts the open shard
                 durable.abandon()
                 self._status.publish("error", reason=disk_full_message(exc, self.out_dir))
                 self._conn.close()

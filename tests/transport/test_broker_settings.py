@@ -1,5 +1,6 @@
 """A broker's settings record and its saved credentials: pure checks (no Mosquitto)."""
 
+from dataclasses import replace
 from pathlib import Path
 
 import pytest
@@ -18,7 +19,7 @@ def test_settings_are_validated_when_made_and_when_changed():
     with pytest.raises(ValueError, match="port is 70000; expected 1-65535 or None"):
         BrokerSettings(port=70000)
     with pytest.raises(ValueError, match="max_queued_bytes is 0; expected > 0"):
-        BrokerSettings().but(max_queued_bytes=0)
+        replace(BrokerSettings(), max_queued_bytes=0)  # checked again when changed
     with pytest.raises(ValueError, match="startup_timeout_s is -1; expected > 0"):
         BrokerSettings(startup_timeout_s=-1)
     settings = BrokerSettings(acl_file="acl", data_dir="state")
