@@ -4,7 +4,7 @@
     .venv/bin/python benchmarks/build_profile.py --scenes 20     # quick
 
 Builds the scenes of the default grasping config (``configs/grasp_tabletop.yaml``, sample
-indices 0..N-1, no rendering) the way a worker does (``datagen.worlds.tabletop.build_scene``),
+indices 0..N-1, no rendering) the way a worker does (``datagen.families.grasp_tabletop.world.build_scene``),
 with a timer around every call ``construct_scene`` makes: the stages are the functions it calls,
 looked up in its module, so the figures are those of the code as it runs. A scene whose targets
 land outside the tray is built again (``datagen.worlds.tray_targets``): its stages count twice,
@@ -35,10 +35,10 @@ import sapien
 
 REPO = Path(__file__).resolve().parents[1]
 
-# (name in datagen.worlds.tabletop, stage label); sapien.Scene is timed through the module too;
+# (name in datagen.families.grasp_tabletop.world, stage label); sapien.Scene is timed through the module too;
 # realise:<type> times the realiser of that scene value type (``realise`` dispatches on it)
 STAGES = (
-    ("draw_scene", "sample the randomised values"),
+    ("draw_values", "draw the randomised values"),
     ("Scene", "sapien.Scene()"),
     ("_add_part", "table, tray, floor (textured)"),
     ("add_background", "room: walls, ceiling, room lights"),
@@ -67,7 +67,7 @@ def _timed(table: dict, key: str, fn):
 
 
 class _SapienWithTimedScene:
-    """``sapien`` as ``datagen.worlds.tabletop`` sees it, with ``Scene()`` timed."""
+    """``sapien`` as ``datagen.families.grasp_tabletop.world`` sees it, with ``Scene()`` timed."""
 
     def __init__(self, table: dict):
         self._scene = _timed(table, "Scene", sapien.Scene)
@@ -78,7 +78,8 @@ class _SapienWithTimedScene:
 
 def _instrument(table: dict, counters: dict) -> None:
     """Timers around the stages, a counter of physics steps and of scene builds."""
-    from datagen.worlds import realise, tabletop
+    from datagen.families.grasp_tabletop import world as tabletop
+    from datagen.worlds import realise
 
     tabletop.sapien = _SapienWithTimedScene(table)
     realise.build_geometry = _timed(table, "build_geometry", realise.build_geometry)
@@ -118,8 +119,8 @@ def main() -> int:
     args = parser.parse_args()
 
     from datagen.config import load_config
+    from datagen.families.grasp_tabletop import world as tabletop
     from datagen.sensing.render import keep_renderer_alive
-    from datagen.worlds import tabletop
 
     config = load_config(args.config)
     keep_renderer_alive()

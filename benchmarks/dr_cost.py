@@ -33,7 +33,7 @@ CONFIGS = {"flat": "configs/grasp_flat.yaml", "everything": "configs/grasp_table
 
 
 def _run(config, indices: list[int]) -> dict[str, float]:
-    from datagen.scenes.grasp_tabletop import produce
+    from datagen.families.grasp_tabletop.produce import produce
 
     wall, cpu, stored = time.perf_counter(), time.process_time(), 0
     for index in indices:
@@ -53,7 +53,7 @@ import dataclasses, json, sys, time
 sys.path.insert(0, {tree!r})
 import datagen
 from datagen.config import load_config
-from datagen.scenes.grasp_tabletop import produce
+from datagen.families.grasp_tabletop.produce import produce
 assert datagen.__file__.startswith({tree!r}), datagen.__file__
 config = load_config({tree!r} + "/configs/grasp_tabletop.yaml")
 config = config.replace(render=dataclasses.replace(config.render, width={width}, height={height}))
@@ -95,7 +95,7 @@ def main() -> int:
     import sapien
 
     from datagen.config import load_config
-    from datagen.scenes.grasp_tabletop import produce
+    from datagen.families.grasp_tabletop.produce import produce
 
     configs = {}
     for name, path in CONFIGS.items():

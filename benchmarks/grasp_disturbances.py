@@ -6,7 +6,7 @@
 
 Runs attempts 0..N-1 of the campaign config (seed and scenes as a campaign makes them; the
 post-grasp frame off, as it changes no physics) for each arm and prints, per arm, the attempts
-an object moved faster than the hand could push it (``datagen.grasping.disturbance``: the
+an object moved faster than the hand could push it (``datagen.families.grasp_attempts.disturbance``: the
 ``disturbed`` outcome), with the peak object and hand speeds of each, the outcome counts, how
 far the executed grasp frame was from the planned one at closure, the largest gap between each
 arm joint's command and its state through lift and hold, the CPU and the time taken.

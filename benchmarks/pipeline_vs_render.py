@@ -59,7 +59,7 @@ DEFAULT_CONFIG = ROOT / "configs" / "grasp_tabletop.yaml"
 def _plain_worker(worker: int, workers: int, config_dict: dict[str, Any], events) -> None:
     """Spawned process: renders and annotates its share of the indices; reports each frame."""
     try:
-        from datagen.scenes.grasp_tabletop import render_annotated
+        from datagen.families.grasp_tabletop.produce import render_annotated
 
         config = config_from_dict(config_dict)
         for index in range(worker, config.num_samples, workers):
@@ -199,7 +199,7 @@ def _warm_up(config_dict: dict[str, Any], answer) -> None:
     """Spawned process: one untimed frame (fills Mesa's shader cache); sends the device."""
     import sapien
 
-    from datagen.scenes.grasp_tabletop import render_annotated
+    from datagen.families.grasp_tabletop.produce import render_annotated
 
     config = config_from_dict(config_dict)
     render_annotated(config, config.seed, 0)

@@ -91,9 +91,9 @@ def one_time_and_per_picture(repeats: int) -> dict:
 
 def per_frame(width: int, height: int, scenes: int, tracing) -> dict:
     from datagen.config import BuildConfig
+    from datagen.families.grasp_tabletop.world import build_scene
     from datagen.sensing.path_tracing import raytraced_rgb
     from datagen.sensing.render import capture
-    from datagen.worlds.tabletop import build_scene
 
     base = BuildConfig()
     config = base.replace(render=replace(base.render, width=width, height=height))

@@ -55,7 +55,7 @@ def _robot_mask(scene) -> object:
 def robot_triangles(config, scenes: int) -> dict:
     import sapien
 
-    from datagen.worlds.tabletop import build_scene
+    from datagen.families.grasp_tabletop.world import build_scene
 
     ms: dict[str, list[float]] = {str(b): [] for b in BUDGETS} | {"no robot": []}
     iou: dict[str, list[float]] = {str(b): [] for b in BUDGETS[1:]}
@@ -89,9 +89,9 @@ def robot_triangles(config, scenes: int) -> dict:
 def shadow_filter(config, scenes: int) -> dict:
     import numpy as np
 
+    from datagen.families.grasp_tabletop.world import build_scene
     from datagen.sensing import shader_pack
     from datagen.sensing.cameras import twin_camera
-    from datagen.worlds.tabletop import build_scene
 
     ms: dict[str, list[float]] = {"sapien (25 taps)": [], "datagen (9 taps)": []}
     changed = []
@@ -114,7 +114,7 @@ def shadow_filter(config, scenes: int) -> dict:
 def light_combinations(config, scenes: int) -> dict:
     import sapien
 
-    from datagen.worlds.tabletop import build_scene
+    from datagen.families.grasp_tabletop.world import build_scene
 
     kinds = {sapien.render.RenderDirectionalLightComponent: "directional",
              sapien.render.RenderPointLightComponent: "point", sapien.render.RenderSpotLightComponent: "spot"}  # fmt: skip

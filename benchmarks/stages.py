@@ -41,9 +41,9 @@ STAGES = ("build", "settle", "render", "read_back", "convert", "annotate", "enco
 
 def _frame(config, index: int, before: bool) -> tuple[dict[str, float], dict[str, float]]:
     """One frame; ``({stage: wall s}, {stage: CPU s})`` with ``frame`` = the whole frame."""
-    from datagen.scenes.grasp_tabletop import annotate_scene, to_sample
+    from datagen.families.grasp_tabletop.produce import annotate_scene, to_sample
+    from datagen.families.grasp_tabletop.world import build_scene
     from datagen.sensing import encode, picture_conversion, stage_clock
-    from datagen.worlds.tabletop import build_scene
 
     saved = (picture_conversion.rgb_from_colour, picture_conversion.depth_from_position)
     threads = encode._ENCODE_THREADS

@@ -62,7 +62,7 @@ config = load_config({tree!r} + "/{config}")
 lap("import worker, config")
 keep_renderer_alive()
 lap("renderer warm-up")
-import datagen.scenes.grasp_tabletop
+import datagen.families.grasp_tabletop.produce
 lap("scene family imports")
 produce_with_policy(config, Task(0))
 lap("first sample")

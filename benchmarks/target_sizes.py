@@ -40,7 +40,7 @@ def main(argv: list[str] | None = None) -> int:
     args = parser.parse_args(argv)
     sys.path.insert(0, str(REPO))
     from datagen.config import load_config
-    from datagen.scenes.grasp_tabletop import produce
+    from datagen.families.grasp_tabletop.produce import produce
 
     config = load_config(args.config)
     cameras = {"workspace": ""} | ({"wrist": "wrist."} if config.render.wrist_camera else {})

@@ -26,7 +26,7 @@ REPO = Path(__file__).resolve().parents[1]
 
 
 def _run(config, seed: int, indices: list[int]) -> dict[str, float]:
-    from datagen.scenes.grasp_tabletop import produce
+    from datagen.families.grasp_tabletop.produce import produce
 
     wall, cpu = time.perf_counter(), time.process_time()
     for index in indices:
@@ -56,7 +56,7 @@ def main() -> int:
     import sapien
 
     from datagen.config import load_config
-    from datagen.scenes.grasp_tabletop import produce
+    from datagen.families.grasp_tabletop.produce import produce
 
     base = load_config(REPO / "configs/grasp_tabletop.yaml")
     configs = {

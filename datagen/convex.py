@@ -3,7 +3,7 @@ against body, body against body).
 
 Collision is a separating-axis test between an oriented box and an obstacle, taken as a convex
 polyhedron: exact for convex parts, conservative (the convex hull) for anything else, so pass
-objects as their convex parts. The gripper's boxes: :mod:`datagen.grasping.gripper_geometry`.
+objects as their convex parts. The gripper's boxes: :mod:`datagen.families.grasp_attempts.gripper_geometry`.
 """
 
 from __future__ import annotations

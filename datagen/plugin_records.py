@@ -139,7 +139,7 @@ class GroundRobot:
     # degrees off straight ahead its camera's view may reach (pitch + half the vertical field of
     # view) below (and above) so that it never sees itself: Fetch's head camera sees its base
     # from about 78 degrees down (rendered at 4:3, 2:1 and 3:5; tests/navigation); the car's
-    # camera looks out ahead of every part of it (datagen/worlds/car.py): 90 either way
+    # camera looks out ahead of every part of it (datagen/families/navigation/car.py): 90 either way
     view_limit_deg: float = 75.0
     view_limit_above: bool = False
     paint: str | None = None  # (rng, config) -> materials of its parts, from stream nav_<name>

@@ -190,7 +190,7 @@ class SampleMetadata(TypedDict, total=False):
     randomisation: Randomisation
     objects: list[ObjectWorldRecord]
     views: dict[str, ViewRecord]  # camera name -> its view
-    attempt: dict[str, Any]  # a grasp attempt: target, grasp, outcome (datagen.scenes)
+    attempt: dict[str, Any]  # a grasp attempt: target, grasp, outcome (datagen.families)
     family: str
     things: list[SequenceThing]
     episode: dict[str, Any]  # a navigation episode: success, spl, paths, layout

@@ -55,24 +55,24 @@ FAMILIES: Registry[SceneFamily] = Registry(
         SceneFamily(
             "grasp_tabletop",
             "annotated frames of a Panda before a tray of objects",
-            produce="datagen.scenes.grasp_tabletop:produce",
+            produce="datagen.families.grasp_tabletop.produce:produce",
             classes="datagen.worlds.class_names:grasp_classes",
             world="tabletop",
         ),
         SceneFamily(
             "grasp_attempts",
             "physically executed grasps with success labels",
-            produce="datagen.scenes.grasp_attempts:produce",
+            produce="datagen.families.grasp_attempts.produce:produce",
             classes="datagen.worlds.class_names:grasp_classes",
             section="campaign",
             world="tabletop",
-            finish="datagen.scenes.grasp_attempts:campaign_summary",
+            finish="datagen.families.grasp_attempts.produce:campaign_summary",
             episodes=True,
         ),
         SceneFamily(
             "navigation",
             "Fetch driving expert paths through rooms, corridors and mazes",
-            produce="datagen.scenes.navigation_fleet:produce",
+            produce="datagen.families.navigation.produce:produce",
             classes="datagen.worlds.class_names:navigation_classes",
             section="navigation",
             metadata_formats=("datagen.nav_episode/1", "datagen.nav_fleet/1"),
@@ -82,7 +82,7 @@ FAMILIES: Registry[SceneFamily] = Registry(
         SceneFamily(
             "aerial",
             "quadrotors flying minimum-snap expert trajectories through 3-D corridors, mazes and rooms",
-            produce="datagen.scenes.aerial_episodes:produce",
+            produce="datagen.families.aerial.produce:produce",
             classes="datagen.worlds.class_names:aerial_classes",
             section="aerial",
             metadata_formats=("datagen.aerial_episode/1",),
@@ -126,9 +126,9 @@ SAMPLERS: Registry[Plugin] = Registry(
     "grasp sampler",
     "datagen.samplers",
     [
-        Plugin("antipodal", "datagen.grasping.samplers.antipodal:AntipodalSampler"),
-        Plugin("random", "datagen.grasping.samplers.random_pose:RandomSampler"),
-        Plugin("learned", "datagen.grasping.samplers.learned:LearnedSampler"),
+        Plugin("antipodal", "datagen.families.grasp_attempts.samplers.antipodal:AntipodalSampler"),
+        Plugin("random", "datagen.families.grasp_attempts.samplers.random_pose:RandomSampler"),
+        Plugin("learned", "datagen.families.grasp_attempts.samplers.learned:LearnedSampler"),
     ],
 )
 
@@ -163,20 +163,20 @@ LAYOUTS: Registry[LayoutKind] = Registry(
     "datagen.layouts",
     [
         LayoutKind(
-            "rooms", "datagen.navigation.layouts:rooms", "datagen.navigation.layouts:RoomsParams"
+            "rooms", "datagen.floorplans.layouts:rooms", "datagen.floorplans.layouts:RoomsParams"
         ),
         LayoutKind(
             "corridor",
-            "datagen.navigation.layouts:corridor",
-            "datagen.navigation.layouts:CorridorParams",
+            "datagen.floorplans.layouts:corridor",
+            "datagen.floorplans.layouts:CorridorParams",
         ),
         LayoutKind(
-            "maze", "datagen.navigation.layouts:maze", "datagen.navigation.layouts:MazeParams"
+            "maze", "datagen.floorplans.layouts:maze", "datagen.floorplans.layouts:MazeParams"
         ),
         LayoutKind(
             "plus_maze",
-            "datagen.navigation.layouts:plus_maze",
-            "datagen.navigation.layouts:PlusMazeParams",
+            "datagen.floorplans.layouts:plus_maze",
+            "datagen.floorplans.layouts:PlusMazeParams",
         ),
     ],
 )
@@ -200,21 +200,21 @@ GROUND_ROBOTS: Registry[GroundRobot] = Registry(
         GroundRobot(
             "fetch",
             "Fetch: a differential drive that turns on the spot (ManiSkill's Fetch)",
-            drive="datagen.navigation.episode:differential_drive",
-            body="datagen.worlds.floorplan:fetch_body",
-            describe="datagen.scenes.navigation_episodes:fetch_record",
+            drive="datagen.families.navigation.episode:differential_drive",
+            body="datagen.families.navigation.world:fetch_body",
+            describe="datagen.families.navigation.one_robot:fetch_record",
         ),
         GroundRobot(
             "car",
             "a car with Ackermann steering, its camera on a mast at the front",
-            drive="datagen.navigation.episode:ackermann_drive",
-            body="datagen.worlds.car:car_body",
-            describe="datagen.scenes.navigation_episodes:car_record",
+            drive="datagen.families.navigation.episode:ackermann_drive",
+            body="datagen.families.navigation.car:car_body",
+            describe="datagen.families.navigation.one_robot:car_record",
             label="car",
             steers=True,
             view_limit_deg=90.0,
             view_limit_above=True,
-            paint="datagen.randomisers.floorplan_scene:car_paint",
+            paint="datagen.families.navigation.values:car_paint",
         ),
     ],
 )
@@ -226,9 +226,9 @@ AIRFRAMES: Registry[Airframe] = Registry(
         Airframe(
             "quadrotor",
             "four rotors in an X, landing legs and a camera pod on a nose below the front rotors",
-            shape="datagen.aerial.quadrotor:QuadrotorShape",
-            parts="datagen.aerial.quadrotor:quadrotor_parts",
-            mounts="datagen.aerial.quadrotor:camera_mounts",
+            shape="datagen.families.aerial.quadrotor:QuadrotorShape",
+            parts="datagen.families.aerial.quadrotor:quadrotor_parts",
+            mounts="datagen.families.aerial.quadrotor:camera_mounts",
             # dark frames, light or bright bodies, grey motors, translucent-looking rotors
             paint=(
                 ("body", (0.3, 1.0)),

@@ -18,9 +18,9 @@ import numpy as np
 import sapien
 
 from datagen.config import load_config
-from datagen.grasping.planner import make_planner, remove_obstacles, solve_ik
+from datagen.families.grasp_attempts.planner import make_planner, remove_obstacles, solve_ik
+from datagen.families.grasp_tabletop.world import build_scene
 from datagen.registries import ROBOTS
-from datagen.worlds.tabletop import build_scene
 
 DOWN = [0.0, 1.0, 0.0, 0.0]  # wxyz: the TCP's z pointing down
 

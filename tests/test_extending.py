@@ -162,8 +162,8 @@ def test_the_example_sampler_grasps_a_box_from_above():
         from example_top_down import TopDownSampler
     finally:
         sys.path.remove(str(PLUGINS))
-    from datagen.grasping.gripper_geometry import gripper_geometry
-    from datagen.grasping.samplers.base import GraspTarget, Obstacles
+    from datagen.families.grasp_attempts.gripper_geometry import gripper_geometry
+    from datagen.families.grasp_attempts.samplers.base import GraspTarget, Obstacles
     from datagen.registries import ROBOTS
 
     box = trimesh.creation.box(extents=[0.04, 0.1, 0.05])

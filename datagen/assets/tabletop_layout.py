@@ -3,7 +3,7 @@ the table (top and legs), the robot's base on its edge at negative x and the tra
 The constants are the Panda's workspace; a smaller arm gets them scaled about the world origin
 (:class:`Workspace`, from ``RobotSpec.workspace_scale``; the floor is not scaled), and the tray's
 walls and floor as its objects are (``RobotSpec.object_scale``).
-Pure numbers, realised by the simulator scene (``datagen.worlds.tabletop``) and the USD export
+Pure numbers, realised by the simulator scene (``datagen.families.grasp_tabletop.world``) and the USD export
 (``datagen.exports.usd_stage``) from :func:`static_parts`, and shared with grasp planning."""
 
 from __future__ import annotations

@@ -17,14 +17,14 @@ EUROC_IMU = {
 MAX_STEREO_BASELINE = 0.5  # metres
 
 # degrees above the horizon a forward camera's view may reach: beyond, a drone sees its own
-# rotors (datagen/aerial/quadrotor.py places its camera pod for this; tested at 4:3)
+# rotors (datagen/families/aerial/quadrotor.py places its camera pod for this; tested at 4:3)
 MAX_CAMERA_TOP_DEG = 45.0
 
 
 @dataclass(frozen=True)
 class ImuNoiseConfig:
     """White noise and a bias random walk per axis, in Kalibr's names and units (continuous-time
-    densities; datagen.aerial.imu turns them into per-sample values)."""
+    densities; datagen.families.aerial.imu turns them into per-sample values)."""
 
     enabled: bool = False  # noisy readings beside the ideal ones
     accelerometer_noise_density: float = field(
@@ -49,7 +49,7 @@ class AerialConfig:
         default=(0.25, 0.45), metadata=ranged(0.1, 1.0, "metres between opposite rotor centres")
     )
     airframe: str = "quadrotor"  # a drone's frame (datagen.registries.AIRFRAMES)
-    # the volume (datagen.aerial.volumes)
+    # the volume (datagen.families.aerial.volumes)
     height: tuple[float, float] = field(
         default=(2.6, 4.0), metadata=ranged(1.0, 10.0, "floor to ceiling, metres")
     )
@@ -67,7 +67,7 @@ class AerialConfig:
     window_probability: float = field(
         default=0.5, metadata=ranged(0.0, 1.0, "chance per inner wall of rooms: an opening")
     )
-    # the expert (datagen.aerial.planning)
+    # the expert (datagen.families.aerial.planning)
     margin: float = field(
         default=0.15, metadata=ranged(0.0, 1.0, "clearance beyond the drone's radius, metres")
     )
@@ -101,6 +101,6 @@ class AerialConfig:
         default=0.0,
         metadata=ranged(0.0, MAX_STEREO_BASELINE, "metres to a right camera; 0 = none"),
     )
-    # the IMU stream (datagen.aerial.imu)
+    # the IMU stream (datagen.families.aerial.imu)
     imu_hz: float = field(default=200.0, metadata=ranged(10.0, 2000.0, "IMU samples per second"))
     imu_noise: ImuNoiseConfig = field(default_factory=ImuNoiseConfig)

@@ -81,7 +81,7 @@ IMU_READINGS = ("time_s", "accelerometer", "gyroscope")  # in every imu.d<k>.npz
 
 
 def imu_stream(data: bytes, name: str) -> dict[str, np.ndarray]:
-    """The arrays of a drone's ``imu.d<k>.npz`` (:mod:`datagen.aerial.imu`, docs/aerial.md)."""
+    """The arrays of a drone's ``imu.d<k>.npz`` (:mod:`datagen.families.aerial.imu`, docs/aerial.md)."""
     try:
         with np.load(io.BytesIO(data), allow_pickle=False) as npz:
             arrays = {key: npz[key] for key in npz.files}

@@ -17,8 +17,8 @@ import time
 from collections.abc import Iterable
 from typing import Any, Protocol
 
+from datagen.campaign_stats import campaign_stats
 from datagen.errors import BuildError
-from datagen.grasping.stats import campaign_stats
 from datagen.pipeline.result import BuildResult, Observer
 from datagen.pipeline.schedule import Schedule
 from datagen.transport.connection import MqttConnectError, MqttConnection
@@ -232,7 +232,7 @@ class LiveStatus:
 
 def campaign_summary(outcomes: Iterable[dict[str, Any]]) -> dict[str, Any]:
     """Success rates of the samples' outcomes so far (:mod:`datagen.outcomes`): ``campaign`` for
-    grasp attempts (:func:`datagen.grasping.stats.campaign_stats`, as in the manifest),
+    grasp attempts (:func:`datagen.campaign_stats.campaign_stats`, as in the manifest),
     ``navigation`` for episodes (success rate, mean SPL); only those present."""
     outcomes = list(outcomes)
     grasps = [o for o in outcomes if o.get("kind") == "grasp"]

@@ -23,6 +23,7 @@ from datagen.config.appearance import BackgroundConfig, PhotosConfig
 from datagen.config.sections import MaterialsConfig
 from datagen.randomisers.materials import random_material
 from datagen.randomisers.textures import DEFAULT_PHOTOS, draw_picture
+from datagen.scene_values.rounding import uniform
 
 WALL_SATURATION = (0.0, 0.4)  # HSV: painted walls are muted
 WALL_VALUE = (0.3, 0.95)
@@ -60,8 +61,8 @@ def draw_background(
     """The room's values; room lights are scaled to their radiance at ``target`` (the tray).
     A picture of ``background.images_dir`` is drawn as a photograph is on a wall (``photos``'
     crop, jitter and ``backdrop_scale_m``), upright."""
-    x_min, x_max, y_min, y_max = (round(float(rng.uniform(*cfg.room_half_size)), 6) for _ in WALLS)
-    height = round(float(rng.uniform(*cfg.wall_height)), 6)
+    x_min, x_max, y_min, y_max = (uniform(rng, cfg.room_half_size) for _ in WALLS)
+    height = uniform(rng, cfg.wall_height)
     ceiling = bool(rng.random() < cfg.ceiling_probability)
     walls = {name: _wall_material(rng, cfg, materials, photos) for name in (*WALLS, "ceiling")}
     lights = []
@@ -74,7 +75,7 @@ def draw_background(
             {
                 "position": [round(float(v), 6) for v in (x, y, z)],
                 "colour": np.round(tint / tint.max(), 6).tolist(),
-                "intensity": round(float(rng.uniform(*cfg.room_light_intensity)), 6),
+                "intensity": uniform(rng, cfg.room_light_intensity),
             }
         )
     return {

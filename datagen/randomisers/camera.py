@@ -11,6 +11,7 @@ import numpy as np
 
 from datagen.config.sections import CameraConfig
 from datagen.scene_values.camera import CameraPose
+from datagen.scene_values.rounding import uniform
 
 
 def draw_camera(rng: np.random.Generator, cfg: CameraConfig) -> CameraPose:
@@ -45,6 +46,6 @@ def _jittered(
     return CameraPose(
         eye=tuple(np.round(eye, 6).tolist()),
         target=tuple(np.round(target, 6).tolist()),
-        fovy_deg=round(float(rng.uniform(*cfg.fovy_deg)), 6),
+        fovy_deg=uniform(rng, cfg.fovy_deg),
         azimuth_deg=azimuth,
     )

@@ -12,6 +12,7 @@ import numpy as np
 
 from datagen.config.sections import LightingConfig
 from datagen.scene_values.lighting import Light, Lighting
+from datagen.scene_values.rounding import uniform
 
 FILL_DISTANCE = (1.0, 1.8)  # metres from the light target
 WHITE_K = 6500.0  # kelvin: the black body whose colour is white ([1, 1, 1])
@@ -94,7 +95,7 @@ def _key_shadow(
     if not cfg.shadows:
         return False, None, None
     if cfg.soft_shadow_probability > 0 and rng.uniform() < cfg.soft_shadow_probability:
-        return True, "soft", round(float(rng.uniform(*cfg.soft_shadow_radius_m)), 6)
+        return True, "soft", uniform(rng, cfg.soft_shadow_radius_m)
     return True, "hard", None
 
 
@@ -108,7 +109,7 @@ def draw_lighting(
         direction = light_direction(rng, cfg)
         colour, kelvin = light_colour(rng, cfg)
         towards = tuple(np.round(direction, 6).tolist())
-        intensity = round(float(rng.uniform(*cfg.intensity)), 6)
+        intensity = uniform(rng, cfg.intensity)
         if i == 0:
             shadow, edge, radius = _key_shadow(rng, cfg)
             lights.append(
@@ -127,7 +128,7 @@ def draw_lighting(
         shadow = bool(cfg.shadows and rng.uniform() < 0.5)
         distance = rng.uniform(*FILL_DISTANCE)
         position = tuple(np.round(np.asarray(target) - direction * distance, 6).tolist())
-        fov = round(float(rng.uniform(50, 90)), 6)
+        fov = uniform(rng, (50, 90))
         lights.append(
             Light(
                 "spot",
@@ -140,5 +141,5 @@ def draw_lighting(
                 outer_fov_deg=fov,
             )
         )
-    ambient = round(float(rng.uniform(*cfg.ambient)), 6)
+    ambient = uniform(rng, cfg.ambient)
     return Lighting(ambient, tuple(lights), target=tuple(float(x) for x in target))

@@ -11,6 +11,7 @@ import numpy as np
 
 from datagen.assets.texture_tiles import draw_palette
 from datagen.config.sections import MaterialsConfig
+from datagen.scene_values.rounding import uniform
 
 # Surfaces of the room keep plausible colour ranges (HSV value), objects span the config's.
 _SURFACE_VALUE = {"table": (0.35, 0.85), "tray": (0.2, 0.9), "floor": (0.25, 0.75)}
@@ -31,8 +32,8 @@ def random_material(
 ) -> dict[str, Any]:
     return {
         "base_color": random_colour(rng, saturation, value),
-        "roughness": round(float(rng.uniform(*cfg.roughness)), 6),
-        "metallic": round(float(rng.uniform(*cfg.metallic)), 6),
+        "roughness": uniform(rng, cfg.roughness),
+        "metallic": uniform(rng, cfg.metallic),
     }
 
 

@@ -31,7 +31,7 @@ class GripperSpec:
     hand. z of the TCP frame points out of the hand along the fingers, y is the closing
     direction, from ``pads[1]`` to ``pads[0]``. The geometry the grasp samplers check, the
     opening (width) of each joint value and the grasp frame are derived from the description
-    (:mod:`datagen.grasping.gripper_geometry`)."""
+    (:mod:`datagen.families.grasp_attempts.gripper_geometry`)."""
 
     hand_link: str
     tcp_link: str  # the motion planner's move group: midway between the pads (at half opening)

@@ -3,7 +3,7 @@ geometry and mass properties, joints with origins, axes, limits and mimics, and 
 kinematics.
 
 Used where datagen needs a robot's geometry without a physics scene: the gripper's collision
-volume for the grasp samplers (:mod:`datagen.grasping.gripper_geometry`) and the robot's
+volume for the grasp samplers (:mod:`datagen.families.grasp_attempts.gripper_geometry`) and the robot's
 meshes in USD stages. Transforms are 4x4 numpy arrays, metres and radians.
 """
 

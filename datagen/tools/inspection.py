@@ -24,10 +24,10 @@ from typing import Any
 import cv2
 import numpy as np
 
+from datagen.campaign_stats import campaign_stats
 from datagen.dataset.loader import DatasetError, ShardDataset, load
 from datagen.dataset.trajectory import decode_trajectory
 from datagen.exports.files import inside, replace_file, tool_folder, written
-from datagen.grasping.stats import campaign_stats
 from datagen.outcomes import grasp_outcome
 from datagen.records import SampleMetadata
 from datagen.registries import METADATA_FORMATS, MetadataFormat, metadata_format

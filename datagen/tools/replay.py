@@ -180,10 +180,10 @@ def replay(root: str | Path, key: str) -> dict[str, np.ndarray]:
     """RGB image (H, W, 3) per camera of the replayed scene."""
     from datagen.dataset.assets import check_asset_paths
     from datagen.dataset.loader import load
+    from datagen.families.grasp_tabletop.world import construct_scene
     from datagen.scene_values.bundles import tabletop_values
     from datagen.sensing.render import capture, keep_renderer_alive
     from datagen.tools.sample_checks import read_metadata
-    from datagen.worlds.tabletop import construct_scene
 
     root = Path(root)
     manifest = read_manifest(root)

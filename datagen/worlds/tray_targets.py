@@ -16,7 +16,7 @@ MAX_REDRAWS = 5
 
 
 class Target(Protocol):
-    """What is checked of a grasp target (``datagen.worlds.tabletop.SceneObject``)."""
+    """What is checked of a grasp target (``datagen.families.grasp_tabletop.world.SceneObject``)."""
 
     instance_id: int
     class_name: str

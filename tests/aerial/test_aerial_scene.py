@@ -10,11 +10,11 @@ import numpy as np
 import pytest
 from aerial_strapdown import angle_between, integrate
 
-from datagen.aerial.flatness import GRAVITY
-from datagen.aerial.volumes import box_distance
 from datagen.config import config_from_dict
 from datagen.dataset.parts import decode_parts
-from datagen.scenes.aerial_episodes import produce
+from datagen.families.aerial.flatness import GRAVITY
+from datagen.families.aerial.produce import produce
+from datagen.families.aerial.volumes import box_distance
 
 pytestmark = [pytest.mark.sim]
 WIDTH, HEIGHT = 160, 120

@@ -1,4 +1,4 @@
-"""Differential flatness (datagen/aerial/flatness.py): the thrust points along the acceleration
+"""Differential flatness (datagen/families/aerial/flatness.py): the thrust points along the acceleration
 plus gravity, the body rates are the rotation's own derivative, the IMU integrates back to the
 trajectory, and an independent implementation gives the same thrust and thrust direction."""
 
@@ -7,8 +7,8 @@ from __future__ import annotations
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from datagen.aerial.flatness import GRAVITY, flat_states, quaternion_xyzw
-from datagen.aerial.minsnap import minimum_snap, ramp_times
+from datagen.families.aerial.flatness import GRAVITY, flat_states, quaternion_xyzw
+from datagen.families.aerial.minsnap import minimum_snap, ramp_times
 
 WAYPOINTS = np.array([[0.0, 0.0, 1.0], [2.0, 0.0, 1.5], [2.0, 3.0, 1.0], [0.0, 3.5, 2.0]])
 

@@ -1,4 +1,4 @@
-"""The IMU stream (datagen/aerial/imu.py) as a user reads it from ``imu.d<k>.npz``: integrated
+"""The IMU stream (datagen/families/aerial/imu.py) as a user reads it from ``imu.d<k>.npz``: integrated
 alone from its state at t = 0 (an independent 4th-order Runge-Kutta strapdown,
 tests/aerial/aerial_strapdown.py) it stays within 1 cm and 0.1 degrees of the ground truth over
 every whole flight and ends at the goal; the stored polynomials, evaluated by numpy alone, give
@@ -13,12 +13,12 @@ import numpy as np
 import pytest
 from aerial_strapdown import strapdown_errors
 
-from datagen.aerial.episode import plan_aerial_episode
-from datagen.aerial.imu import imu_arrays, imu_times, noisy, npz_bytes
 from datagen.config import config_from_dict
 from datagen.config.aerial import EUROC_IMU, ImuNoiseConfig
 from datagen.dataset.episode_parts import imu_stream
 from datagen.errors import ConfigError
+from datagen.families.aerial.episode import plan_aerial_episode
+from datagen.families.aerial.imu import imu_arrays, imu_times, noisy, npz_bytes
 from datagen.seeding import sample_rng
 
 RATE = 200.0  # Hz, the default

@@ -1,4 +1,4 @@
-"""Minimum-snap trajectories (datagen/aerial/minsnap.py): through every waypoint, at rest at both
+"""Minimum-snap trajectories (datagen/families/aerial/minsnap.py): through every waypoint, at rest at both
 ends, smooth where pieces meet, the least snap (an independent implementation agrees), and a
 time scaling changes only the speed."""
 
@@ -7,7 +7,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from datagen.aerial.minsnap import minimum_snap, ramp_times
+from datagen.families.aerial.minsnap import minimum_snap, ramp_times
 
 WAYPOINTS = np.array(
     [[0.0, 0.0, 1.0], [2.0, 0.0, 1.5], [2.0, 3.0, 1.0], [0.0, 3.5, 2.0], [-1.0, 1.0, 1.2]]

@@ -8,11 +8,11 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from datagen.aerial.episode import plan_aerial_episode
 from datagen.config import config_from_dict
-from datagen.randomisers.volume_scene import draw_aerial_scene
+from datagen.families.aerial.episode import plan_aerial_episode
+from datagen.families.aerial.values import draw_aerial_scene
+from datagen.families.aerial.world import AERIAL_CLASS_ID, build_aerial_scene
 from datagen.sensing.render import keep_renderer_alive
-from datagen.worlds.volume import AERIAL_CLASS_ID, build_aerial_scene
 
 pytestmark = [pytest.mark.sim]
 SOLIDS = [AERIAL_CLASS_ID[c] for c in ("wall", "ceiling", "obstacle")]

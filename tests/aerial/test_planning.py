@@ -1,4 +1,4 @@
-"""Expert flights (datagen/aerial/planning.py, fleet.py, episode.py): collision-free at their
+"""Expert flights (datagen/families/aerial/planning.py, fleet.py, episode.py): collision-free at their
 clearance, smooth, within the limits, never shorter than the episode's lower bound (to the goal's
 centre: a straight flight has an SPL of 1), and the drones of one episode never closer than two
 radii and a margin."""
@@ -8,13 +8,13 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from datagen.aerial.airframe import bounding_radius, camera_reach
-from datagen.aerial.episode import flown_length, path_lower_bound, plan_aerial_episode
-from datagen.aerial.fleet import Agent, closest_approach, separation
-from datagen.aerial.planning import FlightLimits, plan_flight
-from datagen.aerial.volumes import Solid, Volume, box_distance
 from datagen.config import config_from_dict
-from datagen.navigation.grid import Layout
+from datagen.families.aerial.airframe import bounding_radius, camera_reach
+from datagen.families.aerial.episode import flown_length, path_lower_bound, plan_aerial_episode
+from datagen.families.aerial.fleet import Agent, closest_approach, separation
+from datagen.families.aerial.planning import FlightLimits, plan_flight
+from datagen.families.aerial.volumes import Solid, Volume, box_distance
+from datagen.floorplans.grid import Layout
 from datagen.outcomes import spl
 from datagen.registries import AIRFRAMES
 

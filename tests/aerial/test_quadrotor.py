@@ -1,4 +1,4 @@
-"""The procedural quadrotor (datagen/aerial/quadrotor.py): its radius holds every part, and its
+"""The procedural quadrotor (datagen/families/aerial/quadrotor.py): its radius holds every part, and its
 forward camera, tilted as far up as a config allows, sees none of its own drone."""
 
 from __future__ import annotations
@@ -6,11 +6,16 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from datagen.aerial.airframe import bounding_radius, camera_mounts, camera_reach, right_camera
-from datagen.aerial.quadrotor import QuadrotorShape, quadrotor_parts
 from datagen.config import config_from_dict
 from datagen.config.aerial import MAX_CAMERA_TOP_DEG
 from datagen.errors import ConfigError
+from datagen.families.aerial.airframe import (
+    bounding_radius,
+    camera_mounts,
+    camera_reach,
+    right_camera,
+)
+from datagen.families.aerial.quadrotor import QuadrotorShape, quadrotor_parts
 from datagen.registries import AIRFRAMES
 
 QUADROTOR = AIRFRAMES["quadrotor"]

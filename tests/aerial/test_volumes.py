@@ -1,4 +1,4 @@
-"""3-D volumes (datagen/aerial/volumes.py): the plan's walls raised, flyer-only solids that never
+"""3-D volumes (datagen/families/aerial/volumes.py): the plan's walls raised, flyer-only solids that never
 cut the free space, the voxel grid as documented, box arithmetic."""
 
 from __future__ import annotations
@@ -6,7 +6,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from datagen.aerial.volumes import (
+from datagen.families.aerial.volumes import (
     FLYER_KINDS,
     VolumeParams,
     box_distance,
@@ -16,7 +16,7 @@ from datagen.aerial.volumes import (
     subtract,
     voxelise,
 )
-from datagen.navigation.layouts import make_layout
+from datagen.floorplans.layouts import make_layout
 
 PARAMS = VolumeParams(
     pillars=(2, 3), beams=(1, 2), hanging=(1, 2), screens=(1, 1), window_probability=1.0

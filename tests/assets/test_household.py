@@ -132,7 +132,7 @@ def test_a_malformed_profile_is_refused_by_name(spec):
 @pytest.mark.sim
 @pytest.mark.parametrize("family", HOUSEHOLD_FAMILIES)
 def test_every_household_family_settles_and_stays_in_the_tray(family):
-    from datagen.worlds.tabletop import build_scene
+    from datagen.families.grasp_tabletop.world import build_scene
 
     config = BuildConfig(
         objects=ObjectsConfig(count=(3, 3), families=(family,)),

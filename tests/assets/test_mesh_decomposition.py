@@ -200,7 +200,7 @@ def test_a_sample_made_from_cached_parts_has_the_bytes_of_one_made_from_parts_de
     meshes, cache
 ):
     from datagen.config import config_from_dict
-    from datagen.scenes.grasp_tabletop import produce
+    from datagen.families.grasp_tabletop.produce import produce
 
     objects = {"source": "folder", "assets_dir": meshes, "count": [3, 3]}
     config = config_from_dict({"render": {"width": 64, "height": 48}, "objects": objects})

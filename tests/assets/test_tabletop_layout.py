@@ -1,5 +1,5 @@
 """One description of the tabletop's static geometry (datagen/assets/tabletop_layout.py), realised
-by the simulator scene (datagen/worlds/tabletop.py) and by the USD export
+by the simulator scene (datagen/families/grasp_tabletop/world.py) and by the USD export
 (datagen/exports/usd_stage.py): both build exactly its boxes, so the two cannot drift (they did:
 the USD floor was 5 m across where SAPIEN's is 10 m, and the table had no legs in USD)."""
 
@@ -13,9 +13,9 @@ from pxr import Usd, UsdGeom
 from datagen.assets.tabletop_layout import static_parts
 from datagen.config import config_from_dict
 from datagen.exports import usd_stage
-from datagen.randomisers import draw_scene
+from datagen.families.grasp_tabletop.values import draw_scene
+from datagen.families.grasp_tabletop.world import construct_scene
 from datagen.sensing.render import keep_renderer_alive
-from datagen.worlds.tabletop import construct_scene
 
 TINY = {"render": {"width": 64, "height": 48}, "objects": {"count": [1, 1]}}
 

@@ -28,7 +28,7 @@ from datagen.assets.texture_tiles import (
 from datagen.assets.uv_mapping import box_mapped
 from datagen.config import config_from_dict
 from datagen.errors import ConfigError
-from datagen.randomisers import draw_scene
+from datagen.families.grasp_tabletop.values import draw_scene
 from datagen.scene_values.checks import as_json
 from datagen.seeding import sample_rng
 
@@ -279,8 +279,8 @@ def test_sample_streams_do_not_depend_on_texture_draws():
 
 
 def test_navigation_floors_walls_and_doors_are_textured_from_their_own_stream():
-    from datagen.navigation.episode import plan_episode
-    from datagen.randomisers.floorplan_scene import TEXTURED_SURFACES, draw_nav_scene
+    from datagen.families.navigation.episode import plan_episode
+    from datagen.families.navigation.values import TEXTURED_SURFACES, draw_nav_scene
 
     def values(probability):
         config = config_from_dict(

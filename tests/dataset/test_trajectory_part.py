@@ -13,7 +13,7 @@ from datagen.config import ConfigError, config_from_dict
 from datagen.dataset.loader import DatasetError
 from datagen.dataset.parts import decode_parts
 from datagen.dataset.trajectory import decode_trajectory
-from datagen.grasping.recording import Recorder, StepState, steps_per_sample
+from datagen.families.grasp_attempts.recording import Recorder, StepState, steps_per_sample
 
 JOINTS = ("j1", "j2", "f1", "f2")
 ARM = ("j1", "j2")

@@ -22,8 +22,8 @@ from conftest import write_dataset  # tests/conftest.py: a dataset written witho
 import datagen
 from datagen.config import config_from_dict
 from datagen.exports.runner import run_exports
+from datagen.families.navigation.produce import produce
 from datagen.pipeline.manifest import build_manifest
-from datagen.scenes.navigation_fleet import produce
 from datagen.shards import write_json_durably
 
 pytestmark = [pytest.mark.sim, pytest.mark.slow]

@@ -16,7 +16,7 @@ import yaml
 from datagen.config import BuildConfig
 from datagen.config.sections import CampaignConfig, OutputConfig, RenderConfig
 from datagen.dataset.loader import load, verify
-from datagen.grasping import FAILURE_MODES
+from datagen.families.grasp_attempts.grasps import FAILURE_MODES
 from datagen.pipeline.run import run_build
 
 pytestmark = [pytest.mark.sim, pytest.mark.mqtt, pytest.mark.slow]  # real builds

@@ -11,11 +11,16 @@ from mplib.pymp.collision_detection import fcl
 from test_grasp_execute import CONFIG, PARAMS, box_scene, top_down
 
 from datagen.assets.shapes import build_geometry
-from datagen.grasping import FAILURE_MODES
-from datagen.grasping.contacts import convex_box, sat_contacts, sat_twin
-from datagen.grasping.disturbance import PUSH_FACTOR, SPEED_FLOOR, WINDOW, pushed_speed
-from datagen.grasping.execute import execute_grasp
-from datagen.grasping.stats import campaign_stats
+from datagen.campaign_stats import campaign_stats
+from datagen.families.grasp_attempts.contacts import convex_box, sat_contacts, sat_twin
+from datagen.families.grasp_attempts.disturbance import (
+    PUSH_FACTOR,
+    SPEED_FLOOR,
+    WINDOW,
+    pushed_speed,
+)
+from datagen.families.grasp_attempts.execute import execute_grasp
+from datagen.families.grasp_attempts.grasps import FAILURE_MODES
 
 pytestmark = pytest.mark.sim
 

@@ -15,8 +15,8 @@ from datagen.config import load_config
 from datagen.config.robot import robot_spec
 from datagen.config.sections import RenderConfig
 from datagen.dataset.trajectory import decode_trajectory
+from datagen.families.grasp_attempts.produce import produce
 from datagen.robot_specs.urdf import read_urdf
-from datagen.scenes.grasp_attempts import produce
 
 pytestmark = [pytest.mark.sim, pytest.mark.slow]
 

@@ -11,9 +11,9 @@ import sapien
 from datagen.assets.tabletop_layout import TRAY_CENTRE, TRAY_FLOOR
 from datagen.config import BuildConfig
 from datagen.config.sections import ObjectsConfig
-from datagen.grasping import GraspCandidate
-from datagen.grasping.execute import ExecutionParams, execute_grasp
-from datagen.worlds.tabletop import GraspScene, build_scene
+from datagen.families.grasp_attempts.execute import ExecutionParams, execute_grasp
+from datagen.families.grasp_attempts.grasps import GraspCandidate
+from datagen.families.grasp_tabletop.world import GraspScene, build_scene
 
 pytestmark = pytest.mark.sim
 

@@ -9,8 +9,8 @@ import trimesh
 from datagen.assets.shapes import build_geometry
 from datagen.convex import ConvexBody
 from datagen.errors import ConfigError
-from datagen.grasping.gripper_geometry import gripper_geometry
-from datagen.grasping.samplers import GraspTarget, Obstacles
+from datagen.families.grasp_attempts.gripper_geometry import gripper_geometry
+from datagen.families.grasp_attempts.samplers import GraspTarget, Obstacles
 from datagen.registries import ROBOTS, SAMPLERS
 
 TABLE = 0.75

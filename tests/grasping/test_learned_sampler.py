@@ -11,7 +11,7 @@ import pytest
 from grasp_model_files import prefers_feature  # tests/grasp_model_files.py
 
 from datagen.config import config_from_dict
-from datagen.scenes.grasp_attempts import produce
+from datagen.families.grasp_attempts.produce import produce
 
 pytestmark = [pytest.mark.sim]
 

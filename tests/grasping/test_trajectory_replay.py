@@ -18,12 +18,12 @@ from datagen.config.sections import CampaignConfig, RenderConfig
 from datagen.dataset.loader import load
 from datagen.dataset.parts import decode_parts
 from datagen.exports.runner import run_exports
-from datagen.grasping.contacts import sat_twin
-from datagen.grasping.execute import ExecutionParams
-from datagen.scenes.grasp_attempts import produce
+from datagen.families.grasp_attempts.contacts import sat_twin
+from datagen.families.grasp_attempts.execute import ExecutionParams
+from datagen.families.grasp_attempts.produce import produce
+from datagen.families.grasp_tabletop.world import build_scene
 from datagen.tools.inspection import inspect_dataset
 from datagen.tools.preview import write_preview
-from datagen.worlds.tabletop import build_scene
 
 pytestmark = [pytest.mark.sim, pytest.mark.slow]
 

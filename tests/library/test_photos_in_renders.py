@@ -11,11 +11,11 @@ import pytest
 from datagen.assets.tabletop_layout import TRAY_CENTRE, TRAY_INNER_HALF
 from datagen.assets.texture_tiles import texture_tile
 from datagen.config import config_from_dict
+from datagen.families.grasp_tabletop.produce import annotate_scene
+from datagen.families.grasp_tabletop.values import draw_scene
+from datagen.families.grasp_tabletop.world import CLASSES, build_scene
 from datagen.library.catalogue import load_picture, pictures
-from datagen.randomisers import draw_scene
-from datagen.scenes.grasp_tabletop import annotate_scene
 from datagen.sensing.render import keep_renderer_alive
-from datagen.worlds.tabletop import CLASSES, build_scene
 
 LOOK_AT_THE_PHOTO = {  # from above the table towards the +x wall, 1.5 m away, photos on walls
     "render": {"width": 640, "height": 480},

@@ -1,5 +1,5 @@
 """The seed's maze experiment: a car-like robot with Ackermann steering in a four-arm maze
-(datagen/navigation/ackermann.py, layouts.plus_maze, worlds/car.py): it never turns tighter than
+(datagen/families/navigation/ackermann.py, layouts.plus_maze, worlds/car.py): it never turns tighter than
 its minimum turning radius, drives from one arm's end to another's without its body touching a
 wall (its pose is its body's centre, the centre of the footprint disk), never shorter than SPL's
 lower bound, and its camera rides on it. Its own view: tests/navigation/test_car_view.py."""
@@ -14,12 +14,12 @@ import pytest
 
 from datagen.config import config_from_dict, load_config
 from datagen.config.sections import RenderConfig
-from datagen.navigation.ackermann import CarParams, bicycle_step, follow_ackermann
-from datagen.navigation.episode import car_params, plan_episode
-from datagen.navigation.fleet import plan_fleet_episode
-from datagen.navigation.layouts import make_layout
-from datagen.scenes.navigation_episodes import planar_pose, produce
-from datagen.worlds.floorplan import NAV_CLASS_ID
+from datagen.families.navigation.ackermann import CarParams, bicycle_step, follow_ackermann
+from datagen.families.navigation.episode import car_params, plan_episode
+from datagen.families.navigation.fleet import plan_fleet_episode
+from datagen.families.navigation.one_robot import planar_pose, produce
+from datagen.families.navigation.world import NAV_CLASS_ID
+from datagen.floorplans.layouts import make_layout
 
 CONFIG = "configs/nav_plus_maze_car.yaml"
 # docs/navigation.md, in footprint radii: the body 1.6 x 1.0 about the pose, the axles 0.5 behind

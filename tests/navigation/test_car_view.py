@@ -17,12 +17,12 @@ import pytest
 from datagen.config import config_from_dict, load_config
 from datagen.config.sections import RenderConfig
 from datagen.errors import ConfigError
-from datagen.navigation.episode import plan_episode
-from datagen.randomisers.floorplan_scene import draw_nav_scene
+from datagen.families.navigation.episode import plan_episode
+from datagen.families.navigation.produce import produce
+from datagen.families.navigation.values import draw_nav_scene
+from datagen.families.navigation.world import NAV_CLASS_ID, build_nav_scene
 from datagen.registries import GROUND_ROBOTS
-from datagen.scenes.navigation_fleet import produce
 from datagen.sensing.render import capture
-from datagen.worlds.floorplan import NAV_CLASS_ID, build_nav_scene
 
 CAR = "configs/nav_plus_maze_car.yaml"
 FETCH = "configs/nav_maze.yaml"

@@ -1,4 +1,4 @@
-"""Several ground robots per episode (``navigation.robots``; datagen/navigation/fleet.py,
+"""Several ground robots per episode (``navigation.robots``; datagen/families/navigation/fleet.py,
 scenes/navigation_fleet.py): they never come closer than two radii and the margin, each reaches
 its goal never shorter than SPL's bound, each is an instance in the others' cameras, and a build
 is the same whatever the number of workers, loaded, inspected, previewed and exported."""
@@ -19,7 +19,7 @@ from datagen.config import config_from_dict
 from datagen.dataset.frame_dataset import load_frames
 from datagen.dataset.loader import load, verify
 from datagen.exports.runner import run_exports
-from datagen.navigation.fleet import closest_approach, plan_fleet_episode
+from datagen.families.navigation.fleet import closest_approach, plan_fleet_episode
 from datagen.tools.inspection import inspect_dataset
 from datagen.tools.preview import write_preview
 

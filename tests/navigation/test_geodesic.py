@@ -1,4 +1,4 @@
-"""The shortest path any robot can drive (datagen/navigation/geodesic.py), against closed forms:
+"""The shortest path any robot can drive (datagen/floorplans/geodesic.py), against closed forms:
 an empty room, a wall to go round, a closed door; and never longer than a collision-free path."""
 
 from __future__ import annotations
@@ -8,7 +8,7 @@ import math
 import numpy as np
 import pytest
 
-from datagen.navigation.geodesic import convex_corners, lower_bound_grid, shortest_length
+from datagen.floorplans.geodesic import convex_corners, lower_bound_grid, shortest_length
 
 
 def test_an_empty_room_gives_the_straight_line():

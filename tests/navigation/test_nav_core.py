@@ -8,20 +8,18 @@ import numpy as np
 import pytest
 from scipy import ndimage
 
-from datagen.navigation import (
-    Layout,
+from datagen.families.navigation.follow import follow
+from datagen.families.navigation.planning import (
     PlanningError,
     astar,
     draw_start_goal,
-    follow,
     footprint_collides,
-    inflate,
-    make_layout,
     path_to_world,
     shortest_path_length_m,
     smooth_path,
 )
-from datagen.navigation.grid import free_components
+from datagen.floorplans.grid import Layout, free_components, inflate
+from datagen.floorplans.layouts import make_layout
 from datagen.registries import LAYOUTS
 from datagen.seeding import sample_rng
 

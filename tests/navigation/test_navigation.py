@@ -18,14 +18,14 @@ from datagen.config import BuildConfig, load_config
 from datagen.config.sections import NavigationConfig, OutputConfig, RenderConfig
 from datagen.dataset.frame_dataset import load_frames
 from datagen.dataset.loader import load, verify
-from datagen.navigation.episode import plan_episode
-from datagen.navigation.grid import inflate
-from datagen.navigation.planning import footprint_collides
+from datagen.families.navigation.episode import plan_episode
+from datagen.families.navigation.one_robot import planar_pose, produce
+from datagen.families.navigation.planning import footprint_collides
+from datagen.families.navigation.world import NAV_CLASS_ID
+from datagen.floorplans.grid import inflate
 from datagen.pipeline.run import run_build
-from datagen.scenes.navigation_episodes import planar_pose, produce
 from datagen.tools.inspection import inspect_dataset
 from datagen.tools.preview import write_preview
-from datagen.worlds.floorplan import NAV_CLASS_ID
 
 REPO = Path(__file__).resolve().parents[2]
 FAMILIES = ("rooms", "corridor", "maze")

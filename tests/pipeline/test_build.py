@@ -14,8 +14,8 @@ from datagen.assets.tabletop_layout import TABLE_TOP, TRAY_CENTRE, TRAY_FLOOR
 from datagen.config import BuildConfig
 from datagen.config.sections import RenderConfig
 from datagen.dataset.loader import load, verify
+from datagen.families.grasp_tabletop.world import CLASS_ID
 from datagen.pipeline.run import run_build
-from datagen.worlds.tabletop import CLASS_ID
 
 pytestmark = [pytest.mark.sim, pytest.mark.mqtt, pytest.mark.slow]  # real builds
 

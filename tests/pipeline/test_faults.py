@@ -124,7 +124,7 @@ def test_broker_restart_mid_build(tmp_path, sig):
 
 
 def _produce(index: int) -> Sample:
-    from datagen.scenes.grasp_tabletop import produce
+    from datagen.families.grasp_tabletop.produce import produce
 
     return produce(CONFIG, CONFIG.seed, index)
 

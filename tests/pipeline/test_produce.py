@@ -9,9 +9,9 @@ import pytest
 
 from datagen.config import BuildConfig
 from datagen.config.sections import RenderConfig
-from datagen.scenes.grasp_tabletop import render_annotated, to_sample
+from datagen.families.grasp_tabletop.produce import render_annotated, to_sample
+from datagen.families.grasp_tabletop.world import build_scene
 from datagen.sensing.render import capture
-from datagen.worlds.tabletop import build_scene
 
 pytestmark = pytest.mark.sim
 

@@ -60,7 +60,7 @@ def describe(config, scene) -> dict:
 ROVER = GroundRobot(
     "rover",
     "a box on the floor with a camera at its front (the docs/extending.md example)",
-    drive="datagen.navigation.episode:differential_drive",
+    drive="datagen.families.navigation.episode:differential_drive",
     body="example_rover:rover_body",
     describe="example_rover:describe",
     view_limit_deg=80.0,

@@ -8,9 +8,9 @@ from dataclasses import dataclass
 import numpy as np
 
 from datagen.config.sections import CampaignConfig
-from datagen.grasping import GraspCandidate
-from datagen.grasping.gripper_geometry import GripperGeometry
-from datagen.grasping.samplers.base import GraspTarget, Obstacles, SampleResult
+from datagen.families.grasp_attempts.grasps import GraspCandidate
+from datagen.families.grasp_attempts.gripper_geometry import GripperGeometry
+from datagen.families.grasp_attempts.samplers.base import GraspTarget, Obstacles, SampleResult
 from datagen.registries import Plugin
 
 

@@ -14,13 +14,13 @@ import pytest
 from datagen.assets.tabletop_layout import TRAY_CENTRE, TRAY_INNER_HALF
 from datagen.config import config_from_dict
 from datagen.dataset.loader import load, read_manifest
+from datagen.families.grasp_tabletop.produce import annotate_scene
+from datagen.families.grasp_tabletop.values import draw_scene
+from datagen.families.grasp_tabletop.world import CLASSES, build_scene, construct_scene
 from datagen.pipeline.run import run_build
-from datagen.randomisers import draw_scene
 from datagen.scene_values.bundles import tabletop_values
 from datagen.scene_values.checks import as_json
-from datagen.scenes.grasp_tabletop import annotate_scene
 from datagen.sensing.render import capture, keep_renderer_alive
-from datagen.worlds.tabletop import CLASSES, build_scene, construct_scene
 
 TINY = {"render": {"width": 64, "height": 48}, "objects": {"count": [1, 2]}}
 # everything but the room off: these tests look at walls and textures only

@@ -18,7 +18,7 @@ from datagen.assets.tabletop_layout import TRAY_CENTRE, TRAY_INNER_HALF
 from datagen.config import BuildConfig
 from datagen.config.appearance import PhotosConfig
 from datagen.config.sections import MaterialsConfig
-from datagen.randomisers import draw_scene
+from datagen.families.grasp_tabletop.values import draw_scene
 from datagen.randomisers.background import draw_background
 from datagen.randomisers.materials import (
     CLASS_FREE_SATURATION,

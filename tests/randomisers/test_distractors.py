@@ -22,7 +22,7 @@ from datagen.assets.tabletop_layout import (
 from datagen.config import BuildConfig
 from datagen.config.appearance import DistractorsConfig
 from datagen.config.sections import CameraConfig, MaterialsConfig, ObjectsConfig, RenderConfig
-from datagen.randomisers import draw_scene
+from datagen.families.grasp_tabletop.values import draw_scene
 from datagen.randomisers.camera import draw_camera
 from datagen.randomisers.distractors import AIR_FRACTION, draw_distractors
 from datagen.seeding import sample_rng
@@ -111,7 +111,7 @@ TINY = BuildConfig(
 
 @pytest.fixture(scope="module")
 def annotated():
-    from datagen.scenes.grasp_tabletop import render_annotated
+    from datagen.families.grasp_tabletop.produce import render_annotated
 
     return render_annotated(TINY, 11, 0)
 
@@ -154,7 +154,7 @@ def test_distractors_are_rendered_and_labelled_with_their_class_and_role(annotat
 @pytest.mark.sim
 def test_distractors_never_move_a_target():
     """Static and visual only: the settled targets are the same to the bit without them."""
-    from datagen.worlds.tabletop import build_scene
+    from datagen.families.grasp_tabletop.world import build_scene
 
     off = dataclasses.replace(TINY, distractors=DistractorsConfig(enabled=False))
     with_distractors, without = build_scene(TINY, 11, 0), build_scene(off, 11, 0)
@@ -166,9 +166,9 @@ def test_distractors_never_move_a_target():
 
 @pytest.mark.sim
 def test_a_grasp_campaign_never_targets_a_distractor():
-    from datagen.scenes.grasp_attempts import choose_target
-    from datagen.scenes.grasp_tabletop import annotate_scene
-    from datagen.worlds.tabletop import build_scene
+    from datagen.families.grasp_attempts.produce import choose_target
+    from datagen.families.grasp_tabletop.produce import annotate_scene
+    from datagen.families.grasp_tabletop.world import build_scene
 
     # table distractors only, moved into the tray: visible there, yet never a target
     config = dataclasses.replace(
@@ -193,7 +193,7 @@ def test_a_grasp_campaign_never_targets_a_distractor():
 @pytest.mark.sim
 def test_a_grasp_attempt_with_household_shapes_and_distractors_targets_a_target():
     from datagen.config.sections import HOUSEHOLD_FAMILIES, CampaignConfig
-    from datagen.scenes.grasp_attempts import produce
+    from datagen.families.grasp_attempts.produce import produce
 
     config = dataclasses.replace(
         TINY,
@@ -215,9 +215,9 @@ def test_usd_export_and_a_rebuild_from_the_metadata_carry_the_distractors(annota
     from pxr import Usd, UsdGeom
 
     from datagen.exports.usd_stage import validation_errors, write_usd
+    from datagen.families.grasp_tabletop.produce import annotate_scene
+    from datagen.families.grasp_tabletop.world import construct_scene
     from datagen.scene_values.bundles import tabletop_values
-    from datagen.scenes.grasp_tabletop import annotate_scene
-    from datagen.worlds.tabletop import construct_scene
 
     meta = annotated.metadata
     specs = meta["randomisation"]["distractors"]

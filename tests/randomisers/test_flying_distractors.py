@@ -25,7 +25,7 @@ from datagen.config.appearance import (
     PhotosConfig,
 )
 from datagen.config.sections import CameraConfig, MaterialsConfig, ObjectsConfig, RenderConfig
-from datagen.randomisers import draw_scene
+from datagen.families.grasp_tabletop.values import draw_scene
 from datagen.randomisers.background import draw_background
 from datagen.randomisers.camera import draw_camera
 from datagen.randomisers.distractors import (
@@ -139,7 +139,7 @@ TINY = BuildConfig(
 
 @pytest.mark.sim
 def test_flying_distractors_are_rendered_and_labelled_after_the_others():
-    from datagen.scenes.grasp_tabletop import render_annotated
+    from datagen.families.grasp_tabletop.produce import render_annotated
 
     annotated = render_annotated(TINY, 3, 0)
     meta, view = annotated.metadata, annotated.views["workspace"]
@@ -190,7 +190,7 @@ def _photo_library(root) -> None:
 
 @pytest.mark.sim
 def test_a_flying_card_shows_the_whole_photograph(tmp_path, monkeypatch):
-    from datagen.scenes.grasp_tabletop import render_annotated
+    from datagen.families.grasp_tabletop.produce import render_annotated
 
     _photo_library(tmp_path)
     monkeypatch.setenv("DATAGEN_LIBRARY", str(tmp_path))

@@ -7,7 +7,7 @@ import numpy as np
 from datagen.assets.shapes import build_geometry
 from datagen.config import BuildConfig
 from datagen.config.sections import ObjectsConfig
-from datagen.randomisers import draw_scene
+from datagen.families.grasp_tabletop.values import draw_scene
 from datagen.randomisers.objects import draw_objects
 from datagen.scene_values.checks import as_json
 from datagen.seeding import sample_rng

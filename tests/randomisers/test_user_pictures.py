@@ -16,7 +16,7 @@ from datagen.assets.tabletop_layout import TRAY_CENTRE, TRAY_INNER_HALF
 from datagen.assets.texture_tiles import texture_tile
 from datagen.config import config_from_dict
 from datagen.config.appearance import PhotosConfig
-from datagen.randomisers import draw_scene
+from datagen.families.grasp_tabletop.values import draw_scene
 from datagen.randomisers.photos import draw_look
 from datagen.randomisers.textures import texture_surfaces
 

@@ -1,12 +1,12 @@
 """The jaw grippers of so100 and koch: width tables from FK, boxes in the grasp frame, and the
-Franka hand unchanged by the generalisation (datagen.grasping.gripper_geometry)."""
+Franka hand unchanged by the generalisation (datagen.families.grasp_attempts.gripper_geometry)."""
 
 from __future__ import annotations
 
 import numpy as np
 import pytest
 
-from datagen.grasping.gripper_geometry import gripper_geometry
+from datagen.families.grasp_attempts.gripper_geometry import gripper_geometry
 from datagen.registries import ROBOTS
 
 JAWS = {"so100": (0.095, 0.105), "koch": (0.063, 0.072)}  # FK: max width 0.1000, 0.0677 m

@@ -171,7 +171,7 @@ def test_the_walkthrough_arm_plans_with_the_copy(tmp_path):
 def test_make_planner_plans_a_user_arm_with_the_copy(tmp_path):
     import sapien
 
-    from datagen.grasping.planner import make_planner, solve_ik
+    from datagen.families.grasp_attempts.planner import make_planner, solve_ik
 
     user = tmp_path / "my_arm"  # the walkthrough's folder whole: SAPIEN loads the visual meshes
     shutil.copytree(

@@ -9,7 +9,7 @@ from dataclasses import replace
 import pytest
 
 from datagen.config import BuildConfig, load_config
-from datagen.randomisers import draw_scene
+from datagen.families.grasp_tabletop.values import draw_scene
 from datagen.scene_values.arm import ArmPose, WristLook
 from datagen.scene_values.bundles import tabletop_values
 from datagen.scene_values.camera import CameraPose

@@ -24,10 +24,10 @@ def test_a_camera_with_the_cached_table_renders_what_sapiens_own_table_renders(t
     import cv2
     import sapien
 
+    from datagen.families.grasp_tabletop.world import build_scene
     from datagen.sensing.brdf_lut import LUT_SIZE, cache_file
     from datagen.sensing.cameras import twin_camera
     from datagen.sensing.shader_pack import shader_dir
-    from datagen.worlds.tabletop import build_scene
 
     config = load_config("configs/grasp_tabletop.yaml")
     config = config.replace(render=replace(config.render, width=160, height=120))

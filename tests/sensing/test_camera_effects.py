@@ -151,14 +151,14 @@ DISTORTED = dataclasses.replace(
 
 @pytest.fixture(scope="module")
 def renders():
-    from datagen.scenes.grasp_tabletop import render_annotated
+    from datagen.families.grasp_tabletop.produce import render_annotated
 
     return render_annotated(CLEAN, 5, 2), render_annotated(DISTORTED, 5, 2)
 
 
 @pytest.mark.sim
 def test_switched_off_the_sample_has_only_todays_parts_and_keys(renders):
-    from datagen.scenes.grasp_tabletop import to_sample
+    from datagen.families.grasp_tabletop.produce import to_sample
 
     clean, _ = renders
     parts = set(to_sample(clean).parts)
@@ -236,7 +236,7 @@ def test_point_clouds_of_the_distorted_and_clean_samples_agree(renders):
     from scipy.spatial import cKDTree
 
     from datagen.dataset.pointcloud import sample_point_cloud
-    from datagen.scenes.grasp_tabletop import to_sample
+    from datagen.families.grasp_tabletop.produce import to_sample
 
     clean, distorted = renders
     a = sample_point_cloud(to_sample(clean).parts, clean.metadata, fuse=False)
@@ -258,7 +258,7 @@ def test_loader_and_hdf5_export_carry_the_new_images(renders, tmp_path, make_dat
 
     from datagen.dataset.loader import load, read_manifest
     from datagen.exports.hdf5 import export
-    from datagen.scenes.grasp_tabletop import to_sample
+    from datagen.families.grasp_tabletop.produce import to_sample
 
     _, distorted = renders
     root = make_dataset(tmp_path / "ds", [to_sample(distorted)])

@@ -11,7 +11,7 @@ import sapien
 
 from datagen.config import BuildConfig
 from datagen.errors import ConfigError
-from datagen.scenes.grasp_tabletop import produce
+from datagen.families.grasp_tabletop.produce import produce
 from datagen.sensing.path_tracing import check_denoiser, view_is_path_traced
 
 SMALL = {"width": 64, "height": 48, "samples_per_pixel": 1, "path_depth": 1}

@@ -95,7 +95,7 @@ def test_capture_equals_the_reference_on_real_pictures():
     plane; the pictures of each capture are read again and converted the reference way."""
     import sapien
 
-    from datagen.worlds.tabletop import build_scene
+    from datagen.families.grasp_tabletop.world import build_scene
 
     config = load_config("configs/grasp_tabletop.yaml")
     config = config.replace(render=replace(config.render, width=128, height=96))
@@ -128,7 +128,7 @@ def test_capture_equals_the_reference_on_real_pictures():
 def test_gpu_read_back_gives_the_cpu_paths_bytes():
     """On a CUDA render device the pictures read back and converted on the GPU (what
     ``capture`` does there) are the CPU path's bytes, at the default 640x480."""
-    from datagen.worlds.tabletop import build_scene
+    from datagen.families.grasp_tabletop.world import build_scene
 
     config = load_config("configs/grasp_tabletop.yaml")
     keep_renderer_alive()

@@ -11,10 +11,10 @@ import numpy as np
 import pytest
 
 from datagen.config import load_config
+from datagen.families.grasp_tabletop.world import build_scene
 from datagen.sensing import shader_pack
 from datagen.sensing.cameras import twin_camera
 from datagen.sensing.render import keep_renderer_alive
-from datagen.worlds.tabletop import build_scene
 
 
 def test_the_filter_table_is_replaced_once_or_refused():

@@ -15,7 +15,7 @@ from datagen.dataset.parts import decode_parts
 from datagen.dataset.pointcloud import view_points
 from datagen.dataset.views import camera_order, labelled_views
 from datagen.errors import ConfigError
-from datagen.randomisers import draw_scene
+from datagen.families.grasp_tabletop.values import draw_scene
 from datagen.randomisers.camera import draw_extra_view, orbited_eye
 from datagen.seeding import sample_rng
 
@@ -31,7 +31,7 @@ IMAGE_PARTS = ("rgb.png", "depth.png", "seg.png", "semantic.png")
 
 @pytest.fixture(scope="module")
 def multi():
-    from datagen.scenes.grasp_tabletop import produce
+    from datagen.families.grasp_tabletop.produce import produce
 
     return produce(CONFIG, 5, 3)
 
@@ -100,7 +100,7 @@ def test_each_views_annotations_agree_with_its_own_images(multi):
 
 @pytest.mark.sim
 def test_view_zero_keeps_the_one_view_bytes_and_samples_are_reproducible(multi):
-    from datagen.scenes.grasp_tabletop import produce
+    from datagen.families.grasp_tabletop.produce import produce
 
     single = produce(CONFIG.replace(render=RenderConfig(width=96, height=72, wrist_camera=True)), 5, 3)  # fmt: skip
     for name in (*IMAGE_PARTS, *(f"wrist.{p}" for p in IMAGE_PARTS)):
@@ -126,7 +126,7 @@ def test_preview_draws_every_view_of_a_sample(multi):
 
 @pytest.mark.sim
 def test_grasp_attempts_render_every_view_before_and_the_workspace_after():
-    from datagen.scenes.grasp_attempts import produce
+    from datagen.families.grasp_attempts.produce import produce
 
     config = config_from_dict(
         {"scene": "grasp_attempts", "render": {"width": 64, "height": 48, "views": 2},

@@ -11,9 +11,9 @@ import pytest
 import sapien
 
 from datagen.config import load_config
+from datagen.families.grasp_tabletop.world import build_scene
 from datagen.sensing.render import keep_renderer_alive
 from datagen.worlds.realise import light_slots
-from datagen.worlds.tabletop import build_scene
 
 pytestmark = [pytest.mark.sim]
 KINDS = {

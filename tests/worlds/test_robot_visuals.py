@@ -14,8 +14,8 @@ import pytest
 import sapien
 
 from datagen.config import load_config
+from datagen.families.grasp_tabletop.world import GraspScene, build_scene
 from datagen.sensing.render import capture, keep_renderer_alive
-from datagen.worlds.tabletop import GraspScene, build_scene
 
 pytestmark = [pytest.mark.sim]
 BUDGET = 20000
@@ -81,7 +81,7 @@ def test_the_simplified_files_are_made_once_per_machine_and_read_back_the_same(t
 import sys, numpy as np, sapien
 from datagen.registries import ROBOTS
 from datagen.worlds.robot_visuals import cache_dir
-from datagen.worlds.tabletop import load_arm
+from datagen.families.grasp_tabletop.world import load_arm
 scene = sapien.Scene()
 robot = load_arm(scene, ROBOTS["panda"].load(), 20000)
 parts = [p for link in robot.get_links()

@@ -7,11 +7,11 @@ import numpy as np
 import pytest
 import sapien
 
+from datagen.families.grasp_tabletop.world import load_arm
 from datagen.registries import ROBOTS
 from datagen.scene_values.arm import ArmPose
 from datagen.worlds.realise import apply_robot
 from datagen.worlds.settle import CHECK_EVERY, REST_CHECKS, at_rest, settle, surface_speeds
-from datagen.worlds.tabletop import load_arm
 
 HALF = 0.03  # metres, half the box's edge
 

@@ -18,9 +18,9 @@ from datagen.assets.tabletop_layout import (
     in_tray,
 )
 from datagen.config import load_config
-from datagen.randomisers import draw_scene
-from datagen.worlds import tabletop
-from datagen.worlds.tabletop import build_scene
+from datagen.families.grasp_tabletop import world as tabletop
+from datagen.families.grasp_tabletop.values import draw_scene
+from datagen.families.grasp_tabletop.world import build_scene
 from datagen.worlds.tray_targets import (
     MAX_REDRAWS,
     TargetsOutsideTray,
@@ -110,7 +110,7 @@ SCENES_IN_A_PROCESS = """
 import json, sys, dataclasses
 from datagen.config import load_config
 from datagen.config.robot import robot_workspace
-from datagen.worlds.tabletop import build_scene
+from datagen.families.grasp_tabletop.world import build_scene
 from datagen.worlds.tray_targets import outside_tray
 config_file, robot, seed, start, stop = sys.argv[1:]
 config = load_config(config_file)

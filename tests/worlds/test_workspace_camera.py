@@ -15,8 +15,8 @@ import pytest
 from datagen.assets.tabletop_layout import TRAY_CENTRE, TRAY_FLOOR, TRAY_INNER_HALF, TRAY_WALL
 from datagen.config import load_config
 from datagen.dataset.views import labelled_views, thing_classes
+from datagen.families.grasp_tabletop.world import CLASSES
 from datagen.geometry import image_points
-from datagen.worlds.tabletop import CLASSES
 
 REPO_CONFIGS = Path(__file__).resolve().parents[2] / "configs"
 SAMPLES = 5
@@ -40,7 +40,7 @@ def _tray_points() -> tuple[np.ndarray, np.ndarray]:
 
 @pytest.fixture(scope="module")
 def default_samples():
-    from datagen.scenes.grasp_tabletop import render_annotated
+    from datagen.families.grasp_tabletop.produce import render_annotated
 
     cfg = load_config(REPO_CONFIGS / "grasp_tabletop.yaml")
     cfg = cfg.replace(render=replace(cfg.render, width=320, height=240, views=VIEWS))
@@ -104,7 +104,7 @@ def test_robot_parts_are_coco_instances(default_samples):
 
 @pytest.mark.sim
 def test_closeup_config_keeps_the_old_camera():
-    from datagen.scenes.grasp_tabletop import render_annotated
+    from datagen.families.grasp_tabletop.produce import render_annotated
 
     cfg = load_config(REPO_CONFIGS / "grasp_closeup.yaml")
     assert cfg.camera.eye == (-0.22, 0.28, 1.22) and cfg.camera.target == (0.08, 0.0, 0.76)

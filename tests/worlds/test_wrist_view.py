@@ -15,11 +15,11 @@ import pytest
 
 from datagen.config import load_config
 from datagen.config.robot import robot_spec, robot_workspace
+from datagen.families.grasp_tabletop.produce import produce
+from datagen.families.grasp_tabletop.values import draw_scene
+from datagen.families.grasp_tabletop.world import build_scene, construct_scene, take_look_pose
 from datagen.geometry import look_at
-from datagen.randomisers import draw_scene
 from datagen.registries import ROBOTS
-from datagen.scenes.grasp_tabletop import produce
-from datagen.worlds.tabletop import build_scene, construct_scene, take_look_pose
 
 DEFAULT = Path(__file__).resolve().parents[2] / "configs" / "grasp_tabletop.yaml"
 COCO_MEDIUM = 32 * 32  # px: COCO's area of a "medium" object
