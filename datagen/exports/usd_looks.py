@@ -7,7 +7,6 @@ drew). Tiles hold the values the renderer used as linear colour: ``sourceColorSp
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Any
 
 import cv2
 import numpy as np
@@ -17,6 +16,7 @@ from pxr import Gf, Sdf, UsdGeom, UsdShade, Vt
 from datagen.assets.texture_tiles import surface_uv, texture_tile
 from datagen.assets.uv_mapping import box_mapped
 from datagen.exports.files import inside, written
+from datagen.scene_values.material import Material
 
 
 def texture_asset(key: str, look: str) -> str:
@@ -25,25 +25,25 @@ def texture_asset(key: str, look: str) -> str:
 
 
 def material(
-    stage, key: str, name: str, values: dict[str, Any], out_dir: Path | None
+    stage, key: str, name: str, values: Material, out_dir: Path | None
 ) -> UsdShade.Material:
     """``/World/Looks/<name>``; a textured look's tile is written under ``out_dir`` (the folder
     the stage is exported to) when one is given."""
     look = UsdShade.Material.Define(stage, f"/World/Looks/{name}")
     shader = UsdShade.Shader.Define(stage, f"/World/Looks/{name}/PreviewSurface")
     shader.CreateIdAttr("UsdPreviewSurface")
-    r, g, b = values["base_color"][:3]
+    r, g, b = values.base_color[:3]
     diffuse = shader.CreateInput("diffuseColor", Sdf.ValueTypeNames.Color3f)
     diffuse.Set(Gf.Vec3f(r, g, b))
-    shader.CreateInput("roughness", Sdf.ValueTypeNames.Float).Set(float(values["roughness"]))
-    shader.CreateInput("metallic", Sdf.ValueTypeNames.Float).Set(float(values["metallic"]))
+    shader.CreateInput("roughness", Sdf.ValueTypeNames.Float).Set(float(values.roughness))
+    shader.CreateInput("metallic", Sdf.ValueTypeNames.Float).Set(float(values.metallic))
     look.CreateSurfaceOutput().ConnectToSource(shader.ConnectableAPI(), "surface")
-    if "texture" in values:
+    if values.texture is not None:
         asset = texture_asset(key, name)
         if out_dir is not None:
             path = inside(out_dir, asset)  # the key and the look's name come from the sample
             path.parent.mkdir(parents=True, exist_ok=True)
-            tile = cv2.cvtColor(texture_tile(values["texture"]), cv2.COLOR_RGB2BGR)
+            tile = cv2.cvtColor(texture_tile(values.texture), cv2.COLOR_RGB2BGR)
             written(cv2.imwrite(str(path), tile), path, "OpenCV")
         reader = UsdShade.Shader.Define(stage, f"/World/Looks/{name}/st")
         reader.CreateIdAttr("UsdPrimvarReader_float2")
@@ -58,7 +58,7 @@ def material(
             reader.ConnectableAPI(), "result"
         )
         diffuse.ConnectToSource(tile.ConnectableAPI(), "rgb")
-        look.GetPrim().SetCustomDataByKey("datagen:texture", values["texture"]["family"])
+        look.GetPrim().SetCustomDataByKey("datagen:texture", values.texture["family"])
     return look
 
 
@@ -67,7 +67,7 @@ def mesh(
     path: str,
     tri: trimesh.Trimesh,
     look: UsdShade.Material,
-    values: dict[str, Any],
+    values: Material,
     uv_frame: np.ndarray | None = None,
 ) -> UsdGeom.Mesh:
     """A Mesh prim of ``tri`` bound to ``look``; textured ``values`` add face-varying
@@ -81,9 +81,9 @@ def mesh(
     lo, hi = tri.bounds
     usd_mesh.CreateExtentAttr(Vt.Vec3fArray([Gf.Vec3f(*map(float, lo)), Gf.Vec3f(*map(float, hi))]))
     UsdShade.MaterialBindingAPI.Apply(usd_mesh.GetPrim()).Bind(look)
-    if "texture" in values:
+    if values.texture is not None:
         mapped = tri if uv_frame is None else tri.copy().apply_transform(uv_frame)
-        st = surface_uv(box_mapped(mapped).uv_m, values["texture"])
+        st = surface_uv(box_mapped(mapped).uv_m, values.texture)
         primvar = UsdGeom.PrimvarsAPI(usd_mesh).CreatePrimvar(
             "st", Sdf.ValueTypeNames.TexCoord2fArray, UsdGeom.Tokens.faceVarying
         )

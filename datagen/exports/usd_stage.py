@@ -34,7 +34,9 @@ from datagen.assets.backdrop import wall_boxes
 from datagen.assets.shapes import build_geometry
 from datagen.assets.tabletop_layout import DEFAULT_WORKSPACE, Workspace, static_parts
 from datagen.exports import usd_looks, usd_robot
+from datagen.scene_values.bundles import tabletop_values
 from datagen.scene_values.lighting import Lighting
+from datagen.scene_values.material import Material
 
 APERTURE_PER_PIXEL = 0.01  # USD camera aperture units per image pixel (only ratios matter)
 _CV_TO_USD_CAMERA = np.diag(
@@ -126,7 +128,7 @@ def _centred(centre) -> np.ndarray:
 def _static_parts(
     stage,
     key: str,
-    materials: dict[str, Any],
+    materials: dict[str, Material],
     out_dir: Path | None,
     ws: Workspace = DEFAULT_WORKSPACE,
 ) -> None:
@@ -194,7 +196,8 @@ def scene_stage(meta: dict[str, Any], out_dir: str | Path | None = None) -> Usd.
     world.GetPrim().SetCustomDataByKey(
         "datagen:randomisation", json.dumps(meta["randomisation"], sort_keys=True, allow_nan=False)
     )
-    materials = meta["randomisation"]["materials"]
+    values = tabletop_values(meta["randomisation"], f"sample {key}: randomisation")  # typed
+    materials = values["materials"]
     robot = meta["robot"]
     ws = Workspace(float(robot.get("workspace_scale", 1.0)), float(robot.get("object_scale", 1.0)))
     _static_parts(stage, key, materials, out_dir, ws)
@@ -211,12 +214,12 @@ def scene_stage(meta: dict[str, Any], out_dir: str | Path | None = None) -> Usd.
         prim.SetCustomDataByKey(
             "datagen:shape", json.dumps(obj["shape"], sort_keys=True, allow_nan=False)
         )
-    if "background" in meta["randomisation"]:
-        _background(stage, key, meta["randomisation"]["background"], out_dir)
-    _distractors(stage, key, meta["randomisation"].get("distractors", []), out_dir)
+    if "background" in values:
+        _background(stage, key, values["background"], out_dir)
+    _distractors(stage, key, values.get("distractors", []), out_dir)
     usd_robot.define_robot(stage, "/World/Robot", meta["robot"], key)
     _xform(stage, "/World/Lights")
-    add_to_stage(Lighting.from_json(meta["randomisation"]["lighting"]), stage)
+    add_to_stage(values["lighting"], stage)
     _xform(stage, "/World/Cameras")
     for camera, view in meta["views"].items():
         _camera(stage, camera, view["camera"])

@@ -14,6 +14,7 @@ where they stand: :mod:`datagen.assets.backdrop`; built by :mod:`datagen.worlds.
 
 from __future__ import annotations
 
+from dataclasses import replace
 from typing import Any
 
 import numpy as np
@@ -23,6 +24,7 @@ from datagen.config.appearance import BackgroundConfig, PhotosConfig
 from datagen.config.sections import MaterialsConfig
 from datagen.randomisers.materials import random_material
 from datagen.randomisers.textures import DEFAULT_PHOTOS, draw_picture
+from datagen.scene_values.material import Material
 from datagen.scene_values.rounding import uniform
 
 WALL_SATURATION = (0.0, 0.4)  # HSV: painted walls are muted
@@ -37,17 +39,19 @@ def _wall_material(
     cfg: BackgroundConfig,
     materials: MaterialsConfig,
     photos: PhotosConfig,
-) -> dict[str, Any]:
-    material = random_material(rng, materials, WALL_SATURATION, WALL_VALUE)
-    material["metallic"] = 0.0
+) -> Material:
+    drawn = random_material(rng, materials, WALL_SATURATION, WALL_VALUE)
+    material = replace(drawn, metallic=0.0)
     textured, use_picture = rng.random() < cfg.texture_probability, rng.random()
     if textured and cfg.images_dir and use_picture < cfg.images_dir_share:
         scale_m = photos.backdrop_scale_m  # as a photograph on a wall
-        material["texture"] = draw_picture(rng, cfg.images_dir, photos, scale_m, rotate=False)
-    elif textured:
-        material["texture"] = draw_texture(
-            rng, material["base_color"], materials.texture_families, WALL_TEXTURE_SCALE_M
+        return material.with_texture(
+            draw_picture(rng, cfg.images_dir, photos, scale_m, rotate=False)
         )
+    if textured:
+        colour = list(material.base_color)
+        families = materials.texture_families
+        return material.with_texture(draw_texture(rng, colour, families, WALL_TEXTURE_SCALE_M))
     return material
 
 

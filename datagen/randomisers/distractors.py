@@ -41,6 +41,7 @@ from datagen.randomisers.objects import draw_shape
 from datagen.randomisers.photos import draw_photo
 from datagen.randomisers.textures import DEFAULT_PHOTOS, maybe_texture
 from datagen.scene_values.camera import CameraPose
+from datagen.scene_values.material import Material
 
 PLACEMENTS = ("table", "air", "background")
 ROBOT_CLEARANCE = 0.3  # metres around the robot base kept free of table distractors
@@ -172,12 +173,11 @@ def _background_position(rng, view: _View, bounds, radius, room) -> list[float] 
 
 def _material(
     rng: np.random.Generator, cfg: MaterialsConfig, photos: PhotosConfig | None
-) -> dict[str, Any]:
+) -> Material:
     """A colour like an object's, textured with ``materials.texture_probability`` (a picture of
     ``textures_dir`` cropped and jittered within the ``photos`` section's ranges)."""
     material = random_material(rng, cfg, cfg.saturation, cfg.value)
-    maybe_texture(rng, material, cfg, photos or DEFAULT_PHOTOS)
-    return material
+    return maybe_texture(rng, material, cfg, photos or DEFAULT_PHOTOS)
 
 
 def draw_distractors(
@@ -279,7 +279,7 @@ def _photo_card(rng, photos: PhotosConfig, materials: MaterialsConfig, size: flo
     shape = card_shape(rng, size, float(photo.get("aspect", 1.0)))
     photo["scale_m"] = shape["parts"][0]["extents"][0]
     material = random_material(rng, materials, materials.saturation, materials.value)
-    return shape, {**material, "texture": photo}
+    return shape, material.with_texture(photo)
 
 
 def draw_flying(

@@ -5,12 +5,14 @@ class-free colours of a scene (stream ``colours``): :func:`class_free_colours`."
 from __future__ import annotations
 
 import colorsys
+from dataclasses import replace
 from typing import Any
 
 import numpy as np
 
 from datagen.assets.texture_tiles import draw_palette
 from datagen.config.sections import MaterialsConfig
+from datagen.scene_values.material import Material
 from datagen.scene_values.rounding import uniform
 
 # Surfaces of the room keep plausible colour ranges (HSV value), objects span the config's.
@@ -27,14 +29,18 @@ def random_colour(
     return [round(float(c), 6) for c in rgb] + [1.0]
 
 
-def random_material(
-    rng: np.random.Generator, cfg: MaterialsConfig, saturation, value
-) -> dict[str, Any]:
-    return {
-        "base_color": random_colour(rng, saturation, value),
-        "roughness": uniform(rng, cfg.roughness),
-        "metallic": uniform(rng, cfg.metallic),
-    }
+def random_material(rng: np.random.Generator, cfg: MaterialsConfig, saturation, value) -> Material:
+    return Material(
+        base_color=tuple(random_colour(rng, saturation, value)),
+        roughness=uniform(rng, cfg.roughness),
+        metallic=uniform(rng, cfg.metallic),
+    )
+
+
+def draw_marker_material(rng: np.random.Generator) -> Material:
+    """A goal marker's look: a light, saturated colour, half rough, not metallic."""
+    colour = random_colour(rng, (0.8, 1.0), (0.8, 1.0))
+    return Material(base_color=tuple(colour), roughness=0.5, metallic=0.0)
 
 
 def draw_materials(
@@ -47,14 +53,14 @@ def draw_materials(
     return {"objects": objects, **surfaces}
 
 
-def _recoloured(rng: np.random.Generator, material: dict[str, Any]) -> dict[str, Any]:
+def _recoloured(rng: np.random.Generator, material: Material) -> Material:
     """``material`` with a class-free base colour; a procedural texture's palette is drawn
     again around it (the tile's pattern stays), a picture is left as it is."""
     colour = random_colour(rng, CLASS_FREE_SATURATION, CLASS_FREE_VALUE)
-    recoloured = {**material, "base_color": colour}
-    texture = material.get("texture")
+    recoloured = replace(material, base_color=tuple(colour))
+    texture = material.texture
     if texture is not None and "palette" in texture:
-        recoloured["texture"] = {**texture, "palette": draw_palette(rng, colour)}
+        recoloured = recoloured.with_texture({**texture, "palette": draw_palette(rng, colour)})
     return recoloured
 
 

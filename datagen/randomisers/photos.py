@@ -23,6 +23,7 @@ import numpy as np
 
 from datagen.config.appearance import PhotosConfig
 from datagen.library.catalogue import pictures
+from datagen.scene_values.material import Material
 
 PHOTO_FAMILY = "photo"
 SURFACES = ("table", "tray", "floor")
@@ -76,15 +77,14 @@ def add_photo_surfaces(
 ) -> dict[str, Any]:
     """``materials`` with a photograph, with ``surface_probability`` each (one draw per
     surface, then the photograph's), on every object, then the table, tray and floor."""
-    shown = {
-        **materials,
-        "objects": [dict(m) for m in materials["objects"]],
-        **{surface: dict(materials[surface]) for surface in SURFACES},
-    }
-    for material in [*shown["objects"], *(shown[surface] for surface in SURFACES)]:
+
+    def shown(material: Material) -> Material:
         if rng.random() < cfg.surface_probability:
-            material["texture"] = draw_photo(rng, cfg, cfg.surface_scale_m)
-    return shown
+            return material.with_texture(draw_photo(rng, cfg, cfg.surface_scale_m))
+        return material
+
+    objects = [shown(m) for m in materials["objects"]]
+    return {**materials, "objects": objects, **{name: shown(materials[name]) for name in SURFACES}}
 
 
 def add_photo_backdrops(
@@ -92,8 +92,10 @@ def add_photo_backdrops(
 ) -> dict[str, Any]:
     """The room's values with a photograph, with ``backdrop_probability`` each, on its walls
     (and ceiling), upright: a picture behind the scene, as a photographed room has."""
-    walls = {name: dict(wall) for name, wall in background["walls"].items()}
-    for wall in walls.values():
+    walls = dict(background["walls"])
+    for name, wall in walls.items():
         if rng.random() < cfg.backdrop_probability:
-            wall["texture"] = draw_photo(rng, cfg, cfg.backdrop_scale_m, rotate=False)
+            walls[name] = wall.with_texture(
+                draw_photo(rng, cfg, cfg.backdrop_scale_m, rotate=False)
+            )
     return {**background, "walls": walls}

@@ -19,6 +19,7 @@ from datagen.assets.texture_tiles import IMAGE_FAMILY, draw_texture
 from datagen.config.appearance import PhotosConfig
 from datagen.config.sections import MaterialsConfig
 from datagen.randomisers.photos import draw_look
+from datagen.scene_values.material import Material
 
 SURFACES = ("table", "tray", "floor")  # the room's surfaces in materials, after the objects
 DEFAULT_PHOTOS = PhotosConfig()  # the ranges for a caller that has no photos section at hand
@@ -71,26 +72,23 @@ def add_textures(
     """``materials`` (as :func:`draw_materials` drew them) with a ``texture`` on each surface
     drawn to be textured: every object, then table, tray and floor, one draw each, so
     ``texture_probability`` 0 leaves every material exactly as it was."""
-    textured = {
-        **materials,
-        "objects": [dict(m) for m in materials["objects"]],
-        **{surface: dict(materials[surface]) for surface in SURFACES},
-    }
-    for material in [*textured["objects"], *(textured[surface] for surface in SURFACES)]:
-        maybe_texture(rng, material, cfg, photos)
-    return textured
+    objects = [maybe_texture(rng, m, cfg, photos) for m in materials["objects"]]
+    surfaces = {name: maybe_texture(rng, materials[name], cfg, photos) for name in SURFACES}
+    return {**materials, "objects": objects, **surfaces}
 
 
 def maybe_texture(
     rng: np.random.Generator,
-    material: dict[str, Any],
+    material: Material,
     cfg: MaterialsConfig,
     photos: PhotosConfig = DEFAULT_PHOTOS,
-) -> None:
-    """Gives ``material`` a ``texture`` with ``materials.texture_probability`` (one draw, then
-    the texture's own draws when it is textured)."""
+) -> Material:
+    """``material`` with a ``texture`` with ``materials.texture_probability`` (one draw, then
+    the texture's own draws when it is textured), else ``material`` itself."""
     if rng.random() < cfg.texture_probability:
-        material["texture"] = draw_surface_texture(rng, material["base_color"], cfg, photos)
+        colour = list(material.base_color)
+        return material.with_texture(draw_surface_texture(rng, colour, cfg, photos))
+    return material
 
 
 def texture_surfaces(
@@ -104,8 +102,5 @@ def texture_surfaces(
     (one draw each, in order; the navigation scenes' floor, walls and doors)."""
     textured = dict(materials)
     for name in names:
-        textured[name] = dict(materials[name])
-        if rng.random() < cfg.texture_probability:
-            base_color = textured[name]["base_color"]
-            textured[name]["texture"] = draw_surface_texture(rng, base_color, cfg, photos)
+        textured[name] = maybe_texture(rng, materials[name], cfg, photos)
     return textured

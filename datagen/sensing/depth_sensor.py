@@ -25,6 +25,7 @@ import cv2
 import numpy as np
 
 from datagen.config.appearance import DepthSensorConfig
+from datagen.scene_values.material import Material
 from datagen.sensing.camera_effects import LINEAR_FROM_BYTE, normal_image
 
 _SHADOW_TOLERANCE_PX = 0.3  # projector columns closer than this do not occlude (depth rounding)
@@ -61,10 +62,10 @@ def draw_depth_sensor(
     }
 
 
-def specular(material: dict[str, Any], cfg: DepthSensorConfig) -> bool:
+def specular(material: Material, cfg: DepthSensorConfig) -> bool:
+    """Whether a depth sensor cannot read ``material``: metallic and smooth enough."""
     return (
-        material.get("metallic", 0.0) >= cfg.specular_metallic
-        and material.get("roughness", 1.0) <= cfg.specular_roughness
+        material.metallic >= cfg.specular_metallic and material.roughness <= cfg.specular_roughness
     )
 
 

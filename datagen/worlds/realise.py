@@ -20,6 +20,7 @@ from datagen.robot_specs import HOLD_DAMPING, HOLD_STIFFNESS
 from datagen.scene_values.arm import ArmPose
 from datagen.scene_values.camera import CameraPose
 from datagen.scene_values.lighting import Light, Lighting
+from datagen.scene_values.material import Material
 from datagen.worlds.surfaces import render_shape, surface_entity
 
 SHADOW_CENTRE = [0, 0, 1]  # metres: the key light's shadow volume centre, unless the values say
@@ -60,7 +61,7 @@ def add_objects(
     scene: sapien.Scene,
     objects: list[dict[str, Any]],
     poses: list[dict[str, Any]],
-    materials: list[dict[str, Any]],
+    materials: list[Material],
 ) -> list[tuple[sapien.Entity, ObjectGeometry]]:
     """One dynamic actor per object, convex collision parts, its own material."""
     added = []

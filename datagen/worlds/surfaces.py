@@ -2,8 +2,8 @@
 metallic, a texture tile if any), render shapes of meshes and static entities of boxes. The USD
 export realises the same values with :mod:`datagen.exports.usd_looks`.
 
-The stored values are those of :mod:`datagen.randomisers.materials` and
-:mod:`datagen.randomisers.textures`; tiles and texture coordinates come from
+The values are :class:`datagen.scene_values.material.Material` (drawn by
+:mod:`datagen.randomisers.materials` and :mod:`datagen.randomisers.textures`); tiles and texture coordinates come from
 :mod:`datagen.assets.texture_tiles` and :mod:`datagen.assets.uv_mapping`.
 """
 
@@ -20,34 +20,38 @@ import trimesh
 
 from datagen.assets.texture_tiles import height_normal_map, surface_uv, texture_tile, tile_key
 from datagen.assets.uv_mapping import UVMesh, box_mapped
+from datagen.scene_values.material import Material
 
 MIPMAP_LEVELS = 8  # 128 px tiles down to 1 px: far and slanted surfaces are filtered, not aliased
 
 Boxes = Sequence[tuple[Any, Any]]  # (half size, centre offset), metres, in the entity's frame
 
 
-def render_material(values: dict[str, Any]) -> sapien.render.RenderMaterial:
-    """Stored material values (base colour, roughness, metallic, texture if any) -> a SAPIEN
-    material. A texture maps only onto meshes with texture coordinates (:func:`render_shape`,
+def render_material(material: Material) -> sapien.render.RenderMaterial:
+    """A material value (base colour, roughness, metallic, texture if any) as a SAPIEN material.
+    A texture maps only onto meshes with texture coordinates (:func:`render_shape`,
     :func:`surface_entity`)."""
-    if "texture" in values:
-        return textured_material(values)
+    if material.texture is not None:
+        return textured_material(material)
     return sapien.render.RenderMaterial(
-        base_color=values["base_color"], roughness=values["roughness"], metallic=values["metallic"]
+        base_color=list(material.base_color),
+        roughness=material.roughness,
+        metallic=material.metallic,
     )
 
 
-def textured_material(values: dict[str, Any]) -> sapien.render.RenderMaterial:
-    """A SAPIEN material showing ``values["texture"]`` (the tile is the colour: base colour
-    white), with the stored roughness and metallic."""
-    texture = values["texture"]
-    material = sapien.render.RenderMaterial(
-        base_color=[1.0, 1.0, 1.0, 1.0], roughness=values["roughness"], metallic=values["metallic"]
+def textured_material(material: Material) -> sapien.render.RenderMaterial:
+    """A SAPIEN material showing ``material.texture`` (the tile is the colour: base colour
+    white), with the material's roughness and metallic."""
+    texture = material.texture
+    assert texture is not None  # a textured material
+    rendered = sapien.render.RenderMaterial(
+        base_color=[1.0, 1.0, 1.0, 1.0], roughness=material.roughness, metallic=material.metallic
     )
-    material.base_color_texture = _render_texture(tile_key(texture), normal_map=False)
+    rendered.base_color_texture = _render_texture(tile_key(texture), normal_map=False)
     if texture.get("normal_map"):
-        material.normal_texture = _render_texture(tile_key(texture), normal_map=True)
-    return material
+        rendered.normal_texture = _render_texture(tile_key(texture), normal_map=True)
+    return rendered
 
 
 def _rgba(tile: np.ndarray) -> np.ndarray:
@@ -75,41 +79,43 @@ def _mapped_box(half_size: tuple[float, float, float]) -> UVMesh:
 
 def textured_mesh_shape(
     mesh: trimesh.Trimesh | UVMesh,
-    values: dict[str, Any],
-    material: sapien.render.RenderMaterial | None = None,
+    material: Material,
+    rendered: sapien.render.RenderMaterial | None = None,
 ) -> sapien.render.RenderShapeTriangleMesh:
     """A render shape of ``mesh`` (in its own frame; or its box mapping) with box-mapped
-    texture coordinates and the material of ``values`` (or ``material``, made from them)."""
+    texture coordinates and ``material`` (``rendered``: the SAPIEN material already made of
+    it)."""
+    assert material.texture is not None  # a textured material
     mapped = mesh if isinstance(mesh, UVMesh) else box_mapped(mesh)
     return sapien.render.RenderShapeTriangleMesh(
         mapped.vertices,
         mapped.triangles,
         mapped.normals,
-        surface_uv(mapped.uv_m, values["texture"]),
-        material if material is not None else textured_material(values),
+        surface_uv(mapped.uv_m, material.texture),
+        rendered if rendered is not None else textured_material(material),
     )
 
 
-def render_shape(mesh: trimesh.Trimesh, values: dict[str, Any]) -> sapien.render.RenderShape:
+def render_shape(mesh: trimesh.Trimesh, material: Material) -> sapien.render.RenderShape:
     """A trimesh as a SAPIEN render shape with its own material: box-mapped texture
     coordinates when the material has a texture, none otherwise (drawn as before textures)."""
-    if "texture" in values:
-        return textured_mesh_shape(mesh, values)
+    if material.texture is not None:
+        return textured_mesh_shape(mesh, material)
     return sapien.render.RenderShapeTriangleMesh(
         np.asarray(mesh.vertices, np.float32),
         np.asarray(mesh.faces, np.uint32),
         np.asarray(mesh.vertex_normals, np.float32),
         np.zeros((len(mesh.vertices), 2), np.float32),
-        render_material(values),
+        render_material(material),
     )
 
 
 def surface_entity(
-    scene: sapien.Scene, name: str, boxes: Boxes, values: dict[str, Any], collide: bool = True
+    scene: sapien.Scene, name: str, boxes: Boxes, material: Material, collide: bool = True
 ) -> sapien.Entity:
-    """A static entity of ``boxes`` (entity frame at the origin) drawn with the material
-    ``values``, textured boxes with their own texture coordinates; colliding unless ``collide``
-    is False."""
+    """A static entity of ``boxes`` (entity frame at the origin) drawn with ``material``,
+    textured boxes with their own texture coordinates; colliding unless ``collide`` is
+    False."""
     entity = sapien.Entity()
     entity.name = name
     if collide:
@@ -121,14 +127,14 @@ def surface_entity(
             shape.local_pose = sapien.Pose(offset)
             body.attach(shape)
         entity.add_component(body)
-    material = render_material(values)
+    rendered = render_material(material)
     render_body = sapien.render.RenderBodyComponent()
     for half_size, offset in boxes:
-        if "texture" in values:
+        if material.texture is not None:
             box = _mapped_box(tuple(float(h) for h in half_size))
-            shape = textured_mesh_shape(box, values, material)
+            shape = textured_mesh_shape(box, material, rendered)
         else:
-            shape = sapien.render.RenderShapeBox(np.asarray(half_size, np.float32), material)
+            shape = sapien.render.RenderShapeBox(np.asarray(half_size, np.float32), rendered)
         shape.local_pose = sapien.Pose(offset)
         render_body.attach(shape)
     entity.add_component(render_body)
@@ -140,21 +146,21 @@ def box_entity(
     scene: sapien.Scene,
     name: str,
     boxes: Boxes,
-    values: dict[str, Any],
+    material: Material,
     position: Sequence[float] = (0.0, 0.0, 0.0),
     collide: bool = True,
 ) -> sapien.Entity:
     """A static entity of ``boxes`` at ``position`` (world metres): :func:`surface_entity` when
     textured, else SAPIEN's actor builder (plain boxes, as drawn before textures)."""
-    if "texture" in values:
-        entity = surface_entity(scene, name, boxes, values, collide)
+    if material.texture is not None:
+        entity = surface_entity(scene, name, boxes, material, collide)
     else:
         builder = scene.create_actor_builder()
-        material = render_material(values)
+        rendered = render_material(material)
         for half_size, offset in boxes:
             if collide:
                 builder.add_box_collision(sapien.Pose(offset), half_size=half_size)
-            builder.add_box_visual(sapien.Pose(offset), half_size=half_size, material=material)
+            builder.add_box_visual(sapien.Pose(offset), half_size=half_size, material=rendered)
         entity = builder.build_static(name=name)
     entity.set_pose(sapien.Pose(position))
     return entity

@@ -7,6 +7,7 @@ from __future__ import annotations
 import json
 import subprocess
 import sys
+from dataclasses import replace
 from pathlib import Path
 
 import cv2
@@ -194,11 +195,12 @@ def _scene(overrides, seed=5, index=2):
 def test_textures_come_from_their_own_stream_and_probability_0_gives_flat_colours():
     flat = _scene({"materials": {"texture_probability": 0.0}, "background": {"enabled": False}})
     textured = _scene({"materials": {"texture_probability": 1.0}})
-    assert not any("texture" in m for m in [*flat["materials"]["objects"], flat["materials"]["table"]])  # fmt: skip
+    flat_surfaces = [*flat["materials"]["objects"], flat["materials"]["table"]]
+    assert not any(m.textured for m in flat_surfaces)
     assert "background" not in flat
     for surface in ("table", "tray", "floor"):
-        assert "texture" in textured["materials"][surface]
-        without = {k: v for k, v in textured["materials"][surface].items() if k != "texture"}
+        assert textured["materials"][surface].textured
+        without = replace(textured["materials"][surface], texture=None)
         assert without == flat["materials"][surface]  # the colours are drawn as before
     for name in ("objects", "drop_poses", "lighting", "camera", "robot"):
         assert textured[name] == flat[name]
@@ -212,7 +214,7 @@ def test_pictures_of_a_folder_are_drawn_with_their_digest(tmp_path):
         {"materials": {"textures_dir": str(tmp_path / "tex"), "texture_probability": 1.0,
                        "textures_dir_share": 1.0}}
     )  # fmt: skip
-    texture = params["materials"]["table"]["texture"]
+    texture = params["materials"]["table"].texture
     assert texture["family"] == "image" and texture["path"] == "bricks.png"
     assert texture["aspect"] == 0.5 and len(texture["sha256"]) == 64
     side = texture["crop"][2]  # cropped as a photograph is (test_user_pictures.py)
@@ -273,8 +275,8 @@ def test_sample_streams_do_not_depend_on_texture_draws():
     config = config_from_dict({})
     params = _scene({})
     before = draw_materials(rng, config.materials, len(params["objects"]))
-    assert [m["base_color"] for m in before["objects"]] == [
-        m["base_color"] for m in params["materials"]["objects"]
+    assert [m.base_color for m in before["objects"]] == [
+        m.base_color for m in params["materials"]["objects"]
     ]
 
 
@@ -291,8 +293,8 @@ def test_navigation_floors_walls_and_doors_are_textured_from_their_own_stream():
 
     flat, textured = values(0.0), values(1.0)
     for name in TEXTURED_SURFACES:
-        assert "texture" not in flat["materials"][name]
-        assert {k: v for k, v in textured["materials"][name].items() if k != "texture"} == flat["materials"][name]  # fmt: skip
-        assert texture_tile(textured["materials"][name]["texture"]).shape == (128, 128, 3)
+        assert not flat["materials"][name].textured
+        assert replace(textured["materials"][name], texture=None) == flat["materials"][name]
+        assert texture_tile(textured["materials"][name].texture).shape == (128, 128, 3)
     assert textured["materials"]["obstacles"] == flat["materials"]["obstacles"]
     assert {k: v for k, v in textured.items() if k != "materials"} == {k: v for k, v in flat.items() if k != "materials"}  # fmt: skip

@@ -15,6 +15,7 @@ from datagen.families.grasp_tabletop.produce import annotate_scene
 from datagen.families.grasp_tabletop.values import draw_scene
 from datagen.families.grasp_tabletop.world import CLASSES, build_scene
 from datagen.library.catalogue import load_picture, pictures
+from datagen.scene_values.checks import as_json
 from datagen.sensing.render import keep_renderer_alive
 
 LOOK_AT_THE_PHOTO = {  # from above the table towards the +x wall, 1.5 m away, photos on walls
@@ -64,6 +65,7 @@ def test_a_library_photograph_on_a_wall_is_found_in_the_render():
 
 
 def _photo_textures(value):
+    value = as_json(value)  # the values as stored (materials typed in the draw)
     if isinstance(value, dict):
         if value.get("family") == "photo":
             yield value

@@ -6,6 +6,7 @@ replayed pixel for pixel."""
 from __future__ import annotations
 
 import json
+from dataclasses import replace
 
 import cv2
 import numpy as np
@@ -103,7 +104,7 @@ def test_a_textured_scene_is_rebuilt_identically_from_its_stored_values():
 
 def _untextured(params):
     def plain(material):
-        return {k: v for k, v in material.items() if k != "texture"}
+        return replace(material, texture=None)
 
     materials = {k: plain(v) for k, v in params["materials"].items() if k != "objects"}
     materials["objects"] = [plain(m) for m in params["materials"]["objects"]]

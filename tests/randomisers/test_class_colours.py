@@ -27,6 +27,7 @@ from datagen.randomisers.materials import (
     draw_materials,
 )
 from datagen.randomisers.textures import add_textures
+from datagen.scene_values.material import Material
 from datagen.seeding import sample_rng
 
 ALWAYS = MaterialsConfig(class_independent_probability=1.0)
@@ -42,15 +43,15 @@ def _drawn(index: int, cfg: MaterialsConfig, objects: int = 4) -> dict:
     return {"materials": materials, "background": background}
 
 
-def _every(scene: dict) -> list[dict]:
+def _every(scene: dict) -> list[Material]:
     """Every material of the scene: objects, table, tray, floor, walls."""
     materials = scene["materials"]
     surfaces = [materials[surface] for surface in ("table", "tray", "floor")]
     return [*materials["objects"], *surfaces, *scene["background"]["walls"].values()]
 
 
-def _hsv(material: dict) -> tuple[float, float, float]:
-    return colorsys.rgb_to_hsv(*material["base_color"][:3])
+def _hsv(material: Material) -> tuple[float, float, float]:
+    return colorsys.rgb_to_hsv(*material.base_color[:3])
 
 
 def _by_class(cfg: MaterialsConfig, scenes: int) -> dict[str, np.ndarray]:
@@ -89,23 +90,20 @@ def test_procedural_textures_follow_the_new_colours_and_pictures_stay():
         )
         scene = class_free_colours(np.random.default_rng(index), ALWAYS, drawn)
         for before, after in zip(_every(drawn), _every(scene), strict=True):
-            if "texture" not in before:  # a wall (background.texture_probability)
+            if before.texture is None:  # a wall (background.texture_probability)
                 continue
-            texture, was = after["texture"], before["texture"]
-            assert texture["palette"][0] == after["base_color"][:3]  # around its own colour
+            texture, was = after.texture, before.texture
+            assert texture is not None
+            assert texture["palette"][0] == list(after.base_color[:3])  # around its own colour
             assert {k: v for k, v in texture.items() if k != "palette"} == {
                 k: v for k, v in was.items() if k != "palette"
             }  # the same pattern, seed, scale and rotation
-            assert after["roughness"] == before["roughness"]
+            assert after.roughness == before.roughness
     picture = {"family": "photo", "path": "p.jpg", "sha256": "0" * 64, "scale_m": 0.2}
     params = _drawn(0, NEVER)
-    params["materials"]["table"] = {**params["materials"]["table"], "texture": picture}
-    assert (
-        class_free_colours(np.random.default_rng(0), ALWAYS, params)["materials"]["table"][
-            "texture"
-        ]
-        == picture
-    )
+    params["materials"]["table"] = params["materials"]["table"].with_texture(picture)
+    recoloured = class_free_colours(np.random.default_rng(0), ALWAYS, params)
+    assert recoloured["materials"]["table"].texture == picture
 
 
 def test_probability_0_leaves_the_values_exactly_as_before_and_the_draw_is_per_scene():

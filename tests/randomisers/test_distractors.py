@@ -25,6 +25,8 @@ from datagen.config.sections import CameraConfig, MaterialsConfig, ObjectsConfig
 from datagen.families.grasp_tabletop.values import draw_scene
 from datagen.randomisers.camera import draw_camera
 from datagen.randomisers.distractors import AIR_FRACTION, draw_distractors
+from datagen.scene_values.bundles import distractor_values
+from datagen.scene_values.checks import as_json
 from datagen.seeding import sample_rng
 
 MANY = DistractorsConfig(on_table=(3, 3), in_air=(2, 2), background=(3, 3))
@@ -48,7 +50,8 @@ def test_each_placement_puts_its_distractors_where_it_says():
     counts = {"table": 0, "air": 0, "background": 0}
     for seed in range(20):
         camera, distractors = _sampled(seed)
-        assert json.loads(json.dumps(distractors)) == distractors  # plain JSON values
+        stored = as_json(distractors)  # JSON values, materials typed
+        assert distractor_values(json.loads(json.dumps(stored)), "distractors") == distractors
         for spec in distractors:
             counts[spec["placement"]] += 1
             x, y, z = spec["pose"]["position"]

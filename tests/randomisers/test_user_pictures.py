@@ -19,6 +19,7 @@ from datagen.config.appearance import PhotosConfig
 from datagen.families.grasp_tabletop.values import draw_scene
 from datagen.randomisers.photos import draw_look
 from datagen.randomisers.textures import texture_surfaces
+from datagen.scene_values.material import Material
 
 PHOTOS = {  # narrow ranges, none the default: the values must come from here
     "enabled": False,  # the library's photographs off: every picture shown is the user's
@@ -67,7 +68,7 @@ def _shown(params: dict) -> tuple[list[dict], list[dict]]:
     materials = params["materials"]
     surfaces = [*materials["objects"], *(materials[s] for s in ("table", "tray", "floor"))]
     walls = list(params["background"]["walls"].values())
-    return [m["texture"] for m in surfaces], [w["texture"] for w in walls]
+    return [m.texture for m in surfaces], [w.texture for w in walls]
 
 
 def _within(value: float, bounds: list[float]) -> bool:
@@ -100,7 +101,7 @@ def test_a_distractors_picture_takes_the_photos_ranges_too(pictures):
     shown = []
     for index in range(8):
         params = draw_scene(config, 3, index, TRAY_CENTRE, TRAY_INNER_HALF)
-        shown += [d["material"].get("texture", {}) for d in params["distractors"]]
+        shown += [d["material"].texture or {} for d in params["distractors"]]
     pictures_shown = [t for t in shown if t.get("family") == "image"]
     assert pictures_shown  # texture_probability 1, textures_dir_share 1
     for values in pictures_shown:
@@ -132,11 +133,11 @@ def test_navigation_surfaces_draw_users_pictures_the_same_way(pictures):
             "photos": PHOTOS,
         }
     )
-    plain = {"base_color": [0.5, 0.5, 0.5, 1.0], "roughness": 0.5, "metallic": 0.0}
+    plain = Material(base_color=(0.5, 0.5, 0.5, 1.0), roughness=0.5, metallic=0.0)
     drawn = texture_surfaces(
         np.random.default_rng(4), config.materials, {"floor": plain}, ("floor",), config.photos
     )
-    values = drawn["floor"]["texture"]
+    values = drawn["floor"].texture
     assert _within(values["crop"][2], PHOTOS["crop"])
     assert _within(values["scale_m"], PHOTOS["surface_scale_m"])
 

@@ -15,23 +15,36 @@ from datagen.scene_values.bundles import tabletop_values
 from datagen.scene_values.camera import CameraPose
 from datagen.scene_values.checks import SceneValueError, as_json
 from datagen.scene_values.lighting import Light, Lighting
+from datagen.scene_values.material import Material
 
 TRAY = ((0.08, 0.0, 0.76), (0.2, 0.26))
 
 
 THREE_VIEWS = BuildConfig().replace(render=replace(BuildConfig().render, views=3))
+_DEFAULT = BuildConfig()
+EVERYTHING = _DEFAULT.replace(  # textures, a textured room and distractors: every material
+    materials=replace(
+        _DEFAULT.materials, texture_probability=0.7, class_independent_probability=0.5
+    ),
+    background=replace(_DEFAULT.background, enabled=True, texture_probability=0.5),
+    distractors=replace(_DEFAULT.distractors, enabled=True, flying=(1, 2)),
+)
 
 
 @pytest.mark.parametrize(
-    "config", [BuildConfig(), load_config("configs/grasp_flat.yaml"), THREE_VIEWS]
+    "config", [BuildConfig(), load_config("configs/grasp_flat.yaml"), THREE_VIEWS, EVERYTHING]
 )
 def test_a_drawn_scene_reads_back_from_its_json_as_the_same_values(config):
     for index in range(12):
         drawn = draw_scene(config, 3, index, *TRAY)
         stored = json.loads(json.dumps(as_json(drawn)))
         read = tabletop_values(stored)
-        for name in ("lighting", "camera", "robot", "extra_views"):
+        for name in ("lighting", "camera", "robot", "extra_views", "materials", "background"):
             assert read.get(name) == drawn.get(name), name
+        for spec, read_spec in zip(
+            drawn.get("distractors", []), read.get("distractors", []), strict=True
+        ):
+            assert read_spec["material"] == spec["material"]
         assert as_json(read) == stored
     assert config.render.views == 1 or len(drawn["extra_views"]) == config.render.views - 1
 
@@ -98,3 +111,36 @@ def test_a_value_type_without_a_usd_realiser_is_an_error():
     assert stage.GetPrimAtPath("/World/Lights/ambient").IsValid()
     with pytest.raises(TypeError, match="no USD realiser for scene values of type CameraPose"):
         add_to_stage(CameraPose((0, 0, 1), (0, 0, 0), 40.0), stage)
+
+
+@pytest.mark.parametrize(
+    ("change", "message"),
+    [
+        (
+            lambda m: m.update(base_color=[0.5, 0.5, 2.0, 1.0]),
+            "table.base_color[2]: expected a number in [0, 1]",
+        ),
+        (lambda m: m.update(base_color=[0.5, 0.5, 0.5]), "table.base_color: expected 4 numbers"),
+        (lambda m: m.pop("roughness"), "table: missing roughness"),
+        (lambda m: m.update(metallic=float("nan")), "table.metallic: expected a finite number"),
+        (lambda m: m.update(texture=["marble"]), "table.texture: expected an object"),
+        (lambda m: m.update(texture={"scale_m": 1.0}), "table.texture.family: expected"),
+        (lambda m: m.update(emission=1.0), "table: unknown key(s) 'emission'"),
+    ],
+)
+def test_a_stored_material_that_is_not_one_is_one_error_naming_the_field(change, message):
+    stored = json.loads(json.dumps(as_json(draw_scene(EVERYTHING, 3, 0, *TRAY))))
+    change(stored["materials"]["table"])
+    with pytest.raises(SceneValueError) as error:
+        tabletop_values(stored)
+    assert f"randomisation.materials.{message}" in str(error.value)
+
+
+def test_a_material_writes_its_fields_in_the_order_the_samples_store_them():
+    plain = Material(base_color=(0.1, 0.2, 0.3, 1.0), roughness=0.4, metallic=0.0)
+    textured = plain.with_texture({"family": "marble", "scale_m": 0.3})
+    assert list(plain.to_json()) == ["base_color", "roughness", "metallic"]
+    assert list(textured.to_json()) == ["base_color", "roughness", "metallic", "texture"]
+    assert Material.from_json(json.loads(json.dumps(textured.to_json()))) == textured
+    with pytest.raises(SceneValueError, match=r"material\.roughness"):
+        Material(base_color=(0.1, 0.2, 0.3, 1.0), roughness=1.5, metallic=0.0)

@@ -11,6 +11,7 @@ import trimesh
 
 from datagen.geometry import image_points, look_at, project, random_quaternion, world_to_cv_camera
 from datagen.randomisers.objects import draw_shape
+from datagen.scene_values.material import Material
 from datagen.sensing.annotate import LabelledObject, label_maps, object_view_records
 from datagen.sensing.render import Frame, capture, keep_renderer_alive
 from datagen.worlds.realise import add_objects
@@ -82,7 +83,7 @@ def test_an_object_far_outside_the_image_is_not_visible_and_not_in_frame():
 
 # ---- on real renders ------------------------------------------------------------------------
 
-MATERIAL = {"base_color": [0.8, 0.3, 0.2, 1.0], "roughness": 0.6, "metallic": 0.0}
+MATERIAL = Material(base_color=(0.8, 0.3, 0.2, 1.0), roughness=0.6, metallic=0.0)
 WIDTH, HEIGHT = 128, 96
 FOVY = np.deg2rad(40)
 

@@ -16,7 +16,7 @@ import numpy as np
 
 from datagen.config import BuildConfig
 from datagen.floorplans.grid import Layout
-from datagen.randomisers.materials import random_colour, random_material
+from datagen.randomisers.materials import draw_marker_material, random_material
 from datagen.randomisers.room_lighting import draw_nav_lighting
 from datagen.randomisers.textures import texture_surfaces
 from datagen.registries import AIRFRAMES
@@ -58,11 +58,7 @@ def draw_aerial_scene(
         materials[kind] = random_material(
             rng, materials_cfg, materials_cfg.saturation, materials_cfg.value
         )
-    materials["goal_marker"] = {
-        "base_color": random_colour(rng, (0.8, 1.0), (0.8, 1.0)),
-        "roughness": 0.5,
-        "metallic": 0.0,
-    }
+    materials["goal_marker"] = draw_marker_material(rng)
     drone_materials = [
         {
             part: random_material(rng, materials_cfg, (0.0, 0.9), value)

@@ -87,7 +87,7 @@ def _specular_instances(scene: GraspScene, config: BuildConfig) -> list[int]:
     """Instance ids of the objects and distractors whose material a depth sensor cannot read."""
     materials = [
         *scene.params["materials"]["objects"],
-        *(o.spec.get("material", {}) for o in scene.distractors),
+        *(o.spec["material"] for o in scene.distractors),
     ]
     things = [*scene.objects, *scene.distractors]
     return [

@@ -21,6 +21,7 @@ from datagen.config.robot import arm_workspace, robot_spec
 from datagen.families.grasp_tabletop.values import draw_values, redrawn_drop_poses
 from datagen.robot_specs import RobotSpec, wrist_mount
 from datagen.scene_values.arm import ArmPose
+from datagen.scene_values.material import Material
 from datagen.sensing.cameras import add_camera
 from datagen.worlds.arm_clearance import link_bodies, meets, part_bodies
 from datagen.worlds.class_names import (
@@ -81,15 +82,13 @@ class GraspScene:
     distractors: list[SceneObject] = field(default_factory=list)  # instance ids after objects
 
 
-def _add_part(
-    scene: sapien.Scene, part: StaticPart, material: dict[str, Any]
-) -> list[sapien.Entity]:
+def _add_part(scene: sapien.Scene, part: StaticPart, material: Material) -> list[sapien.Entity]:
     """A part of the static geometry; the floor is SAPIEN's ground plane, drawn as its slab only
     when textured (texture coordinates), else by the plane itself (the slab's extent)."""
     name = "_".join(filter(None, (part.surface, part.name)))
     if part.surface != "floor":
         return [box_entity(scene, name, part.boxes, material, part.position)]
-    if "texture" not in material:
+    if material.texture is None:
         drawn = render_material(material)
         return [scene.add_ground(0.0, render_material=drawn, render_half_size=part.boxes[0][0][:2])]
     ground = scene.add_ground(0.0, render=False)

@@ -22,6 +22,7 @@ import sapien
 import trimesh
 
 from datagen.families.navigation.episode import CAR_REAR, CAR_WHEELBASE
+from datagen.scene_values.material import Material
 from datagen.sensing.cameras import add_camera
 from datagen.worlds.surfaces import render_material, render_shape
 
@@ -78,18 +79,14 @@ def _ackermann(steer: float, wheelbase: float, offset: float) -> float:
     return math.atan(wheelbase / (radius - offset))
 
 
-def _shape(mesh: trimesh.Trimesh, material: dict) -> sapien.render.RenderShape:
-    return render_shape(mesh, material)
-
-
-def build_car(scene: sapien.Scene, radius: float, materials: dict) -> CarBody:
+def build_car(scene: sapien.Scene, radius: float, materials: dict[str, Material]) -> CarBody:
     """The car in ``scene`` (its parts coloured by ``materials``: ``body``, ``wheels``, ``mast``)."""
     r = radius
     body = sapien.render.RenderBodyComponent()
     clearance, height = 0.12 * r, 0.35 * r
     hull = trimesh.creation.box(extents=[BODY_LENGTH * r, BODY_WIDTH * r, height])
     hull.apply_translation([0.0, 0.0, clearance + height / 2])
-    body.attach(_shape(hull, materials["body"]))
+    body.attach(render_shape(hull, materials["body"]))
     mast = trimesh.creation.box(
         extents=[0.08 * r, 0.08 * r, CAMERA_HEIGHT * r - clearance - height]
     )
@@ -97,7 +94,7 @@ def build_car(scene: sapien.Scene, radius: float, materials: dict) -> CarBody:
     pod = trimesh.creation.box(extents=[v * r for v in POD])
     pod.apply_translation([POD_AHEAD * r, 0.0, CAMERA_HEIGHT * r])
     mast_and_pod = cast(trimesh.Trimesh, trimesh.util.concatenate([mast, pod]))
-    body.attach(_shape(mast_and_pod, materials["mast"]))
+    body.attach(render_shape(mast_and_pod, materials["mast"]))
     chassis = sapien.Entity()
     chassis.name = "car"
     chassis.add_component(body)

@@ -11,7 +11,7 @@ import numpy as np
 
 from datagen.config import BuildConfig
 from datagen.floorplans.grid import Layout
-from datagen.randomisers.materials import random_colour, random_material
+from datagen.randomisers.materials import draw_marker_material, random_material
 from datagen.randomisers.room_lighting import draw_nav_lighting
 from datagen.randomisers.textures import texture_surfaces
 from datagen.registries import GROUND_ROBOTS
@@ -41,12 +41,7 @@ def draw_nav_materials(rng, config: BuildConfig, obstacles: int) -> dict[str, An
     out["obstacles"] = [
         random_material(rng, cfg, cfg.saturation, cfg.value) for _ in range(obstacles)
     ]
-    goal = {
-        "base_color": random_colour(rng, (0.8, 1.0), (0.8, 1.0)),
-        "roughness": 0.5,
-        "metallic": 0.0,
-    }
-    out["goal_marker"] = goal
+    out["goal_marker"] = draw_marker_material(rng)
     return out
 
 
