@@ -14,7 +14,6 @@ Parts, per frame k (``fKKKK``) and camera (``d<drone>`` forward, ``d<drone>_down
 from __future__ import annotations
 
 import io
-import math
 from typing import Any
 
 import numpy as np
@@ -38,6 +37,7 @@ from datagen.sample import Sample, sample_key
 from datagen.scene_values.checks import as_json
 from datagen.scene_values.rounding import rounded
 from datagen.seeding import sample_rng
+from datagen.sensing.camera_record import camera_record
 from datagen.sensing.encode import (
     NED_POSE_CONVENTION,
     POSE_CONVENTION,
@@ -283,19 +283,16 @@ def record_episode(
             },
         },
         "cameras": {
-            name: {
-                "width": r.width,
-                "height": r.height,
-                "fovy_deg": round(math.degrees(cam.fovy), 6),
-                "near": r.near,
-                "far": r.far,
-                "intrinsics": rounded(cam.get_intrinsic_matrix()),
-                "camera_in_body": rounded(scene.camera_in_body[name], 7),
-                "convention": "opencv",
-                "depth_scale": DEPTH_SCALE,
-                "drone": int(name[1:].split("_")[0]),
-                **_stereo(name, cfg.stereo_baseline),
-            }
+            name: camera_record(
+                r.width,
+                r.height,
+                cam.fovy,
+                r.near,
+                r.far,
+                cam.get_intrinsic_matrix(),
+                {"camera_in_body": rounded(scene.camera_in_body[name], 7)},
+            )
+            | {"drone": int(name[1:].split("_")[0]), **_stereo(name, cfg.stereo_baseline)}
             for name, cam in scene.cameras.items()
         },
         "poses_convention": {

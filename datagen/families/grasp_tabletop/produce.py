@@ -20,6 +20,7 @@ from datagen.families.grasp_tabletop.world import GraspScene, build_scene
 from datagen.geometry import pose_record
 from datagen.sample import Sample, sample_key
 from datagen.scene_values.checks import as_json
+from datagen.scene_values.rounding import rounded
 from datagen.seeding import sample_rng
 from datagen.sensing.annotate import (
     LabelledObject,
@@ -28,10 +29,11 @@ from datagen.sensing.annotate import (
     object_world_record,
 )
 from datagen.sensing.camera_effects import draw_camera_effects
+from datagen.sensing.camera_record import camera_record
 from datagen.sensing.depth_sensor import draw_depth_sensor, specular
 from datagen.sensing.encode import DEFAULT_PNG_LEVEL, View, encode_view, metadata_bytes
 from datagen.sensing.path_tracing import path_tracing_of, view_is_path_traced
-from datagen.sensing.render import DEPTH_SCALE, capture, keep_renderer_alive
+from datagen.sensing.render import capture, keep_renderer_alive
 from datagen.sensing.robot_labels import part_instance_ids, part_view_records, robot_parts
 from datagen.sensing.view_effects import apply_view_effects
 from datagen.worlds.class_names import grasp_classes
@@ -137,17 +139,15 @@ def annotate_scene(
         frame = capture(camera, path_tracing_of(config.render) if traced else None)
         instance, semantic = label_maps(frame, objects, stuff_class_ids, part_instances)
         meta = {
-            "camera": {
-                "width": int(camera.width),
-                "height": int(camera.height),
-                "fovy_deg": round(float(np.rad2deg(camera.fovy)), 6),
-                "near": round(float(camera.near), 6),
-                "far": round(float(camera.far), 6),
-                "intrinsics": np.round(frame.intrinsics, 6).tolist(),
-                "extrinsics_world_to_camera": np.round(frame.extrinsics, 7).tolist(),
-                "convention": "opencv",
-                "depth_scale": DEPTH_SCALE,
-            },
+            "camera": camera_record(
+                camera.width,
+                camera.height,
+                camera.fovy,
+                camera.near,
+                camera.far,
+                frame.intrinsics,
+                {"extrinsics_world_to_camera": rounded(frame.extrinsics, 7)},
+            ),
             "objects": object_view_records(frame, instance, objects, float(camera.near)),
             "robot_parts": part_view_records(frame, instance, parts, float(camera.near)),
         }

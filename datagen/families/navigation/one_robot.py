@@ -28,6 +28,7 @@ from datagen.registry import resolve
 from datagen.sample import Sample, sample_key
 from datagen.scene_values.checks import as_json
 from datagen.scene_values.rounding import rounded
+from datagen.sensing.camera_record import camera_record
 from datagen.sensing.encode import (
     POSE_CONVENTION,
     View,
@@ -36,7 +37,7 @@ from datagen.sensing.encode import (
     png_bytes,
     pose_file,
 )
-from datagen.sensing.render import DEPTH_SCALE, capture, keep_renderer_alive
+from datagen.sensing.render import capture, keep_renderer_alive
 from datagen.worlds.robots import FETCH
 from datagen.worlds.things import things_in_view
 
@@ -102,7 +103,7 @@ def render_episode(
             }
         )
     assert camera_in_robot is not None  # set at the first frame
-    camera = camera_record(config.render, scene.camera.fovy, camera_in_robot, intrinsics)
+    camera = robot_camera_record(config.render, scene.camera.fovy, camera_in_robot, intrinsics)
     parts["poses.head.txt"] = pose_file(extrinsics)
     return parts, records, camera
 
@@ -132,24 +133,18 @@ def episode_record(config: BuildConfig, episode: Episode, steps: list[int]) -> d
     }
 
 
-def camera_record(
+def robot_camera_record(
     render: RenderConfig, fovy: float, camera_in_robot: np.ndarray, intrinsics: np.ndarray
 ) -> dict[str, Any]:
     """A robot camera's record: its image, lens and fixed mount (``fovy`` in radians)."""
     forward = camera_in_robot[:3, 2]  # OpenCV z axis = viewing direction
-    return {
-        "width": render.width,
-        "height": render.height,
-        "fovy_deg": round(math.degrees(fovy), 6),
-        "near": render.near,
-        "far": render.far,
-        "intrinsics": rounded(intrinsics),
+    mount = {
         "camera_in_robot": rounded(camera_in_robot, 7),
         "height_m": round(float(camera_in_robot[2, 3]), 6),
         "pitch_down_deg": round(math.degrees(-math.asin(float(forward[2]))), 6),
-        "convention": "opencv",
-        "depth_scale": DEPTH_SCALE,
     }
+    r = render
+    return camera_record(r.width, r.height, fovy, r.near, r.far, intrinsics, mount)
 
 
 def layout_record(layout: Layout) -> dict[str, Any]:

@@ -20,9 +20,9 @@ from datagen.exports.episodes import held_commands
 from datagen.families.navigation.fleet import FleetEpisode, plan_fleet_episode
 from datagen.families.navigation.map_image import fleet_map, occupancy_image
 from datagen.families.navigation.one_robot import (
-    camera_record,
     layout_record,
     planar_pose,
+    robot_camera_record,
     robot_record,
 )
 from datagen.families.navigation.one_robot import produce as produce_one
@@ -206,7 +206,7 @@ def record_fleet(
     for k, poses in extrinsics.items():
         parts[f"poses.r{k}.txt"] = pose_file(poses)
     cameras = {
-        f"r{k}": camera_record(config.render, camera.fovy, *mounts[k]) | {"robot": k}
+        f"r{k}": robot_camera_record(config.render, camera.fovy, *mounts[k]) | {"robot": k}
         for k, camera in enumerate(scene.cameras)
     }
     agents = [_agent_record(a, fleet.dt) for a in fleet.agents]
