@@ -35,6 +35,8 @@ from datagen.randomisers.distractors import (
     draw_distractors,
     draw_flying,
 )
+from datagen.scene_values.bundles import distractor_values
+from datagen.scene_values.checks import as_json
 from datagen.seeding import sample_rng
 
 ONLY_FLYING = DistractorsConfig(on_table=(0, 0), in_air=(0, 0), background=(0, 0), flying=(5, 5))
@@ -62,7 +64,8 @@ def test_flying_distractors_lie_in_view_at_depths_spanning_the_range():
             np.random.default_rng(seed), ONLY_FLYING, MaterialsConfig(), NO_PHOTOS, camera, room,
             ws, ASPECT,
         )  # fmt: skip
-        assert json.loads(json.dumps(flying)) == flying  # plain JSON values
+        stored = json.loads(json.dumps(as_json(flying)))  # as a sample stores them
+        assert distractor_values(stored, "distractors") == flying  # read back, materials typed
         placed += len(flying)
         eye, target = np.asarray(camera.eye), np.asarray(camera.target)
         distance = np.linalg.norm(target - eye)
