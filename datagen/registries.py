@@ -155,6 +155,7 @@ EXECUTORS: Registry[Plugin] = Registry(
     [
         Plugin("local", "datagen.pipeline.executors.local_processes:LocalExecutor"),
         Plugin("ray", "datagen.pipeline.executors.ray_actors:RayExecutor"),
+        Plugin("simulated", "datagen.pipeline.executors.simulated:SimulatedExecutor"),
     ],
 )
 

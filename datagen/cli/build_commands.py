@@ -116,7 +116,15 @@ def add_parsers(commands) -> None:
         "--executor",
         type=choices(EXECUTORS),
         default="local",
-        help="where workers run: processes of this machine, or Ray actors (default: local)",
+        help="where workers run: processes of this machine, Ray actors, or simulated workers "
+        "that replay --replay's samples (default: local)",
+    )
+    build.add_argument(
+        "--replay",
+        default=None,
+        metavar="DATASET",
+        help="with --executor simulated: a finished dataset whose samples the workers publish "
+        "re-keyed, rendering nothing (a transport and coordinator load test)",
     )
     build.add_argument(
         "--ray-address",
@@ -202,6 +210,7 @@ def run_build_command(args: argparse.Namespace, config=None) -> int:
             writers=writers,
             build_id=args.build_id,
             executor=args.executor,
+            executor_options={"recorded": args.replay} if args.executor == "simulated" else None,
             ray_address=args.ray_address,
             on_export_progress=_export_bars(),
             monitor=build_monitor(pages) if args.monitor else None,

@@ -11,6 +11,7 @@ import os
 import time
 from collections.abc import Callable, Iterator
 from pathlib import Path
+from typing import Any
 
 from datagen.config import BuildConfig
 from datagen.errors import BuildError
@@ -40,6 +41,7 @@ def run_build(
     build_id: str | None = None,
     observer: Observer | None = None,
     executor: str = "local",
+    executor_options: dict[str, Any] | None = None,
     ray_address: str | None = None,
     on_export_progress: ExportProgress | None = None,
     monitor: Callable[[ManagedBroker], None] | None = None,
@@ -51,7 +53,9 @@ def run_build(
     ``broker_url``). ``writers``: ids of
     writers started elsewhere (``datagen writer``) instead of one local writer. ``executor``:
     ``local`` (processes of this machine) or ``ray`` (actors; ``ray_address`` None starts a local
-    Ray instance, ``auto`` or ``ray://host:port`` joins a cluster). ``monitor``: called with
+    Ray instance, ``auto`` or ``ray://host:port`` joins a cluster), or ``simulated`` (workers
+    that replay recorded samples; ``executor_options``: its options, ``recorded`` first,
+    ``datagen.pipeline.executors.simulated``). ``monitor``: called with
     the build's own broker, started with a WebSockets listener for the monitor page.
     """
     out_dir = Path(out_dir)
@@ -68,9 +72,9 @@ def run_build(
         )
     if worker_broker_url and not broker_url:
         raise BuildError("worker_broker_url names a user of an external broker: give broker_url")
-    options = {}
+    options = dict(executor_options or {})
     if executor == "ray":
-        options = {
+        options |= {
             "address": ray_address,
             "cpus_per_worker": config.executor.cpus_per_worker,
             "gpus_per_worker": config.executor.gpus_per_worker,

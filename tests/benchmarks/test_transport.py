@@ -1,0 +1,36 @@
+"""benchmarks/transport.py --quick end to end: a recorded set, the engine against the raw
+broker, and simulated workers with faults ending with their exact, verified count."""
+
+from __future__ import annotations
+
+import json
+import re
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+REPO = Path(__file__).resolve().parents[2]
+
+pytestmark = [pytest.mark.sim, pytest.mark.mqtt, pytest.mark.slow]
+
+
+def test_the_quick_transport_benchmark_prints_its_ratio_and_an_exact_verified_count(tmp_path):
+    command = ["benchmarks/transport.py", "--quick", "--samples", "300", "--out", str(tmp_path)]
+    done = subprocess.run(
+        [sys.executable, *command], cwd=REPO, capture_output=True, text=True, timeout=900
+    )
+    assert done.returncode == 0, done.stderr[-3000:]
+    out = done.stdout
+    assert re.search(r"engine ÷ raw: \d+\.\d\d", out), out
+    assert re.search(r"simulated workers 100: .* 300 of 300 samples, verified: True", out), out
+    results = json.loads((tmp_path / "transport_quick.json").read_text())
+    run = results["sets"]["flat"]["runs"][0]
+    assert run["engine"]["verified"] and run["raw"]["received"] == 300
+    assert set(run["engine"]["cpu_ms_per_sample"]) == {
+        "broker",
+        "coordinator",
+        "producer",
+        "writer",
+    }
