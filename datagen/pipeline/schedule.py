@@ -9,11 +9,16 @@ so a sample delivered twice is still written once.
 
 from __future__ import annotations
 
-from collections import deque
+from collections import OrderedDict, deque
 from collections.abc import Iterable
 
 
 class Schedule:
+    """Every step costs O(1) per sample or per event, whatever the number of workers: which
+    worker holds each index (``holder``), the published samples in the order they were
+    published (``by_time``, so the overdue are found at its front) and the workers with room
+    for more (``hungry``) are kept as they change."""
+
     def __init__(self, indices: Iterable[int], ack_timeout_s: float, per_worker: int = 2):
         self.todo: deque[int] = deque(sorted(indices))
         self.remaining = set(self.todo)
@@ -21,6 +26,9 @@ class Schedule:
         self.per_worker = per_worker  # samples handed to a worker and not yet published
         self.assigned: dict[int, list[int]] = {}  # worker -> indices sent, not yet published
         self.published: dict[int, dict[int, float]] = {}  # worker -> {index: publish time}
+        self.holder: dict[int, int] = {}  # index -> the worker it is assigned to or published by
+        self.by_time: OrderedDict[int, float] = OrderedDict()  # published, oldest first
+        self.hungry: set[int] = set()  # workers holding fewer than per_worker unpublished
         self.given_up: set[int] = set()  # failed on every attempt: not waited for, not durable
         self.reissued = 0
 
@@ -36,34 +44,54 @@ class Schedule:
     def add_worker(self, worker: int) -> None:
         self.assigned[worker] = []
         self.published[worker] = {}
+        self.hungry.add(worker)
+
+    def hungry_workers(self) -> list[int]:
+        """The workers that can take more now (none while nothing is left to issue)."""
+        return sorted(self.hungry) if self.todo else []
 
     def next_for(self, worker: int) -> list[int]:
         """Indices to send to ``worker`` now (it keeps ``per_worker`` unpublished at most)."""
-        out = []
-        while len(self.assigned[worker]) < self.per_worker and self.todo:
+        out, held = [], self.assigned[worker]
+        while len(held) < self.per_worker and self.todo:
             index = self.todo.popleft()
-            if index in self.remaining and not self._in_flight(index):
-                self.assigned[worker].append(index)
+            if index in self.remaining and index not in self.holder:
+                held.append(index)
+                self.holder[index] = worker
                 out.append(index)
+        if len(held) < self.per_worker:
+            self.hungry.add(worker)
+        else:
+            self.hungry.discard(worker)
         return out
 
     def on_published(self, worker: int, index: int, now: float) -> None:
-        if index in self.assigned.get(worker, []):
-            self.assigned[worker].remove(index)
+        held = self.assigned.get(worker)
+        if held is not None and index in held:
+            held.remove(index)
+            self.hungry.add(worker)
         if index in self.remaining:
-            self.published[worker][index] = now
+            self.published.setdefault(worker, {})[index] = now
+            self.holder[index] = worker
+            self.by_time[index] = now
+            self.by_time.move_to_end(index)
 
     def on_acked(self, index: int) -> None:
         self.remaining.discard(index)
         self.given_up.discard(index)
-        for indices in self.published.values():
-            indices.pop(index, None)
+        worker = self.holder.pop(index, None)
+        if worker is not None:
+            self.published.get(worker, {}).pop(index, None)
+        self.by_time.pop(index, None)
 
     def on_given_up(self, worker: int, index: int) -> None:
         """Producing ``index`` failed on every allowed attempt: it is no longer waited for (the
         coordinator reports it when everything else is durable)."""
-        if index in self.assigned.get(worker, []):
-            self.assigned[worker].remove(index)
+        held = self.assigned.get(worker)
+        if held is not None and index in held:
+            held.remove(index)
+            self.hungry.add(worker)
+            self._release(index, worker)
         if index in self.remaining:
             self.remaining.discard(index)
             self.given_up.add(index)
@@ -72,29 +100,40 @@ class Schedule:
         """The worker died: everything it held and nobody acknowledged is issued again. A worker
         that finished cleanly (``keep_published``) hands its published samples over to the
         ack deadline instead: the broker has them."""
-        lost = [i for i in self.assigned.pop(worker, []) if i in self.remaining]
+        self.hungry.discard(worker)
+        held = self.assigned.pop(worker, [])
+        for index in held:
+            self._release(index, worker)
+        lost = [i for i in held if i in self.remaining]
         if not keep_published:  # else they stay tracked under the old id (ids are not reused)
-            lost += [i for i in self.published.pop(worker, {}) if i in self.remaining]
+            published = self.published.pop(worker, {})
+            for index in published:
+                self._release(index, worker)
+                self.by_time.pop(index, None)
+            lost += [i for i in published if i in self.remaining]
         self._reissue(lost)
         return lost
 
     def reissue_overdue(self, now: float) -> list[int]:
         overdue = []
-        for indices in self.published.values():
-            for index, published_at in list(indices.items()):
-                if now - published_at > self.ack_timeout_s:
-                    del indices[index]
-                    overdue.append(index)
+        while self.by_time:
+            index, published_at = next(iter(self.by_time.items()))
+            if now - published_at <= self.ack_timeout_s:
+                break
+            del self.by_time[index]
+            worker = self.holder.pop(index, None)
+            if worker is not None:
+                self.published.get(worker, {}).pop(index, None)
+            overdue.append(index)
         self._reissue(overdue)
         return overdue
 
-    def _in_flight(self, index: int) -> bool:
-        return any(index in a for a in self.assigned.values()) or any(
-            index in p for p in self.published.values()
-        )
+    def _release(self, index: int, worker: int) -> None:
+        if self.holder.get(index) == worker:
+            del self.holder[index]
 
     def _reissue(self, indices: list[int]) -> None:
         for index in sorted(indices, reverse=True):
-            if index in self.remaining and not self._in_flight(index):
+            if index in self.remaining and index not in self.holder:
                 self.todo.appendleft(index)
                 self.reissued += 1

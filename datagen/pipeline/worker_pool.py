@@ -22,6 +22,7 @@ from datagen.records import ProductionRecord
 
 log = logging.getLogger(__name__)
 POLL_S = 0.1
+SUPERVISE_EVERY_S = 0.5
 
 
 class WorkerPool:
@@ -53,6 +54,7 @@ class WorkerPool:
         self.next_task: dict[int, Task] = {}  # samples to resume at a later attempt (timed out)
         limits = config.build
         self.watch = WorkerWatch(limits.worker_timeout_s, limits.sample_timeout_s)
+        self._next_look = 0.0
 
     @property
     def _schedule(self) -> Schedule:
@@ -90,8 +92,11 @@ class WorkerPool:
                 return  # it died; poll reports it
 
     def feed_all(self) -> None:
-        for worker_id in list(self.workers):
-            self.feed(worker_id)
+        """Feeds the workers with room for more (not every worker: at 1,000 workers a loop
+        over all of them on every poll cost the coordinator more than the samples did)."""
+        for worker_id in self._schedule.hungry_workers():
+            if worker_id in self.workers:
+                self.feed(worker_id)
 
     def handle_messages(self) -> None:
         """What the workers reported during one poll (at most ``POLL_S`` of waiting)."""
@@ -135,7 +140,11 @@ class WorkerPool:
 
     def supervise(self, now: float) -> None:
         """Kills a worker that fell silent or ran past the time limit of one sample; a timed-out
-        attempt counts as a failed one (``build.on_sample_error``)."""
+        attempt counts as a failed one (``build.on_sample_error``). Looks at most once every
+        ``SUPERVISE_EVERY_S`` (a look visits every worker; the limits are seconds long)."""
+        if now < self._next_look:
+            return
+        self._next_look = now + SUPERVISE_EVERY_S
         for stuck in self.watch.unresponsive(now):
             self.executor.kill(stuck.worker)
             if stuck.attempt is not None:

@@ -33,7 +33,8 @@ class SimulatedExecutor:
     """``recorded``: a dataset's folder whose samples are replayed; ``faults``: the fields of
     :class:`Faults` (render time and fault probabilities); ``hosts``: processes the workers are
     spread over (worker ``id`` lives in host ``id mod hosts``); ``window``: each host's
-    in-flight samples."""
+    in-flight samples (default ``transfer.window``, a worker's: a host holding 64 samples of
+    1.5 MiB in flight per producer buried a one-core broker)."""
 
     def __init__(
         self,
@@ -41,7 +42,7 @@ class SimulatedExecutor:
         recorded: str | Path | None = None,
         faults: dict[str, Any] | None = None,
         hosts: int = 2,
-        window: int = 64,
+        window: int | None = None,
     ):
         if recorded is None or not (Path(recorded) / "manifest.json").is_file():
             raise BuildError(
@@ -53,7 +54,7 @@ class SimulatedExecutor:
         options = {
             "recorded": str(recorded),
             "faults": dict(faults or {}),
-            "window": window,
+            "window": window or int(config["transfer"]["window"]),
             "max_message_bytes": int(config["transfer"]["max_sample_mb"] * 2**20),
         }
         context = mp.get_context("spawn")

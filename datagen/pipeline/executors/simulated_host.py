@@ -158,7 +158,7 @@ def host_main(
         broker_url,
         build_id,
         client_id=client_id(build_id, f"simulated-host-{host_id}"),
-        window=int(options.get("window", 64)),
+        window=int(options["window"]),
         max_message_bytes=int(options["max_message_bytes"]),
         secret=secret,
         run=run,
