@@ -143,25 +143,31 @@ def decode_sample(
         raise WireError(
             f"truncated: header_len {header_len} runs past the end of a {n}-byte message"
         )
-    (crc,) = _CRC.unpack_from(payload, n - _CRC.size)
-    actual = zlib.crc32(memoryview(payload)[: n - _CRC.size])
-    if crc != actual:
-        raise WireError(f"CRC32 mismatch: message says 0x{crc:08x}, content gives 0x{actual:08x}")
-    build_id, index, parts, claimed = _parse_header(payload[_PREFIX.size : header_end])
-    if secret is not None:
-        if not mac_len:
-            raise WireError(
-                "unsigned sample: this build accepts only samples signed with its secret"
-            )
-        if claimed is None:
-            raise WireError("signed sample names no run (header.run): not made by a worker")
-        signed_end = n - _CRC.size - mac_len
-        expected = sample_mac(secret, claimed.run, memoryview(payload)[:signed_end])
-        if not hmac.compare_digest(expected, payload[signed_end : signed_end + mac_len]):
-            raise WireError("signature does not verify: not made by a worker of this build")
-        why = run.mismatch(claimed) if run is not None else None
-        if why is not None:
-            raise WireError(f"a genuine sample of another run of this build, replayed: {why}")
+    # A signed message's MAC covers every byte its CRC does but the MAC itself: when the MAC
+    # verifies, the CRC is not computed (2.7 ms of a writer's 14 ms per 1.5 MiB sample); when
+    # anything fails, a CRC mismatch is reported first, as corruption rather than forgery.
+    signed = secret is not None and bool(mac_len)
+    if not signed:
+        _check_crc(payload)
+    try:
+        build_id, index, parts, claimed = _parse_header(payload[_PREFIX.size : header_end])
+        if secret is not None:
+            if not mac_len:
+                raise WireError(
+                    "unsigned sample: this build accepts only samples signed with its secret"
+                )
+            if claimed is None:
+                raise WireError("signed sample names no run (header.run): not made by a worker")
+            signed_end = n - _CRC.size - mac_len
+            expected = sample_mac(secret, claimed.run, memoryview(payload)[:signed_end])
+            if not hmac.compare_digest(expected, payload[signed_end : signed_end + mac_len]):
+                raise WireError("signature does not verify: not made by a worker of this build")
+    except WireError:
+        if signed:
+            _check_crc(payload)
+        raise
+    if secret is not None and run is not None and (why := run.mismatch(claimed)) is not None:
+        raise WireError(f"a genuine sample of another run of this build, replayed: {why}")
     body_len = n - _CRC.size - mac_len - header_end
     total = sum(size for _, size in parts)
     if total != body_len:
@@ -172,6 +178,14 @@ def decode_sample(
         data[name] = payload[offset : offset + size]
         offset += size
     return build_id, Sample(index=index, parts=data)
+
+
+def _check_crc(payload: bytes) -> None:
+    n = len(payload)
+    (crc,) = _CRC.unpack_from(payload, n - _CRC.size)
+    actual = zlib.crc32(memoryview(payload)[: n - _CRC.size])
+    if crc != actual:
+        raise WireError(f"CRC32 mismatch: message says 0x{crc:08x}, content gives 0x{actual:08x}")
 
 
 def _parse_header(raw: bytes) -> tuple[str, int, list[tuple[str, int]], RunBinding | None]:
