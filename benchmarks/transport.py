@@ -289,6 +289,18 @@ def raw(sizes: list[int], n: int, publishers: int, readers: int) -> dict:
     }
 
 
+def _names(text: str | None) -> list[str]:
+    return [name for name in (text or "").split(",") if name]
+
+
+def _se(values: list[float]) -> float:
+    return statistics.stdev(values) / len(values) ** 0.5 if len(values) > 1 else 0.0
+
+
+def _mean_se(values: list[float]) -> str:
+    return f"{statistics.mean(values):.1f} ± {_se(values):.1f}"
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--quick", action="store_true", help="the flat set, 1 writer, 100 workers")
@@ -298,12 +310,16 @@ def main() -> None:
     parser.add_argument(
         "--out", type=Path, default=RESULTS, help="recorded sets and results (benchmarks/results)"
     )
+    parser.add_argument("--sets", default=None, help="comma-separated: default,flat")
+    parser.add_argument("--writers", default=None, help="comma-separated writer counts: 1,2,4")
+    parser.add_argument("--scaling", default=None, help="simulated worker counts: 100,300,1000")
+    parser.add_argument("--repeats", type=int, default=1, help="engine and raw runs per point")
     args = parser.parse_args()
     quick = args.quick
     n = args.samples or (600 if quick else 3000)
-    sets = ["flat"] if quick else ["default", "flat"]
-    writer_counts = [1] if quick else [1, 2, 4]
-    worker_counts = [100] if quick else [100, 300, 1000]
+    sets = _names(args.sets) or (["flat"] if quick else ["default", "flat"])
+    writer_counts = [int(w) for w in _names(args.writers)] or ([1] if quick else [1, 2, 4])
+    worker_counts = [int(w) for w in _names(args.scaling)] or ([100] if quick else [100, 300, 1000])
     print(f"machine: {cpu_model()}, {os.cpu_count()} cores; {n} samples per run", flush=True)
     results: dict = {"machine": cpu_model(), "cores": os.cpu_count(), "samples": n, "sets": {}}
     for name in sets:
@@ -313,16 +329,25 @@ def main() -> None:
         print(f"set {name}: {len(sizes)} recorded samples, mean {mean_mb:.3f} MiB on the wire")
         runs, count = [], n if name == "flat" else max(100, n // 3)  # 1.5 MiB each: a third
         for writers in writer_counts:
-            e = engine(folder, count, writers, workers=32, hosts=2)
-            r = raw(sizes, count, publishers=2, readers=writers)
-            ratio = e["samples_per_s"] / r["samples_per_s"]
+            ratios, rates, raw_rates = [], [], []
+            for _ in range(args.repeats):  # engine and raw side by side, alternating
+                e = engine(folder, count, writers, workers=32, hosts=2)
+                r = raw(sizes, count, publishers=2, readers=writers)
+                ratios.append(e["samples_per_s"] / r["samples_per_s"])
+                rates.append(e["samples_per_s"])
+                raw_rates.append(r["samples_per_s"])
+                print(
+                    f"  {writers} writer(s): engine {e['samples_per_s']} samples/s "
+                    f"({e['samples_per_s'] * mean_mb:.1f} MiB/s), raw {r['samples_per_s']} "
+                    f"samples/s; CPU ms/sample {e['cpu_ms_per_sample']}; verified {e['verified']}"
+                )
+                runs.append({"engine": e, "raw": r, "engine_over_raw": round(ratios[-1], 3)})
             print(
-                f"  {writers} writer(s): engine {e['samples_per_s']} samples/s "
-                f"({e['samples_per_s'] * mean_mb:.1f} MiB/s), raw {r['samples_per_s']} samples/s; "
-                f"CPU ms/sample {e['cpu_ms_per_sample']}; verified {e['verified']}"
+                f"  {writers} writer(s) over {args.repeats} run(s): engine {_mean_se(rates)} "
+                f"samples/s, raw {_mean_se(raw_rates)} samples/s",
+                flush=True,
             )
-            print(f"  engine ÷ raw: {ratio:.2f}", flush=True)
-            runs.append({"engine": e, "raw": r, "engine_over_raw": round(ratio, 3)})
+            print(f"  engine ÷ raw: {statistics.mean(ratios):.2f} ± {_se(ratios):.2f}", flush=True)
         results["sets"][name] = {"mean_mib": round(mean_mb, 4), "runs": runs}
     flat = recorded_set("flat", 8 if quick else 16, args.out)
     faults = {"render_s": (0.0, 0.05), "crash": 0.002, "hang": 0.001, "duplicate": 0.01}
