@@ -31,6 +31,7 @@ from datagen.pipeline.production import Task
 from datagen.pipeline.worker import HEARTBEAT_S, die_with_parent
 from datagen.sample import Sample, sample_key
 from datagen.seeding import sample_rng
+from datagen.sensing.encode import metadata_bytes
 from datagen.transport.publisher import SamplePublisher
 from datagen.transport.run_binding import RunBinding, client_id
 
@@ -70,8 +71,7 @@ class RecordedSamples:
     def for_index(self, index: int) -> Sample:
         k = index % len(self.parts)
         metadata = self.metadata[k] | {"index": index, "key": sample_key(index), "seed": self.seed}
-        rekeyed = json.dumps(metadata, sort_keys=True, separators=(",", ":"), allow_nan=False)
-        return Sample(index, {**self.parts[k], "json": rekeyed.encode()})
+        return Sample(index, {**self.parts[k], "json": metadata_bytes(metadata)})
 
 
 class Host:
@@ -104,6 +104,17 @@ class Host:
             tasks.put(None)
         if (event := self.hung.pop(worker_id, None)) is not None:
             event.set()
+
+    def stop(self, graceful: bool) -> None:
+        """Every worker stops; ``graceful``: each finishes what it holds (5 s at most)."""
+        for worker_id in list(self.queues):
+            self.queues[worker_id].put(None)
+        for worker_id in list(self.hung):
+            self.kill(worker_id)
+        if graceful:
+            for thread in self.threads:
+                thread.join(timeout=5.0)
+        self._stopped.set()
 
     def heartbeats(self) -> None:
         while not self._stopped.wait(HEARTBEAT_S):
@@ -182,12 +193,5 @@ def host_main(
             elif kind == "kill":
                 host.kill(rest[0])
             elif kind == "stop":
-                for worker_id in list(host.queues):
-                    host.queues[worker_id].put(None)
-                for worker_id in list(host.hung):
-                    host.kill(worker_id)
-                if rest[0]:  # graceful: each finishes what it holds
-                    for thread in host.threads:
-                        thread.join(timeout=5.0)
-                host._stopped.set()
+                host.stop(graceful=rest[0])
                 return
