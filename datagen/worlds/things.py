@@ -11,6 +11,8 @@ import numpy as np
 import sapien
 from scipy import ndimage
 
+from datagen.sample import sample_key
+
 
 @dataclass
 class Thing:
@@ -54,3 +56,29 @@ def things_in_view(
             }
         )
     return out
+
+
+def episode_header(
+    metadata_format: str,
+    index: int,
+    seed: int,
+    scene: str,
+    family: str,
+    classes: Sequence[str],
+    things: Sequence[Thing],
+) -> dict[str, Any]:
+    """The fields every episode's metadata opens with: its format, key, index and seed, the
+    scene family and layout family, the class names (a class's id is its position) and the
+    labelled things (instance id, class, name)."""
+    return {
+        "format": metadata_format,
+        "key": sample_key(index),
+        "index": index,
+        "seed": seed,
+        "scene": scene,
+        "family": family,
+        "classes": list(classes),
+        "things": [
+            {"instance_id": t.instance_id, "class": t.class_name, "name": t.name} for t in things
+        ],
+    }

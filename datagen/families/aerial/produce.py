@@ -33,7 +33,7 @@ from datagen.families.aerial.values import draw_aerial_scene
 from datagen.families.aerial.volumes import box_distance
 from datagen.families.aerial.world import AERIAL_CLASSES, AerialScene, build_aerial_scene
 from datagen.outcomes import agents_outcome, spl
-from datagen.sample import Sample, sample_key
+from datagen.sample import Sample
 from datagen.scene_values.checks import as_json
 from datagen.scene_values.rounding import rounded
 from datagen.seeding import sample_rng
@@ -50,7 +50,7 @@ from datagen.sensing.encode import (
 )
 from datagen.sensing.optical_flow import flow_to_next
 from datagen.sensing.render import DEPTH_SCALE, Frame, capture, keep_renderer_alive
-from datagen.worlds.things import things_in_view
+from datagen.worlds.things import episode_header, things_in_view
 
 AERIAL_FORMAT = "datagen.aerial_episode/1"
 
@@ -251,17 +251,9 @@ def record_episode(
         )
     r = config.render
     metadata = {
-        "format": AERIAL_FORMAT,
-        "key": sample_key(index),
-        "index": index,
-        "seed": seed,
-        "scene": config.scene,
-        "family": cfg.family,
-        "classes": list(AERIAL_CLASSES),
-        "things": [
-            {"instance_id": t.instance_id, "class": t.class_name, "name": t.name}
-            for t in scene.things
-        ],
+        **episode_header(
+            AERIAL_FORMAT, index, seed, config.scene, cfg.family, AERIAL_CLASSES, scene.things
+        ),
         "episode": {
             # the episode as a whole (what inspect, the monitor and the exports read)
             **agents_outcome(agents),

@@ -25,7 +25,7 @@ from datagen.floorplans.grid import Layout, inflate
 from datagen.outcomes import spl
 from datagen.registries import GROUND_ROBOTS
 from datagen.registry import resolve
-from datagen.sample import Sample, sample_key
+from datagen.sample import Sample
 from datagen.scene_values.checks import as_json
 from datagen.scene_values.rounding import rounded
 from datagen.sensing.camera_record import camera_record
@@ -39,7 +39,7 @@ from datagen.sensing.encode import (
 )
 from datagen.sensing.render import capture, keep_renderer_alive
 from datagen.worlds.robots import FETCH
-from datagen.worlds.things import things_in_view
+from datagen.worlds.things import episode_header, things_in_view
 
 NAV_FORMAT = "datagen.nav_episode/1"
 
@@ -231,17 +231,9 @@ def record_episode(
     parts["map.png"] = png_bytes(episode_map(episode, inflated, steps), level)
     parts["occupancy.png"] = png_bytes(occupancy_image(layout.grid), level)
     metadata = {
-        "format": NAV_FORMAT,
-        "key": sample_key(index),
-        "index": index,
-        "seed": seed,
-        "scene": config.scene,
-        "family": nav.family,
-        "classes": list(NAV_CLASSES),
-        "things": [
-            {"instance_id": t.instance_id, "class": t.class_name, "name": t.name}
-            for t in scene.things
-        ],
+        **episode_header(
+            NAV_FORMAT, index, seed, config.scene, nav.family, NAV_CLASSES, scene.things
+        ),
         "episode": episode_record(config, episode, steps),
         "camera": camera,
         "frames": frames,

@@ -32,7 +32,7 @@ from datagen.families.navigation.world import NAV_CLASSES, NavScene, build_floor
 from datagen.floorplans.grid import inflate
 from datagen.outcomes import agents_outcome, spl
 from datagen.registries import GROUND_ROBOTS
-from datagen.sample import Sample, sample_key
+from datagen.sample import Sample
 from datagen.scene_values.checks import as_json
 from datagen.scene_values.rounding import rounded
 from datagen.sensing.encode import (
@@ -44,7 +44,7 @@ from datagen.sensing.encode import (
     pose_file,
 )
 from datagen.sensing.render import capture, keep_renderer_alive
-from datagen.worlds.things import things_in_view
+from datagen.worlds.things import episode_header, things_in_view
 
 FLEET_FORMAT = "datagen.nav_fleet/1"
 
@@ -211,17 +211,9 @@ def record_fleet(
     }
     agents = [_agent_record(a, fleet.dt) for a in fleet.agents]
     metadata = {
-        "format": FLEET_FORMAT,
-        "key": sample_key(index),
-        "index": index,
-        "seed": seed,
-        "scene": config.scene,
-        "family": nav.family,
-        "classes": list(NAV_CLASSES),
-        "things": [
-            {"instance_id": t.instance_id, "class": t.class_name, "name": t.name}
-            for t in scene.things
-        ],
+        **episode_header(
+            FLEET_FORMAT, index, seed, config.scene, nav.family, NAV_CLASSES, scene.things
+        ),
         "episode": {
             # the episode as a whole (what inspect, the monitor and the exports read)
             **agents_outcome(agents),
