@@ -16,6 +16,7 @@ from __future__ import annotations
 import argparse
 import json
 import os
+import shutil
 import sys
 import tempfile
 import time
@@ -108,6 +109,8 @@ def main() -> int:
         print(f"ratio {name}: {value}")
     Path(args.out).parent.mkdir(parents=True, exist_ok=True)
     Path(args.out).write_text(json.dumps({"command": " ".join(sys.argv), "dataset": str(root), "rows": rows, "ratios": ratios}, indent=2))  # fmt: skip
+    if not args.dataset:  # the set this run built for itself
+        shutil.rmtree(root, ignore_errors=True)
     return 0
 
 
