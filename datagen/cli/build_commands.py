@@ -25,7 +25,11 @@ from datagen.cli.progress import progress
 from datagen.config import BuildConfig, load_config
 from datagen.registries import EXECUTORS, FAMILIES
 from datagen.registry import choices
-from datagen.transport.broker_url import BROKER_URL_ENV, WORKER_BROKER_URL_ENV
+from datagen.transport.broker_url import (
+    BROKER_URL_ENV,
+    SAMPLE_BROKER_URLS_ENV,
+    WORKER_BROKER_URL_ENV,
+)
 
 _SAMPLES = {f.name: f for f in dataclasses.fields(BuildConfig)}["num_samples"].metadata
 NUM_SAMPLES = whole_number(_SAMPLES["min"], _SAMPLES["max"])
@@ -94,6 +98,17 @@ def add_parsers(commands) -> None:
         "$DATAGEN_WORKER_BROKER_URL, else the --broker URL",
     )
     build.add_argument(
+        "--sample-broker",
+        metavar="URL",
+        type=broker_url,
+        action="append",
+        help="spread the samples over several brokers: give this once per broker, in the same "
+        "order on every run; sample i goes to the (i mod count)-th. Each needs writers of its "
+        "own ('datagen writer --sample-broker URL', named in --writers); commands, acks and "
+        f"status stay on --broker. Default: ${SAMPLE_BROKER_URLS_ENV} (comma-separated), else "
+        "the --broker alone (docs/scale-out.md, 'Several brokers')",
+    )
+    build.add_argument(
         "--writers",
         metavar="IDS",
         type=writer_ids,
@@ -139,7 +154,7 @@ def add_parsers(commands) -> None:
 # options a resumed build must not repeat; options repeated even at their default
 _NOT_RESUMED = {"help", "resume", "overwrite"}
 _ALWAYS_RESUMED = {"workers"}  # its default is the number of cores: one value may be given
-_URLS = {"broker", "worker_broker"}  # printed without their passwords
+_URLS = {"broker", "worker_broker", "sample_broker"}  # printed without their passwords
 
 
 def resume_command(args: argparse.Namespace) -> str:
@@ -164,9 +179,10 @@ def resume_command(args: argparse.Namespace) -> str:
         if action.nargs == 0:  # a switch
             words.append(flag)
             continue
-        if action.dest in _URLS and redact(value) != value:
-            value, note = redact(value), " (put the broker's password back in place of ***)"
-        words += [flag, shlex.quote(str(value))]
+        for item in value if isinstance(value, list) else [value]:  # list: given repeatedly
+            if action.dest in _URLS and redact(item) != item:
+                item, note = redact(item), " (put the broker's password back in place of ***)"
+            words += [flag, shlex.quote(str(item))]
     return " ".join([*words, "--resume"]) + note
 
 
@@ -207,6 +223,7 @@ def run_build_command(args: argparse.Namespace, config=None) -> int:
             resume=args.resume,
             broker_url=args.broker or os.environ.get(BROKER_URL_ENV),
             worker_broker_url=args.worker_broker or os.environ.get(WORKER_BROKER_URL_ENV),
+            sample_broker_urls=sample_brokers(args),
             writers=writers,
             build_id=args.build_id,
             executor=args.executor,
@@ -308,6 +325,23 @@ def _check_report(args: argparse.Namespace, config: BuildConfig, out: Path, plan
     return _PLANS[plan].format(out=out)
 
 
+def sample_brokers(args: argparse.Namespace) -> list[str] | None:
+    """The brokers the samples are spread over: ``--sample-broker`` URLs, else
+    ``$DATAGEN_SAMPLE_BROKER_URLS`` (comma-separated), else None (the build's broker)."""
+    from datagen.errors import UserInputError
+    from datagen.transport.broker_url import parse_broker_url
+
+    if args.sample_broker:
+        return list(args.sample_broker)
+    listed = [u.strip() for u in os.environ.get(SAMPLE_BROKER_URLS_ENV, "").split(",")]
+    for k, url in enumerate(u for u in listed if u):
+        try:
+            parse_broker_url(url)
+        except ValueError as exc:  # the message shows the URL without its password
+            raise UserInputError(f"${SAMPLE_BROKER_URLS_ENV}, URL {k + 1}: {exc}") from None
+    return [u for u in listed if u] or None
+
+
 def check_build(args: argparse.Namespace, config: BuildConfig, out: Path) -> str:
     """What a build with ``args`` would do with ``out`` (a key of ``_PLANS``), after checking
     everything that can be checked before anything starts; raises UserInputError (exit 2)."""
@@ -327,6 +361,13 @@ def check_build(args: argparse.Namespace, config: BuildConfig, out: Path) -> str
         raise UserInputError(
             f"--worker-broker (or ${WORKER_BROKER_URL_ENV}) names the workers' user on an "
             f"external broker: give that broker with --broker (or ${BROKER_URL_ENV}) too"
+        )
+    if (several := sample_brokers(args)) and not (urls["broker"] and args.writers):
+        raise UserInputError(
+            f"{len(several)} sample brokers (--sample-broker or ${SAMPLE_BROKER_URLS_ENV}) need "
+            "the build's own broker (--broker) and a writer set per sample broker started with "
+            "'datagen writer --sample-broker URL' and named in --writers "
+            "(docs/scale-out.md, 'Several brokers')"
         )
     if getattr(args, "monitor", False) and urls["broker"]:
         raise UserInputError(

@@ -11,8 +11,9 @@ import signal
 import sys
 from pathlib import Path
 
-from datagen.cli.common import whole_number
+from datagen.cli.common import broker_url, whole_number
 from datagen.shards import valid_writer_id
+from datagen.transport.broker_url import SAMPLE_BROKER_URL_ENV
 from datagen.transport.connection import CA_FILE_ENV, MqttConnectError
 from datagen.transport.topics import valid_build_id
 from datagen.transport.wire import DEFAULT_MAX_MESSAGE_BYTES, SECRET_ENV, parse_secret
@@ -52,6 +53,15 @@ def add_writer_options(p: argparse.ArgumentParser) -> None:
         default=os.environ.get("DATAGEN_BROKER_URL"),
         help="mqtt://user:pass@host:port or mqtts://... (default: $DATAGEN_BROKER_URL, "
         "which keeps the password off the process list)",
+    )
+    p.add_argument(
+        "--sample-broker",
+        metavar="URL",
+        type=broker_url,
+        default=os.environ.get(SAMPLE_BROKER_URL_ENV),
+        help="take the samples from this broker, one of a build's --sample-broker list; "
+        f"commands, acks and status stay on --broker (default: ${SAMPLE_BROKER_URL_ENV}, "
+        "else --broker; docs/scale-out.md, 'Several brokers')",
     )
     p.add_argument("--build-id", required=True)
     p.add_argument("--out", required=True, help="dataset directory")
@@ -96,6 +106,7 @@ def run_writer_command(p: argparse.ArgumentParser, args: argparse.Namespace) -> 
         args.build_id,
         args.writer_id,
         broker_url=args.broker,
+        sample_url=args.sample_broker,
         shard_size=args.shard_size,
         max_message_bytes=args.max_message_bytes,
         session_expiry_s=args.session_expiry,
@@ -135,6 +146,7 @@ def run_writer(
     writer_id: str = "0",
     *,
     broker_url: str,
+    sample_url: str | None = None,
     shard_size: int = 1000,
     max_message_bytes: int = DEFAULT_MAX_MESSAGE_BYTES,
     session_expiry_s: int = DEFAULT_SESSION_EXPIRY_S,
@@ -155,6 +167,7 @@ def run_writer(
         build_id,
         out,
         writer_id=writer_id,
+        sample_url=sample_url,
         shard_size=shard_size,
         max_message_bytes=max_message_bytes,
         session_expiry_s=session_expiry_s,

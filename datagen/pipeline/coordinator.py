@@ -93,11 +93,23 @@ class Coordinator:
         self.result = BuildResult(out_dir, 0, 0.0)
 
     # --- the run -------------------------------------------------------------------------------
-    def run(self, url: str, broker: ManagedBroker | None, worker_url: str | None = None) -> None:
-        """``worker_url``: the workers' own URL for the broker (their user), else ``url``."""
+    def run(
+        self,
+        url: str,
+        broker: ManagedBroker | None,
+        worker_url: str | None = None,
+        sample_urls: list[str] | None = None,
+    ) -> None:
+        """``worker_url``: the workers' own URL for the broker (their user), else ``url``;
+        ``sample_urls``: the brokers the workers spread the samples over, else that one."""
         self.url, self.broker = url, broker
         spec = WorkerSpec(
-            self.config.to_dict(), worker_url or url, self.build_id, self.secret, self.run_binding
+            self.config.to_dict(),
+            worker_url or url,
+            self.build_id,
+            self.secret,
+            self.run_binding,
+            tuple(sample_urls or ()),
         )
         executor = EXECUTORS[self.executor_name].load()(spec, **self.executor_options)
         self.pool = pool = WorkerPool(
@@ -190,15 +202,17 @@ class Coordinator:
                 self._stop_writer()
         self.result.samples = total
         self.result.reissued = self.schedule.reissued
+        self.result.latency = self.schedule.latency.summary()
         self.result.restarts = dict(self.restarts)
 
     def _drive(self, schedule: Schedule, pool: WorkerPool) -> None:
         total = self.config.num_samples
         while True:
+            now = time.monotonic()
             while self.acks:
                 index = self.acks.popleft()
                 if 0 <= index < total:
-                    schedule.on_acked(index)
+                    schedule.on_acked(index, now)
             self._report(total - schedule.not_durable)
             if schedule.done:
                 return

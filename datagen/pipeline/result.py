@@ -24,6 +24,9 @@ class BuildResult:
     # samples a resumed build found changed on disk since they were made durable: made again
     changed: int = 0
     changed_keys: list[str] = field(default_factory=list)  # the first few
+    # seconds from a worker's report that it published a sample to a writer's ack of it:
+    # {"samples", "p50_s", "p90_s", "p99_s", "max_s"} (datagen.pipeline.latency)
+    latency: dict[str, float] = field(default_factory=dict)
 
     def note_changed(self, ready: dict[str, Any]) -> None:
         """Counts what a writer's ``ready`` status says it removed as changed on disk."""

@@ -37,6 +37,7 @@ def run_build(
     resume: bool = False,
     broker_url: str | None = None,
     worker_broker_url: str | None = None,
+    sample_broker_urls: list[str] | None = None,
     writers: list[str] | None = None,
     build_id: str | None = None,
     observer: Observer | None = None,
@@ -50,7 +51,9 @@ def run_build(
 
     ``broker_url``: an MQTT v5 broker to use instead of starting Mosquitto;
     ``worker_broker_url``: the workers' URL for it, when they have their own user (else
-    ``broker_url``). ``writers``: ids of
+    ``broker_url``). ``sample_broker_urls``: brokers the samples are spread over, sample ``i``
+    to the ``i mod len``-th (``datagen.transport.sample_routes``; each with writers of its own,
+    all named in ``writers``); commands, acks and status stay on ``broker_url``. ``writers``: ids of
     writers started elsewhere (``datagen writer``) instead of one local writer. ``executor``:
     ``local`` (processes of this machine) or ``ray`` (actors; ``ray_address`` None starts a local
     Ray instance, ``auto`` or ``ray://host:port`` joins a cluster), or ``simulated`` (workers
@@ -70,6 +73,12 @@ def run_build(
             "--executor ray on a cluster needs a broker every node can reach: pass --broker "
             "mqtt://HOST:PORT (see docs/deployment.md, 'Ray cluster')"
         )
+    if sample_broker_urls and (not broker_url or len(writers or []) < len(sample_broker_urls)):
+        raise BuildError(
+            f"{len(sample_broker_urls)} sample brokers need the build's own broker (broker_url) "
+            f"and at least one external writer each (writers: {len(writers or [])}), started "
+            "with 'datagen writer --sample-broker URL' (docs/scale-out.md, 'Several brokers')"
+        )
     if worker_broker_url and not broker_url:
         raise BuildError("worker_broker_url names a user of an external broker: give broker_url")
     options = dict(executor_options or {})
@@ -83,7 +92,7 @@ def run_build(
         config, out_dir, identity, workers, writers, observer, on_progress, executor, options
     )
     with _broker(config, broker_url, observer, monitor) as (url, broker):
-        coordinator.run(url, broker, worker_url=worker_broker_url)
+        coordinator.run(url, broker, worker_url=worker_broker_url, sample_urls=sample_broker_urls)
     result = coordinator.result
     result.seconds = time.monotonic() - start
     finish = FAMILIES[config.scene].finish

@@ -12,6 +12,8 @@ from __future__ import annotations
 from collections import OrderedDict, deque
 from collections.abc import Iterable
 
+from datagen.pipeline.latency import LatencyHistogram
+
 
 class Schedule:
     """Every step costs O(1) per sample or per event, whatever the number of workers: which
@@ -31,6 +33,7 @@ class Schedule:
         self.hungry: set[int] = set()  # workers holding fewer than per_worker unpublished
         self.given_up: set[int] = set()  # failed on every attempt: not waited for, not durable
         self.reissued = 0
+        self.latency = LatencyHistogram()  # published -> durable (acked), in seconds
 
     @property
     def done(self) -> bool:
@@ -76,7 +79,11 @@ class Schedule:
             self.by_time[index] = now
             self.by_time.move_to_end(index)
 
-    def on_acked(self, index: int) -> None:
+    def on_acked(self, index: int, now: float | None = None) -> None:
+        """A writer made ``index`` durable; with ``now``, its latency since it was published
+        goes into ``latency`` (not for one whose publishing was not reported yet)."""
+        if now is not None and (published_at := self.by_time.get(index)) is not None:
+            self.latency.add(now - published_at)
         self.remaining.discard(index)
         self.given_up.discard(index)
         worker = self.holder.pop(index, None)

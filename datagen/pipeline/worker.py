@@ -36,8 +36,9 @@ from datagen.pipeline.production import SampleFailed, Task, produce_with_policy
 from datagen.pipeline.warm_up import warm_up
 from datagen.records import WorkerEventKind, WorkerPayload
 from datagen.sensing.stage_clock import take
-from datagen.transport.publisher import SamplePublisher, SampleTooLarge
+from datagen.transport.publisher import SampleTooLarge
 from datagen.transport.run_binding import RunBinding, client_id
+from datagen.transport.sample_routes import RoutedPublisher
 
 log = logging.getLogger(__name__)
 _PR_SET_PDEATHSIG = 1
@@ -98,12 +99,14 @@ def worker_main(
     worker_id: int,
     config_dict: dict[str, Any],
     broker_url: str,
+    sample_urls: tuple[str, ...],
     build_id: str,
     secret: bytes,
     run: RunBinding,
     conn: Connection,
 ) -> None:
-    """Runs in a spawned process until the coordinator sends ``None`` or the pipe closes."""
+    """Runs in a spawned process until the coordinator sends ``None`` or the pipe closes.
+    Samples go to ``sample_urls`` (one broker each by index); previews to ``broker_url``."""
     die_with_parent()
     # Ctrl-C is the coordinator's to handle: it stops the workers itself, in order
     signal.signal(signal.SIGINT, signal.SIG_IGN)
@@ -117,8 +120,8 @@ def worker_main(
     try:
         config = config_from_dict(config_dict)
         warm_up(config)  # start-up, not the first sample's time (build.sample_timeout_s)
-        with SamplePublisher(
-            broker_url,
+        with RoutedPublisher(
+            sample_urls,
             build_id,
             client_id=client_id(build_id, f"worker-{worker_id}"),
             window=config.transfer.window,

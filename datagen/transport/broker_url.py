@@ -12,6 +12,9 @@ from urllib.parse import quote, unquote, urlsplit
 
 BROKER_URL_ENV = "DATAGEN_BROKER_URL"  # the coordinator's (and writers') broker URL
 WORKER_BROKER_URL_ENV = "DATAGEN_WORKER_BROKER_URL"  # the workers' own, when it differs
+# several brokers the samples are spread over: a build's, comma-separated; a writer's, one
+SAMPLE_BROKER_URLS_ENV = "DATAGEN_SAMPLE_BROKER_URLS"
+SAMPLE_BROKER_URL_ENV = "DATAGEN_SAMPLE_BROKER_URL"
 
 
 @dataclass(frozen=True)

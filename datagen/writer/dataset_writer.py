@@ -30,13 +30,11 @@ from pathlib import Path
 from typing import Any
 
 import paho.mqtt.client as mqtt
-from paho.mqtt.subscribeoptions import SubscribeOptions
 
 from datagen.errors import disk_full_message, is_disk_full
 from datagen.safe_json import loads_bounded
 from datagen.sample import Sample
 from datagen.shards import valid_writer_id
-from datagen.transport.connection import MqttConnection
 from datagen.transport.envelope import Opener, Sealer
 from datagen.transport.run_binding import writer_client_id
 from datagen.transport.topics import topics
@@ -49,6 +47,7 @@ from datagen.writer.acks import announce, others_acked_keys
 from datagen.writer.binding import WriterBinding
 from datagen.writer.durable_samples import DurableSamples
 from datagen.writer.finalize_round import finalize_args, run_round
+from datagen.writer.links import WriterLinks
 from datagen.writer.lock import WriterLock, WriterLocked
 from datagen.writer.status import WriterStatus
 
@@ -74,6 +73,8 @@ class DatasetWriter:
     no-local: other writers' acks) and ``topics.status_all`` (QoS 0: every writer's retained
     status, which the finalize round waits on). It publishes acks and its own retained status
     (``ready``, ``sealed``, ``prepared``, ``finalized``, ``stopped``, ``error``; will: ``lost``).
+    With ``sample_url`` (a build spreading its samples over several brokers) the samples come
+    from that broker instead, on a second connection (:class:`~datagen.writer.links.WriterLinks`).
 
     Acks: messages are taken in batches of up to ``batch_max`` (also the broker's receive
     window); the batch's new samples are written and made durable (``flush_durable``), then
@@ -103,12 +104,16 @@ class DatasetWriter:
         batch_max: int = 32,
         ca_file: str | None = None,
         secret: bytes | None = None,
+        sample_url: str | None = None,
     ):
         if not valid_writer_id(writer_id):
             raise ValueError(f"invalid writer id {writer_id!r}: use 1-32 of [A-Za-z0-9_-]")
         if session_expiry_s < 1:
             raise ValueError("session_expiry_s must be >= 1 (0 would lose queued samples)")
         self.broker_url = broker_url
+        # the broker its samples come from, when the build spreads them over several
+        # (datagen.transport.sample_routes); control, acks and status stay on broker_url
+        self.sample_url = sample_url if sample_url not in (None, broker_url) else None
         self.build_id = build_id
         self.topics = topics(build_id)
         self.out_dir = Path(out_dir)
@@ -154,25 +159,20 @@ class DatasetWriter:
 
     def _run(self) -> int:
         self._durable = durable = DurableSamples(self.out_dir, self.writer_id, self.shard_size)
-        self._conn = MqttConnection(
+        self._links = links = WriterLinks.connect(
             self.broker_url,
+            self.sample_url,
             writer_client_id(self.build_id, self.writer_id, self.secret),
-            subscriptions=[
-                (self.topics.shared_samples, 1),
-                (self.topics.control, 1),
-                # QoS 0: never held back by the receive window full of samples, never queued
-                (self.topics.acks, SubscribeOptions(qos=0, noLocal=True)),
-                (self.topics.status_all, SubscribeOptions(qos=0)),
-            ],
+            self.topics,
             on_message=self._on_message,
-            manual_ack=True,
+            on_sample=self._inbox.put,
             session_expiry_s=self.session_expiry_s,
             receive_maximum=self.batch_max,
             will=self._status.will(),
             ca_file=self.ca_file,
             on_connected=self._status.reassert,
         )
-        self._status.conn = self._conn
+        self._conn = self._status.conn = links.control
         try:
             changed = durable.changed  # removed by recover(): to be made again
             self._report = (
@@ -191,7 +191,7 @@ class DatasetWriter:
                 self._drain()
                 durable.close()
                 self._status.publish("stopped", samples=len(durable.keys))
-                self._conn.close(end_session=True)
+                self._links.close(end_session=True)
                 log.info("stopped with %d samples on disk; session ended", len(durable.keys))
                 return EXIT_OK
             return code
@@ -199,12 +199,12 @@ class DatasetWriter:
             if is_disk_full(exc):  # one line, by run(); recovery cuts the open shard
                 durable.abandon()
                 self._status.publish("error", reason=disk_full_message(exc, self.out_dir))
-                self._conn.close()
+                self._links.close()
                 raise
             log.exception("writer failed")
             durable.close()
             self._status.publish("error", reason=f"{type(exc).__name__}: {exc}")
-            self._conn.close()
+            self._links.close()
             return EXIT_FAILED
 
     def _on_message(self, msg: mqtt.MQTTMessage) -> None:
@@ -236,7 +236,7 @@ class DatasetWriter:
 
     def _drain(self) -> None:
         """Stops taking samples and finishes those already delivered (bounded in time)."""
-        if not self._conn.unsubscribe(self.topics.shared_samples, timeout_s=5):
+        if not self._links.samples.unsubscribe(self.topics.shared_samples, timeout_s=5):
             log.warning("could not unsubscribe from the samples (broker unreachable?)")
         deadline = time.monotonic() + DRAIN_TIMEOUT_S
         while time.monotonic() < deadline:
@@ -303,8 +303,10 @@ class DatasetWriter:
             if sample is not None:
                 ack = {"key": sample.key, "index": sample.index, "writer": self.writer_id}
                 self._conn.publish(self.topics.acks, self._sealer.seal(self.topics.acks, ack))
-            # Published ack packets go out before this PUBACK on the same connection.
-            self._conn.client.ack(msg.mid, msg.qos)
+            # Published ack packets go out before this PUBACK on the same connection; with a
+            # sample broker of its own the PUBACK may come first: a lost ack means the sample
+            # is issued again, and reaches this writer set, which holds it (acked, not written).
+            self._links.ack(msg)
 
     def _announce(self, keys: set[str]) -> None:
         """Acks every key in ``keys`` again, in batches (``{"indices": [...]}``)."""
@@ -332,9 +334,9 @@ class DatasetWriter:
                 raise ValueError(f"unknown command {cmd!r:.200}")
         except (ValueError, KeyError, TypeError) as exc:
             log.warning("ignoring control message: %s", exc)
-        self._conn.client.ack(msg.mid, msg.qos)
+        self._links.ack(msg)
         if code is not None:
-            self._conn.close(end_session=code == EXIT_OK)
+            self._links.close(end_session=code == EXIT_OK)
         return code
 
     def _announce_durable(self, announce_id: str | None) -> None:

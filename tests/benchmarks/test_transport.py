@@ -38,7 +38,13 @@ def test_the_quick_transport_benchmark_prints_its_ratio_and_an_exact_verified_co
     out = done.stdout
     assert re.search(r"engine ÷ raw: \d+\.\d\d ± \d+\.\d\d", out), out
     assert re.search(r"simulated workers 100: .* 600 of 600 samples, verified: True", out), out
+    assert re.search(r"two brokers ÷ one: \d+\.\d\d", out), out
+    assert re.search(r"2 broker\(s\), 2 writers: .* 600 of 600 samples, verified: True", out), out
+    assert re.search(r"long run: 1200 samples, verified: True; latency p50/p90/p99 [\d.]+/", out)
+    assert re.search(r"coordinator RSS MB at 10%/100%: [\d.]+ / [\d.]+", out), out
     results = json.loads((REPO / "benchmarks/results/transport_quick.json").read_text())
+    two = results["sets"]["flat"]["brokers"]["runs"][1]
+    assert two["brokers"] == 2 and two["verified"] and two["latency"]["samples"] > 0
     run = results["sets"]["flat"]["runs"][0]
     assert run["engine"]["verified"] and run["raw"]["received"] == 600
     assert set(run["engine"]["cpu_ms_per_sample"]) == {

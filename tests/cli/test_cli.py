@@ -88,6 +88,49 @@ def test_worker_broker_without_a_broker_is_refused(tmp_path):
     assert "pw-2" not in result.stderr + result.stdout
 
 
+def test_the_resume_hint_repeats_each_sample_broker_without_its_password():
+    from datagen.cli import parser
+    from datagen.cli.build_commands import resume_command
+
+    args = parser().parse_args(
+        ["build", "c.yaml", "--out", "o", "--broker", "mqtt://c:pw-1@h:1883",
+         "--sample-broker", "mqtt://c:pw-1@h:1883", "--sample-broker", "mqtt://s:pw-3@g:1884",
+         "--writers", "A,B"]
+    )  # fmt: skip
+    hint = resume_command(args)
+    assert "pw-1" not in hint and "pw-3" not in hint
+    assert "--sample-broker 'mqtt://c:***@h:1883' --sample-broker 'mqtt://s:***@g:1884'" in hint
+
+
+@pytest.mark.parametrize(
+    ("given", "says"),
+    [
+        (["--sample-broker", "mqtt://s:pw-3@g:1884"], "1 sample brokers (--sample-broker or"),
+        (["--broker", "mqtt://c:pw-1@h:1883", "--sample-broker", "mqtt://s:pw-3@g:1884"],
+         "a writer set per sample broker"),
+        (["--sample-broker", "http://s:pw-3@g:1884"], "bad broker URL 'http://s:***@g:1884'"),
+    ],
+)  # fmt: skip
+def test_sample_brokers_without_a_broker_or_writers_are_refused(tmp_path, given, says):
+    result = datagen(
+        "build", "configs/grasp_tabletop.yaml", "--out", str(tmp_path / "o"), *given, "--check",
+        env={k: v for k, v in os.environ.items() if not k.startswith("DATAGEN_")},
+    )  # fmt: skip
+    assert result.returncode == 2 and "Traceback" not in result.stderr, result.stderr
+    assert says in result.stderr, result.stderr
+    assert "pw-" not in result.stderr + result.stdout
+
+
+def test_a_writer_given_a_bad_sample_broker_says_so_in_one_line(tmp_path):
+    result = datagen(
+        "writer", "--build-id", "b", "--out", str(tmp_path / "o"),
+        "--broker", "mqtt://c:pw-1@127.0.0.1:1", "--sample-broker", "http://s:pw-3@g:1884",
+    )  # fmt: skip
+    assert result.returncode == 2 and "Traceback" not in result.stderr, result.stderr
+    assert "--sample-broker" in result.stderr and "pw-3" not in result.stderr
+    assert not (tmp_path / "o").exists()
+
+
 def _children_named(name: str) -> list[str]:
     out = subprocess.run(["pgrep", "-f", name], capture_output=True, text=True).stdout
     return out.split()

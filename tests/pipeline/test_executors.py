@@ -1,5 +1,6 @@
-"""Workers on a local Ray instance and recycled workers: the same dataset as local processes,
-exactly N samples, and a Ray worker killed for real is replaced."""
+"""Workers on a local Ray instance, recycled workers and samples spread over two brokers: the
+same dataset as local processes, exactly N samples, and a Ray worker killed for real is
+replaced."""
 
 from __future__ import annotations
 
@@ -7,6 +8,7 @@ import contextlib
 import dataclasses
 import os
 import signal
+import tarfile
 
 import psutil
 import pytest
@@ -15,6 +17,9 @@ from datagen.config import BuildConfig
 from datagen.config.sections import ExecutorConfig, ObjectsConfig, PhysicsConfig, RenderConfig
 from datagen.dataset.loader import load, verify
 from datagen.pipeline.run import run_build
+from datagen.sample import sample_key
+from datagen.transport.mosquitto import ManagedBroker
+from datagen.transport.wire import SECRET_ENV
 
 pytestmark = [pytest.mark.sim, pytest.mark.mqtt, pytest.mark.slow]  # real builds
 
@@ -62,6 +67,41 @@ def test_ray_executor_builds_the_same_dataset(recycled_local, tmp_path):
     assert result.samples == SAMPLES and verify(out)["samples"] == SAMPLES
     assert any("ray_actor" in d for kind, d in events if kind == "worker")
     assert _parts(out) == _parts(recycled_local[0])
+
+
+def test_two_sample_brokers_build_the_same_dataset_byte_for_byte(
+    recycled_local, tmp_path, broker, build_id, start_writer, monkeypatch
+):
+    """Sample i goes to broker i mod 2, each with a writer of its own; the build's broker
+    carries the control plane and broker 0's samples; one manifest, one verify."""
+    monkeypatch.setenv(SECRET_ENV, os.urandom(32).hex())
+    out = tmp_path / "two"
+    with ManagedBroker() as second:
+        writers = [
+            start_writer(out=out, writer_id="w0", shard_size=4),
+            start_writer(
+                out=out, writer_id="w1", shard_size=4, args=["--sample-broker", second.url]
+            ),
+        ]
+        result = run_build(
+            CONFIG,
+            out,
+            workers=2,
+            broker_url=broker.url,
+            sample_broker_urls=[broker.url, second.url],
+            writers=["w0", "w1"],
+            build_id=build_id,
+        )
+        for writer in writers:
+            assert writer.wait(30) == 0, writer.log()
+    assert result.samples == SAMPLES and verify(out)["samples"] == SAMPLES
+    assert _parts(out) == _parts(recycled_local[0])
+    for k, writer_id in enumerate(("w0", "w1")):
+        held = set()
+        for shard in out.glob(f"shard-{writer_id}-*.tar"):
+            with tarfile.open(shard) as tar:
+                held |= {name.split(".")[0] for name in tar.getnames()}
+        assert held == {sample_key(i) for i in range(k, SAMPLES, 2)}, (writer_id, sorted(held))
 
 
 def _ray_workers() -> list[psutil.Process]:

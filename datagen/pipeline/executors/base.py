@@ -52,6 +52,12 @@ class WorkerSpec:
     build_id: str
     secret: bytes = field(repr=False)
     run: RunBinding  # the coordinator's run: named in every sample, part of its key
+    # brokers the samples are spread over (datagen.transport.sample_routes); () = broker_url
+    sample_urls: tuple[str, ...] = field(default=(), repr=False)
+
+    @property
+    def sample_brokers(self) -> tuple[str, ...]:
+        return self.sample_urls or (self.broker_url,)
 
 
 class Executor(Protocol):

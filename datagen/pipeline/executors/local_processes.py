@@ -36,7 +36,16 @@ class LocalExecutor:
         s = self.spec
         process = self.context.Process(
             target=worker_main,
-            args=(worker_id, s.config, s.broker_url, s.build_id, s.secret, s.run, theirs),
+            args=(
+                worker_id,
+                s.config,
+                s.broker_url,
+                s.sample_brokers,
+                s.build_id,
+                s.secret,
+                s.run,
+                theirs,
+            ),
             name=f"datagen-worker-{worker_id}",
             daemon=True,
         )

@@ -34,8 +34,8 @@ class SceneWorker:
     def __init__(self, worker_id: int, spec: WorkerSpec):
         from datagen.config import config_from_dict
         from datagen.pipeline.warm_up import warm_up
-        from datagen.transport.publisher import SamplePublisher
         from datagen.transport.run_binding import client_id
+        from datagen.transport.sample_routes import RoutedPublisher
 
         logging.basicConfig(
             level=os.environ.get("DATAGEN_LOG_LEVEL", "WARNING"),
@@ -43,8 +43,8 @@ class SceneWorker:
         )
         self.config = config_from_dict(spec.config)
         warm_up(self.config)  # start-up, not the first sample's time (build.sample_timeout_s)
-        self.publisher = SamplePublisher(
-            spec.broker_url,
+        self.publisher = RoutedPublisher(
+            spec.sample_brokers,
             spec.build_id,
             client_id=client_id(spec.build_id, f"ray-{worker_id}"),
             window=self.config.transfer.window,

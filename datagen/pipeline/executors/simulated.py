@@ -65,7 +65,7 @@ class SimulatedExecutor:
                 target=host_main,
                 args=(
                     host_id,
-                    spec.broker_url,
+                    spec.sample_brokers,
                     spec.build_id,
                     spec.secret,
                     spec.run,

@@ -4,8 +4,8 @@ Each simulated worker is a thread that takes the indices the coordinator issues 
 drawn render time, and publishes a recorded sample re-keyed as that index, signed and framed as
 a real worker publishes it; now and then it crashes (reported ``lost``), hangs (falls silent
 until the coordinator kills it) or publishes its sample twice (the writers keep one). The
-workers of one host share its MQTT connection (:class:`SamplePublisher` is thread-safe), so the
-broker sees one client per host, not per worker.
+workers of one host share its MQTT connections (:class:`RoutedPublisher` is thread-safe), so the
+each broker sees one client per host, not per worker.
 
 Messages from the coordinator, on the host's pipe: ``("start", id)``, ``("task", id, Task)``,
 ``("retire", id)``, ``("kill", id)``, ``("stop", graceful)``. To it: a list of worker events
@@ -32,8 +32,8 @@ from datagen.pipeline.worker import HEARTBEAT_S, die_with_parent
 from datagen.sample import Sample, sample_key
 from datagen.seeding import sample_rng
 from datagen.sensing.encode import metadata_bytes
-from datagen.transport.publisher import SamplePublisher
 from datagen.transport.run_binding import RunBinding, client_id
+from datagen.transport.sample_routes import RoutedPublisher
 
 log = logging.getLogger(__name__)
 MAX_RECORDED = 64  # distinct recorded samples held in memory; index i publishes i mod R
@@ -77,7 +77,7 @@ class RecordedSamples:
 class Host:
     """The simulated workers of one process, and the pipe they report on."""
 
-    def __init__(self, conn: Connection, publisher: SamplePublisher, recorded, faults, seed):
+    def __init__(self, conn: Connection, publisher: RoutedPublisher, recorded, faults, seed):
         self.conn, self.publisher, self.recorded = conn, publisher, recorded
         self.faults, self.seed = faults, seed
         self.queues: dict[int, queue.Queue[Task | None]] = {}
@@ -152,7 +152,7 @@ class Host:
 
 def host_main(
     host_id: int,
-    broker_url: str,
+    sample_urls: tuple[str, ...],
     build_id: str,
     secret: bytes,
     run: RunBinding,
@@ -165,8 +165,8 @@ def host_main(
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     recorded = RecordedSamples(options["recorded"], seed)
     faults = Faults(**options.get("faults", {}))
-    with SamplePublisher(
-        broker_url,
+    with RoutedPublisher(
+        sample_urls,
         build_id,
         client_id=client_id(build_id, f"simulated-host-{host_id}"),
         window=int(options["window"]),
