@@ -42,6 +42,7 @@ from transfer_engine.raw_broker import MAX_MESSAGE, WINDOW, raw
 from datagen.config import BuildConfig, load_config
 from datagen.dataset.loader import load, verify
 from datagen.pipeline.run import run_build
+from datagen.pipeline.worker import die_with_parent
 from datagen.transport.broker_settings import BrokerSettings
 from datagen.transport.mosquitto import ManagedBroker
 from datagen.transport.wire import SECRET_ENV
@@ -95,7 +96,11 @@ def _engine_into(out: Path, folder: Path, n, writers, workers, hosts, faults, br
     cpu, times, rss = CpuWatch(), [], {}
     with contextlib.ExitStack() as stack:
         started = [
-            stack.enter_context(ManagedBroker(BrokerSettings(max_message_bytes=MAX_MESSAGE)))
+            stack.enter_context(
+                ManagedBroker(
+                    BrokerSettings(max_message_bytes=MAX_MESSAGE), preexec_fn=die_with_parent
+                )
+            )
             for _ in range(brokers)
         ]
         urls = [broker.url for broker in started]
@@ -107,8 +112,14 @@ def _engine_into(out: Path, folder: Path, n, writers, workers, hosts, faults, br
             cmd = [sys.executable, "-m", "datagen.cli", "writer", "--build-id", build_id]
             cmd += ["--out", str(out), "--writer-id", f"w{k}", "--shard-size", "512"]
             sample_env = {"DATAGEN_SAMPLE_BROKER_URL": urls[k % brokers]}
-            procs.append(
-                subprocess.Popen(cmd, cwd=REPO, env=env | sample_env, stdout=subprocess.DEVNULL)
+            procs.append(  # gone with this script, however it ends
+                subprocess.Popen(
+                    cmd,
+                    cwd=REPO,
+                    env=env | sample_env,
+                    stdout=subprocess.DEVNULL,
+                    preexec_fn=die_with_parent,
+                )
             )
             cpu.watch(procs[-1].pid, "writer")
 

@@ -20,8 +20,12 @@ MAX_DOCUMENT_BYTES = 16 * 2**20  # default size bound; callers pass tighter ones
 _SURROGATE_ESCAPE = re.compile(r"\\u[dD][89a-fA-F]")
 _STRING = re.compile(r'"(?:[^"\\]|\\.)*"')
 _NOT_BRACKET = re.compile(r"[^\[\]{}]+")
-# only a number with an exponent of three digits or more can overflow a float to inf
-_BIG_EXPONENT = re.compile(r"[0-9][eE][+-]?[0-9]{3}")
+# Only a number with an exponent of three digits or more, or with 300 digits or more, can
+# overflow a float to inf (``_may_overflow``); a hex digest in a string ("..b3e123..") is not
+# such a number, and no longer sends every float of a document through ``_finite_float``.
+_EXPONENT = re.compile(r"[eE][+-]?[0-9]{3}")
+_ALL_DIGITS_ZERO = bytes.maketrans(b"123456789", b"000000000")
+_BEFORE_NUMBER = frozenset(" \t\r\n[,:")
 
 
 class JsonInputError(ValueError):
@@ -65,7 +69,7 @@ def loads_bounded(
         text.encode("utf-8")  # a str may hold a lone surrogate itself
         # a number like 1e999 parses to inf: checked only where one may be (parse_float per
         # number costs 2x on a sample's metadata)
-        parse_float = _finite_float if _BIG_EXPONENT.search(text) else None
+        parse_float = _finite_float if _may_overflow(text) else None
         value = json.loads(text, parse_constant=_refuse_constant, parse_float=parse_float)
     except RecursionError:
         raise JsonInputError(f"{what}: JSON nested deeper than {max_depth} levels") from None
@@ -80,6 +84,30 @@ def loads_bounded(
     elif _nesting_exceeds(text, max_depth):
         raise JsonInputError(f"{what}: JSON nested deeper than {max_depth} levels")
     return value
+
+
+def _may_overflow(text: str) -> bool:
+    """Whether ``text`` may hold a JSON number that parses to inf: 300 digits in a row, or an
+    exponent of three digits standing as a number (a digit before the "e", the digits and a
+    "-" before those preceded by what precedes a JSON value, nothing of a word after)."""
+    if b"0" * 300 in text.encode("utf-8", "surrogatepass").translate(_ALL_DIGITS_ZERO):
+        return True
+    for match in _EXPONENT.finditer(text):
+        end = match.end()
+        while end < len(text) and text[end].isdigit():
+            end += 1
+        if end < len(text) and (text[end].isalnum() or text[end] in "_."):
+            continue  # "3e123abc": part of a word, not a number
+        start = match.start()
+        if start == 0 or not text[start - 1].isdigit():
+            continue
+        while start > 0 and (text[start - 1].isdigit() or text[start - 1] == "."):
+            start -= 1
+        if start > 0 and text[start - 1] == "-":
+            start -= 1
+        if start == 0 or text[start - 1] in _BEFORE_NUMBER:
+            return True
+    return False
 
 
 def _nesting_exceeds(text: str, max_depth: int) -> bool:

@@ -10,6 +10,8 @@ from datagen.safe_json import JsonInputError, JsonSyntaxError, check_value, load
 
 def test_ordinary_json_loads_as_json_does():
     assert loads_bounded("[1e308, -1E-400, 12e100]", what="t") == [1e308, -0.0, 12e100]
+    # digits and "e" inside strings are not numbers: read as they are
+    assert loads_bounded('{"sha": "0ab3e123f", "x": [2.5, 1e5]}', what="t")["x"] == [2.5, 1e5]
     text = '{"a": [1, 2.5, "é", null, true], "b": {"c": "\\u00e9"}}'
     assert loads_bounded(text.encode(), what="t") == {
         "a": [1, 2.5, "é", None, True],
@@ -28,6 +30,8 @@ def test_ordinary_json_loads_as_json_does():
         (b'{"pad": "' + b"x" * 300_000 + b'"}', "bytes of JSON, more than the 300000 allowed"),
         (b'{"pose": [1e999, 0]}', "the number 1e999 is beyond a float's range"),  # inf otherwise
         (b"[-2.5E+400]", "the number -2.5E\\+400 is beyond a float's range"),
+        (b"[" + b"9" * 400 + b".5]", "the number 9999999999.* is beyond a float's range"),
+        (b'{"a": "ab3e123", "b": [ 1.5e999]}', "the number 1.5e999 is beyond a float's range"),
     ],
 )
 def test_json_beyond_a_bound_is_refused_naming_what(data, says):
@@ -52,3 +56,19 @@ def test_exactly_the_depth_bound_is_accepted_and_check_value_walks_any_depth():
         deep = [deep]
     with pytest.raises(JsonInputError, match="deeper than 64"):
         check_value(deep, what="t")
+
+
+@pytest.mark.parametrize(
+    "text",
+    [
+        "[1,-1e999]",
+        '{"a":-1e999}',
+        "[\n1e999]",
+        "[0.5e+309]",
+        "[1E309 ]",
+        '{"s": "e999", "n": 1e999}',
+    ],
+)
+def test_an_overflowing_number_is_found_after_anything_a_value_may_follow(text):
+    with pytest.raises(JsonInputError, match="beyond a float's range"):
+        loads_bounded(text, what="t")

@@ -165,8 +165,11 @@ class Coordinator:
                         raise BuildError(str(exc)) from None
                 durable = {i for i in collector.acked if 0 <= i < total}
                 self.result.resumed_from = len(durable)
+                transfer = self.config.transfer
                 self.schedule = pool.schedule = Schedule(
-                    set(range(total)) - durable, self.config.transfer.ack_timeout_s
+                    set(range(total)) - durable,
+                    transfer.ack_timeout_s,
+                    max_unacked=transfer.max_unacked,
                 )
                 self.acks.clear()
                 self._report(total - self.schedule.not_durable)

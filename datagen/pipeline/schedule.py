@@ -21,11 +21,21 @@ class Schedule:
     published (``by_time``, so the overdue are found at its front) and the workers with room
     for more (``hungry``) are kept as they change."""
 
-    def __init__(self, indices: Iterable[int], ack_timeout_s: float, per_worker: int = 2):
+    def __init__(
+        self,
+        indices: Iterable[int],
+        ack_timeout_s: float,
+        per_worker: int = 2,
+        max_unacked: int | None = None,
+    ):
         self.todo: deque[int] = deque(sorted(indices))
         self.remaining = set(self.todo)
         self.ack_timeout_s = ack_timeout_s
         self.per_worker = per_worker  # samples handed to a worker and not yet published
+        # published samples no writer has acked yet, at most (None: no bound): past it nothing
+        # new is issued, so writers slower than the workers set the pace instead of a queue
+        # growing in the broker (its memory, and every sample's latency)
+        self.max_unacked = max_unacked
         self.assigned: dict[int, list[int]] = {}  # worker -> indices sent, not yet published
         self.published: dict[int, dict[int, float]] = {}  # worker -> {index: publish time}
         self.holder: dict[int, int] = {}  # index -> the worker it is assigned to or published by
@@ -49,14 +59,21 @@ class Schedule:
         self.published[worker] = {}
         self.hungry.add(worker)
 
+    @property
+    def backed_up(self) -> bool:
+        """As many published samples wait for their acks as ``max_unacked`` allows."""
+        return self.max_unacked is not None and len(self.by_time) >= self.max_unacked
+
     def hungry_workers(self) -> list[int]:
-        """The workers that can take more now (none while nothing is left to issue)."""
-        return sorted(self.hungry) if self.todo else []
+        """The workers that can take more now (none while nothing is left to issue, or while
+        the writers are ``backed_up``)."""
+        return sorted(self.hungry) if self.todo and not self.backed_up else []
 
     def next_for(self, worker: int) -> list[int]:
-        """Indices to send to ``worker`` now (it keeps ``per_worker`` unpublished at most)."""
+        """Indices to send to ``worker`` now (it keeps ``per_worker`` unpublished at most;
+        none while ``backed_up``)."""
         out, held = [], self.assigned[worker]
-        while len(held) < self.per_worker and self.todo:
+        while len(held) < self.per_worker and self.todo and not self.backed_up:
             index = self.todo.popleft()
             if index in self.remaining and index not in self.holder:
                 held.append(index)

@@ -16,6 +16,7 @@ from typing import Any
 
 import paho.mqtt.client as mqtt
 
+from datagen.index_set import IndexSet
 from datagen.transport import run_binding
 from datagen.transport.connection import MqttConnection
 from datagen.transport.envelope import Opener, Sealer
@@ -69,7 +70,7 @@ class AckCollector:
         self._on_ack = on_ack
         self._on_status = on_status
         self._cond = threading.Condition()
-        self._acked: set[int] = set()
+        self._acked = IndexSet()  # about a bit per durable sample: flat over long builds
         self._statuses: list[dict[str, Any]] = []
         self._latest: dict[str, dict[str, Any]] = {}
         self._heard: dict[str, float] = {}  # writer -> monotonic time of its last message
@@ -333,7 +334,8 @@ class AckCollector:
             new = [i for i in indices if i not in self._acked]
             if not new:
                 return
-            self._acked.update(new)
+            for index in new:
+                self._acked.add(index)
             self._cond.notify_all()
         if self._on_ack is not None:
             for index in new:

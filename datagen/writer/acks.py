@@ -4,6 +4,7 @@ the other writers acked (``datagen/writer/dataset_writer.py``; message forms: do
 from __future__ import annotations
 
 import logging
+from collections.abc import Set as AbstractSet
 
 import paho.mqtt.client as mqtt
 
@@ -17,7 +18,7 @@ ANNOUNCE_BATCH = 10_000  # indices per batched ack: ~80 KB, far below any broker
 
 
 def announce(
-    conn: MqttConnection, sealer: Sealer, acks_topic: str, writer_id: str, keys: set[str]
+    conn: MqttConnection, sealer: Sealer, acks_topic: str, writer_id: str, keys: AbstractSet[str]
 ) -> None:
     """Acks every key in ``keys`` again, in batches (``{"indices": [...]}``)."""
     indices = sorted(int(k) for k in keys)

@@ -26,6 +26,7 @@ import logging
 import queue
 import threading
 import time
+from collections.abc import Set as AbstractSet
 from pathlib import Path
 from typing import Any
 
@@ -308,7 +309,7 @@ class DatasetWriter:
             # is issued again, and reaches this writer set, which holds it (acked, not written).
             self._links.ack(msg)
 
-    def _announce(self, keys: set[str]) -> None:
+    def _announce(self, keys: AbstractSet[str]) -> None:
         """Acks every key in ``keys`` again, in batches (``{"indices": [...]}``)."""
         announce(self._conn, self._sealer, self.topics.acks, self.writer_id, keys)
 

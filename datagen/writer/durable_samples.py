@@ -6,8 +6,10 @@ keys durable in them and in the whole directory, and each new sample written onc
 from __future__ import annotations
 
 import logging
+from collections.abc import Iterable
 from pathlib import Path
 
+from datagen.index_set import KeySet
 from datagen.sample import Sample
 from datagen.shards import ShardInfo
 from datagen.writer.journal import others_durable_keys, recover
@@ -27,8 +29,10 @@ class DurableSamples:
         self.out_dir, self.writer_id = out_dir, writer_id
         recovered = recover(out_dir, writer_id)
         self.shards: list[ShardInfo] = recovered.shards
-        self.keys = set(recovered.keys)
-        self.seen = recovered.keys | recovered.other_keys
+        # about a bit per sample (datagen.index_set): a writer's memory stays flat over a build
+        self.keys = KeySet(recovered.keys)
+        self.seen = KeySet(recovered.keys)
+        self.seen.update(recovered.other_keys)
         self.changed = recovered.changed
         self.duplicates = 0
         if self.seen:
@@ -55,14 +59,15 @@ class DurableSamples:
         """Everything kept so far is on disk (fsynced) and journalled."""
         self._shards.flush_durable()
 
-    def learn(self, keys: set[str]) -> None:
+    def learn(self, keys: Iterable[str]) -> None:
         """Samples another writer made durable in the directory."""
         self.seen.update(keys)
 
-    def everything(self) -> set[str]:
+    def everything(self) -> KeySet:
         """Every key durable in the directory now, which becomes what is ``seen``: a sample
         removed as changed on disk since may come again."""
-        self.seen = self.keys | others_durable_keys(self.out_dir, self.writer_id)
+        self.seen = KeySet(self.keys)
+        self.seen.update(others_durable_keys(self.out_dir, self.writer_id))
         return self.seen
 
     def seal(self) -> list[ShardInfo]:

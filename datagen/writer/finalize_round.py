@@ -25,6 +25,7 @@ import logging
 from pathlib import Path
 from typing import Any
 
+from datagen.index_set import KeySet
 from datagen.shards import DATASET_FORMAT, ShardInfo, valid_writer_id, write_json_durably
 from datagen.transport.topics import DEFAULT_FINALIZE_TIMEOUT_S
 from datagen.writer.finalize import (
@@ -77,10 +78,10 @@ def run_round(
     out_dir: Path,
     build_id: str,
     shards: list[ShardInfo],
-    keys: set[str],
+    keys: KeySet,
     counters: dict[str, int],
     status: WriterStatus,
-) -> tuple[list[ShardInfo], set[str]] | None:
+) -> tuple[list[ShardInfo], KeySet] | None:
     """The round of the writer of ``status`` that has sealed its closed ``shards`` holding
     ``keys`` (``args``: ``finalize_args``; ``counters``: extra fields of its part file).
     Returns its shards and keys after dropping copies; None if the round was refused (then its
@@ -91,7 +92,8 @@ def run_round(
     try:
         status.wait(writers, round_id, {"sealed", "prepared", "finalized"}, deadline)
         shards, removed = drop_copies_held_by_smaller(out_dir, writer_id, shards)
-        keys = keys - removed
+        for key in removed:
+            keys.discard(key)
         write_part(
             out_dir,
             writer_id,

@@ -71,3 +71,17 @@ def test_a_sample_given_up_is_done_with_but_not_durable():
     s.on_published(0, 2, now=0.0)
     s.on_acked(2)
     assert s.done and s.not_durable == 1
+
+
+def test_nothing_new_is_issued_while_max_unacked_samples_wait_for_acks():
+    schedule = Schedule(range(10), ack_timeout_s=60, per_worker=2, max_unacked=3)
+    for worker in (0, 1):
+        schedule.add_worker(worker)
+    assert schedule.next_for(0) == [0, 1] and schedule.next_for(1) == [2, 3]
+    for index in (0, 1, 2):
+        schedule.on_published(index // 2, index, now=1.0)
+    assert schedule.backed_up and schedule.hungry_workers() == []
+    assert schedule.next_for(0) == []  # three published, none durable: the writers set the pace
+    schedule.on_acked(1, now=2.0)
+    assert not schedule.backed_up and schedule.hungry_workers() == [0, 1]
+    assert schedule.next_for(0) == [4, 5]  # issued, not published: per_worker bounds those
