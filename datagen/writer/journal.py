@@ -118,6 +118,13 @@ def _terminate(path: Path, offset: int) -> None:
         os.fsync(f.fileno())
 
 
+def journalled_digests(out_dir: str | Path, writer_id: str) -> dict[str, dict[str, str]]:
+    """Shard name -> key -> ``sample_sha256`` of every sample the journal of ``writer_id``
+    holds (a writer keeps its closed shards' digests here, not in memory)."""
+    journal = _read_journal(Path(out_dir), writer_id)
+    return {name: entry["sample_sha256"] for name, entry in journal.items()}
+
+
 def _read_journal(out: Path, writer_id: str, strict: bool = True) -> dict[str, dict]:
     """Last journal entry per shard, its ``sample_sha256`` holding every digest journalled for
     the shard. A line an interrupted append cut short is skipped; any other bad line raises

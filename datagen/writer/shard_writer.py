@@ -18,11 +18,12 @@ import io
 import json
 import os
 import tarfile
+from dataclasses import replace
 from pathlib import Path
 
 from datagen.sample import Sample
 from datagen.shards import ShardInfo, fsync_dir, sample_sha256, shard_name, valid_writer_id
-from datagen.writer.journal import journal_entry, open_journal
+from datagen.writer.journal import journal_entry, journalled_digests, open_journal
 from datagen.writer.shard_rewrite import remove_keys as remove_keys  # where callers look for it
 from datagen.writer.tar_end import zip_clear_padding
 
@@ -96,7 +97,7 @@ class ShardWriter:
         self.out_dir.mkdir(parents=True, exist_ok=True)
         self.writer_id = writer_id
         self.max_count = max_count
-        self.shards: list[ShardInfo] = []
+        self._closed: list[ShardInfo] = []  # without their digests: those are journalled
         self._next = start_shard
         self._open: _OpenShard | None = None
         self._journal = open_journal(self.out_dir, writer_id)
@@ -123,12 +124,21 @@ class ShardWriter:
             self._log(self._open, self._open.path.name, offset, closed=False)
 
     def close(self) -> list[ShardInfo]:
-        """Closes the open shard; returns every shard this writer closed."""
+        """Closes the open shard; returns every shard this writer closed, with the digests of
+        its samples read back from the journal."""
         if self._open is not None:
             self._close_shard()
         if not self._journal.closed:
             self._journal.close()
-        return list(self.shards)
+        return self.shards
+
+    @property
+    def shards(self) -> list[ShardInfo]:
+        """Every shard this writer closed, with its samples' digests read from the journal."""
+        if not self._closed:
+            return []
+        digests = journalled_digests(self.out_dir, self.writer_id)
+        return [replace(info, sample_sha256=digests[info.name]) for info in self._closed]
 
     def abandon(self) -> None:
         """Closes the files without finishing the open shard (its disk is full): what the
@@ -144,7 +154,8 @@ class ShardWriter:
         shard, self._open = self._open, None
         info = shard.close()
         self._log(shard, info.name, info.bytes, closed=True)
-        self.shards.append(info)
+        # its digests are in the journal now: memory stays flat over a long build (``close``)
+        self._closed.append(replace(info, sample_sha256={}))
 
     def _log(self, shard: _OpenShard, name: str, offset: int, closed: bool) -> None:
         entry = journal_entry(name, offset, shard.samples, closed, shard.unjournalled)
