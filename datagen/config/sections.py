@@ -197,12 +197,12 @@ class TransferConfig:
         default=60.0,
         metadata=ranged(1.0, 86400.0, "seconds from publish to the writer's ack before re-issue"),
     )
-    max_unacked: int = field(
-        default=512,
+    unacked_per_writer: int = field(
+        default=64,
         metadata=ranged(
             1,
-            1_000_000,
-            "published samples not yet durable, all workers together; past it "
+            100_000,
+            "published samples not yet durable per writer of the build; past it "
             "no new sample is issued until the writers catch up",
         ),
     )

@@ -169,7 +169,7 @@ class Coordinator:
                 self.schedule = pool.schedule = Schedule(
                     set(range(total)) - durable,
                     transfer.ack_timeout_s,
-                    max_unacked=transfer.max_unacked,
+                    max_unacked=transfer.unacked_per_writer * len(self.writer_ids),
                 )
                 self.acks.clear()
                 self._report(total - self.schedule.not_durable)
