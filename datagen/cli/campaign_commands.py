@@ -67,6 +67,7 @@ def add_parsers(commands) -> None:
     grasp.set_defaults(
         broker=None,
         worker_broker=None,
+        sample_broker=None,
         writers=None,
         build_id=None,
         ca_file=None,
