@@ -21,8 +21,7 @@ class IndexSet(MutableSet[int]):
     def __init__(self, indices: Iterable[int] = ()):
         self._pages: dict[int, bytearray] = {}
         self._count = 0
-        for index in indices:
-            self.add(index)
+        self.update(indices)
 
     def __contains__(self, index: object) -> bool:
         if not isinstance(index, int) or index < 0:
@@ -40,6 +39,10 @@ class IndexSet(MutableSet[int]):
         if not page[byte] & bit:
             page[byte] |= bit
             self._count += 1
+
+    def update(self, indices: Iterable[int]) -> None:
+        for index in indices:
+            self.add(index)
 
     def discard(self, index: int) -> None:
         if index in self:
@@ -74,8 +77,7 @@ class KeySet(MutableSet[str]):
     def __init__(self, keys: Iterable[str] = ()):
         self._indices = IndexSet()
         self._other: set[str] = set()
-        for key in keys:
-            self.add(key)
+        self.update(keys)
 
     def __contains__(self, key: object) -> bool:
         if not isinstance(key, str):

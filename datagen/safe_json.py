@@ -66,10 +66,10 @@ def loads_bounded(
         raise JsonInputError(f"{what}: {size} bytes of JSON, more than the {max_bytes} allowed")
     try:
         text = data if isinstance(data, str) else bytes(data).decode("utf-8")
-        text.encode("utf-8")  # a str may hold a lone surrogate itself
+        encoded = text.encode("utf-8")  # a str may hold a lone surrogate itself
         # a number like 1e999 parses to inf: checked only where one may be (parse_float per
         # number costs 2x on a sample's metadata)
-        parse_float = _finite_float if _may_overflow(text) else None
+        parse_float = _finite_float if _may_overflow(text, encoded) else None
         value = json.loads(text, parse_constant=_refuse_constant, parse_float=parse_float)
     except RecursionError:
         raise JsonInputError(f"{what}: JSON nested deeper than {max_depth} levels") from None
@@ -86,11 +86,12 @@ def loads_bounded(
     return value
 
 
-def _may_overflow(text: str) -> bool:
-    """Whether ``text`` may hold a JSON number that parses to inf: 300 digits in a row, or an
-    exponent of three digits standing as a number (a digit before the "e", the digits and a
-    "-" before those preceded by what precedes a JSON value, nothing of a word after)."""
-    if b"0" * 300 in text.encode("utf-8", "surrogatepass").translate(_ALL_DIGITS_ZERO):
+def _may_overflow(text: str, encoded: bytes) -> bool:
+    """Whether ``text`` (``encoded``: its UTF-8) may hold a JSON number that parses to inf: 300
+    digits in a row, or an exponent of three digits standing as a number (a digit before the
+    "e", the digits and a "-" before those preceded by what precedes a JSON value, nothing of a
+    word after)."""
+    if b"0" * 300 in encoded.translate(_ALL_DIGITS_ZERO):
         return True
     for match in _EXPONENT.finditer(text):
         end = match.end()

@@ -10,7 +10,7 @@ so a sample delivered twice is still written once.
 from __future__ import annotations
 
 from collections import OrderedDict, deque
-from collections.abc import Iterable
+from collections.abc import Iterable, Iterator
 
 from datagen.pipeline.latency import LatencyHistogram
 
@@ -64,10 +64,14 @@ class Schedule:
         """As many published samples wait for their acks as ``max_unacked`` allows."""
         return self.max_unacked is not None and len(self.by_time) >= self.max_unacked
 
-    def hungry_workers(self) -> list[int]:
-        """The workers that can take more now (none while nothing is left to issue, or while
-        the writers are ``backed_up``)."""
-        return sorted(self.hungry) if self.todo and not self.backed_up else []
+    def hungry_workers(self) -> Iterator[int]:
+        """The workers that can take more now, in id order; it stops as soon as nothing is
+        left to issue or the writers are ``backed_up`` (feeding one may make it so), so a
+        freed slot costs one worker visited, not every idle one."""
+        for worker in sorted(self.hungry) if self.todo and not self.backed_up else []:
+            if not self.todo or self.backed_up:
+                return
+            yield worker
 
     def next_for(self, worker: int) -> list[int]:
         """Indices to send to ``worker`` now (it keeps ``per_worker`` unpublished at most;

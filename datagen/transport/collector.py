@@ -334,8 +334,7 @@ class AckCollector:
             new = [i for i in indices if i not in self._acked]
             if not new:
                 return
-            for index in new:
-                self._acked.add(index)
+            self._acked.update(new)
             self._cond.notify_all()
         if self._on_ack is not None:
             for index in new:

@@ -4,6 +4,7 @@ broker when the build spreads samples over several (``datagen writer --sample-br
 
 from __future__ import annotations
 
+import functools
 from collections.abc import Callable
 from dataclasses import dataclass
 
@@ -39,7 +40,15 @@ class WriterLinks:
         """Persistent sessions (manual MQTT acks, ``receive_maximum`` messages in flight) to
         ``broker_url`` and, if given, ``sample_url`` (client id ``CLIENT_ID-samples``)."""
         samples = [(topics.shared_samples, 1)]
-        control = MqttConnection(
+        # both: persistent sessions, MQTT acks by hand, the same receive window
+        session = functools.partial(
+            MqttConnection,
+            manual_ack=True,
+            session_expiry_s=session_expiry_s,
+            receive_maximum=receive_maximum,
+            ca_file=ca_file,
+        )
+        control = session(
             broker_url,
             client_id,
             subscriptions=[
@@ -50,25 +59,17 @@ class WriterLinks:
                 (topics.status_all, SubscribeOptions(qos=0)),
             ],
             on_message=on_message,
-            manual_ack=True,
-            session_expiry_s=session_expiry_s,
-            receive_maximum=receive_maximum,
             will=will,
-            ca_file=ca_file,
             on_connected=on_connected,
         )
         if sample_url is None:
             return cls(control, control, topics)
         try:
-            sample_conn = MqttConnection(
+            sample_conn = session(
                 sample_url,
                 f"{client_id}-samples",
                 subscriptions=samples,
                 on_message=on_sample,
-                manual_ack=True,
-                session_expiry_s=session_expiry_s,
-                receive_maximum=receive_maximum,
-                ca_file=ca_file,
             )
         except BaseException:
             control.close()

@@ -80,8 +80,22 @@ def test_nothing_new_is_issued_while_max_unacked_samples_wait_for_acks():
     assert schedule.next_for(0) == [0, 1] and schedule.next_for(1) == [2, 3]
     for index in (0, 1, 2):
         schedule.on_published(index // 2, index, now=1.0)
-    assert schedule.backed_up and schedule.hungry_workers() == []
+    assert schedule.backed_up and list(schedule.hungry_workers()) == []
     assert schedule.next_for(0) == []  # three published, none durable: the writers set the pace
     schedule.on_acked(1, now=2.0)
-    assert not schedule.backed_up and schedule.hungry_workers() == [0, 1]
+    assert not schedule.backed_up and list(schedule.hungry_workers()) == [0, 1]
     assert schedule.next_for(0) == [4, 5]  # issued, not published: per_worker bounds those
+
+
+def test_feeding_stops_at_the_first_worker_that_fills_the_bound():
+    schedule = Schedule(range(20), ack_timeout_s=60, per_worker=1, max_unacked=2)
+    for worker in range(5):
+        schedule.add_worker(worker)
+    for worker in (0, 1):
+        schedule.on_published(worker, schedule.next_for(worker)[0], now=1.0)
+    schedule.on_acked(0, now=2.0)  # one slot free, workers 0, 1 (and 2, 3, 4) hungry
+    visited = []
+    for worker in schedule.hungry_workers():
+        visited.append(worker)
+        schedule.on_published(worker, schedule.next_for(worker)[0], now=3.0)
+    assert visited == [0] and schedule.backed_up  # not every idle worker, one per freed slot
