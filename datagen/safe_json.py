@@ -18,8 +18,10 @@ MAX_DEPTH = 64  # nesting of objects and arrays; datagen's own documents use few
 MAX_DOCUMENT_BYTES = 16 * 2**20  # default size bound; callers pass tighter ones
 # text decoded from UTF-8 holds no surrogate; only a \uD800-\uDFFF escape can put one in a value
 _SURROGATE_ESCAPE = re.compile(r"\\u[dD][89a-fA-F]")
-_STRING = re.compile(r'"(?:[^"\\]|\\.)*"')
-_NOT_BRACKET = re.compile(r"[^\[\]{}]+")
+# a JSON string, escapes included, written so that runs of plain characters match at once
+_STRING = re.compile(rb'"[^"\\]*(?:\\.[^"\\]*)*"', re.DOTALL)
+_NOT_BRACKET = bytes(c for c in range(256) if c not in b"[]{}")  # deleted by bytes.translate
+_ONE_BRACKET_KIND = bytes.maketrans(b"{}", b"[]")
 # Only a number with an exponent of three digits or more, or with 300 digits or more, can
 # overflow a float to inf (``_may_overflow``); a hex digest in a string ("..b3e123..") is not
 # such a number, and no longer sends every float of a document through ``_finite_float``.
@@ -81,7 +83,7 @@ def loads_bounded(
     # and walk only where an escape may have put a lone surrogate into a string
     if _SURROGATE_ESCAPE.search(text):
         check_value(value, what=what, max_depth=max_depth)
-    elif _nesting_exceeds(text, max_depth):
+    elif _nesting_exceeds(encoded, max_depth):
         raise JsonInputError(f"{what}: JSON nested deeper than {max_depth} levels")
     return value
 
@@ -111,14 +113,19 @@ def _may_overflow(text: str, encoded: bytes) -> bool:
     return False
 
 
-def _nesting_exceeds(text: str, max_depth: int) -> bool:
-    """Whether valid JSON ``text`` nests deeper than ``max_depth``: each pass removes every
-    innermost bracket pair, so the brackets are gone after exactly depth passes."""
-    brackets = _NOT_BRACKET.sub("", _STRING.sub("", text)).replace("{", "[").replace("}", "]")
+def _nesting_exceeds(encoded: bytes, max_depth: int) -> bool:
+    """Whether valid JSON ``encoded`` (UTF-8) nests deeper than ``max_depth``: the strings and
+    everything but brackets taken out, each pass removes every innermost bracket pair, so the
+    brackets are gone after exactly depth passes. Bytes, not text: no byte of a multi-byte
+    UTF-8 character is a quote, a backslash or a bracket."""
+    # without a backslash no escape hides a quote: every other piece between quotes is outside
+    escaped = b"\\" in encoded
+    outside = _STRING.sub(b"", encoded) if escaped else b"".join(encoded.split(b'"')[::2])
+    brackets = outside.translate(_ONE_BRACKET_KIND, _NOT_BRACKET)
     for _ in range(max_depth):
         if not brackets:
             return False
-        brackets = brackets.replace("[]", "")
+        brackets = brackets.replace(b"[]", b"")
     return bool(brackets)
 
 

@@ -3,7 +3,11 @@ malformed or beyond a bound, named by what was being read."""
 
 from __future__ import annotations
 
+import json
+
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from datagen.safe_json import JsonInputError, JsonSyntaxError, check_value, loads_bounded
 
@@ -72,3 +76,42 @@ def test_exactly_the_depth_bound_is_accepted_and_check_value_walks_any_depth():
 def test_an_overflowing_number_is_found_after_anything_a_value_may_follow(text):
     with pytest.raises(JsonInputError, match="beyond a float's range"):
         loads_bounded(text, what="t")
+
+
+def _depth(value) -> int:
+    if isinstance(value, dict | list):
+        children = value.values() if isinstance(value, dict) else value
+        return 1 + max((_depth(child) for child in children), default=0)
+    return 0
+
+
+# strings full of what could be taken for structure: brackets, quotes, backslashes, non-ASCII
+_TRICKY_TEXT = st.text(alphabet='[]{}"\\\\/é,: ab\n', max_size=12)
+_VALUES = st.recursive(
+    st.none() | st.integers() | _TRICKY_TEXT,
+    lambda inner: st.lists(inner, max_size=3) | st.dictionaries(_TRICKY_TEXT, inner, max_size=3),
+    max_leaves=40,
+)
+
+
+@settings(max_examples=300, deadline=None)
+@given(value=_VALUES, bound=st.integers(min_value=0, max_value=6), ascii_only=st.booleans())
+def test_the_depth_bound_counts_brackets_outside_strings_only(value, bound, ascii_only):
+    text = json.dumps(value, ensure_ascii=ascii_only)
+    if _depth(value) > bound:
+        with pytest.raises(JsonInputError, match=f"nested deeper than {bound} levels"):
+            loads_bounded(text, what="t", max_depth=bound)
+    else:
+        assert loads_bounded(text, what="t", max_depth=bound) == value
+
+
+@pytest.mark.parametrize(
+    "text",
+    [
+        '{"a": "' + "[" * 70 + '"}',  # brackets inside a string are not nesting
+        r'{"a": "\\", "b": "' + "{" * 70 + '"}',  # a string ending in a backslash
+        r'["\"[[[", 1]',  # an escaped quote does not end the string
+    ],
+)
+def test_brackets_inside_strings_never_count(text):
+    assert loads_bounded(text, what="t", max_depth=2) == json.loads(text)

@@ -47,7 +47,14 @@ class _OpenShard:
     def __init__(self, path: Path):
         self.path = path
         self.file = _HashingFile(path)
-        self.tar = tarfile.TarFile(fileobj=self.file, mode="w", format=tarfile.USTAR_FORMAT)  # type: ignore[arg-type]
+        self.tar = tarfile.TarFile(
+            fileobj=self.file,  # type: ignore[arg-type]
+            mode="w",
+            format=tarfile.USTAR_FORMAT,
+            # a part in one write and one hash update, not tarfile's 16 KiB at a time (0.7 ms
+            # of the 5 ms a 1.3 MB sample took to keep)
+            copybufsize=4 << 20,
+        )
         self.samples = 0
         self.digests: dict[str, str] = {}  # key -> sample_sha256
         self.unjournalled: dict[str, str] = {}  # the digests no journal line carries yet
