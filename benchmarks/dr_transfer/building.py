@@ -7,6 +7,8 @@ import time
 from dataclasses import dataclass
 from pathlib import Path
 
+PROGRESS_EVERY_S = 60.0  # a line at most this often on a long build
+
 
 @dataclass
 class BuildTime:
@@ -18,7 +20,7 @@ class BuildTime:
 def build(source: str, data: dict, out: Path, workers: int) -> BuildTime | None:
     """Builds config dict ``data`` (``source`` names it in errors) into ``out``; what it took,
     or None when ``out`` already held this build, finished. A build interrupted there is
-    resumed."""
+    resumed. A long build prints how far it is, a line a minute."""
     from datagen.config import config_from_dict
     from datagen.pipeline.out_dir import BUILD_STATE
     from datagen.pipeline.run import run_build
@@ -26,9 +28,15 @@ def build(source: str, data: dict, out: Path, workers: int) -> BuildTime | None:
     config = config_from_dict(data, source=source)
     start = time.perf_counter()
     durable: list[tuple[int, float]] = []  # (samples durable, seconds since start)
+    last_line = start
 
-    def on_progress(done: int, _: int) -> None:
-        durable.append((done, time.perf_counter() - start))
+    def on_progress(done: int, total: int) -> None:
+        nonlocal last_line
+        now = time.perf_counter()
+        durable.append((done, now - start))
+        if now - last_line >= PROGRESS_EVERY_S and done < total:
+            last_line = now
+            print(f"    {done}/{total} durable after {now - start:.0f} s", flush=True)
 
     resume = (out / BUILD_STATE).is_file()
     result = run_build(config, out, workers=workers, resume=resume, on_progress=on_progress)
