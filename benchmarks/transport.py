@@ -38,6 +38,7 @@ from pathlib import Path
 from machine import cpu_model
 from transfer_engine.process_watch import CpuWatch, rss_mb
 from transfer_engine.raw_broker import MAX_MESSAGE, WINDOW, raw
+from transfer_engine.sample_steps import sample_steps
 
 from datagen.config import BuildConfig, load_config
 from datagen.dataset.loader import load, verify
@@ -199,6 +200,15 @@ def _mean_se(values: list[float]) -> str:
     return f"{statistics.mean(values):.1f} ± {_se(values):.1f}"
 
 
+def print_steps(steps: dict[str, float]) -> dict[str, float]:
+    print("  per sample, each step timed alone in one process:")
+    for name, ms in steps.items():
+        print(f"    {name}: {ms:.2f} ms")
+    writer = sum(ms for name, ms in steps.items() if "(writer)" in name)
+    print(f"    the writer's steps: {writer:.2f} ms, at most {1000 / writer:.0f} samples/s a core")
+    return steps
+
+
 def compare_writers(folder: Path, count: int, writers: int, repeats: int, mean_mb: float):
     """Engine and raw side by side, alternating, ``repeats`` times: (runs, ratios)."""
     runs, ratios, rates, raw_rates = [], [], [], []
@@ -301,6 +311,7 @@ def main() -> None:
         count = n if name == "flat" else max(100, n // 3)  # 1.5 MiB each: a third
         entry: dict = {"mean_mib": round(mean_mb, 4)}
         if "writers" in parts:
+            entry["steps_ms"] = print_steps(sample_steps(folder, 60 if quick else 300))
             entry["runs"] = [
                 run
                 for writers in writer_counts

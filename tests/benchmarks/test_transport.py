@@ -37,6 +37,7 @@ def test_the_quick_transport_benchmark_prints_its_ratio_and_an_exact_verified_co
     assert not [p.name for p in temp.iterdir() if p.name.startswith("datagen-")]
     out = done.stdout
     assert re.search(r"engine ÷ raw: \d+\.\d\d ± \d+\.\d\d", out), out
+    assert re.search(r"the writer's steps: [\d.]+ ms, at most \d+ samples/s a core", out), out
     assert re.search(r"simulated workers 100: .* 600 of 600 samples, verified: True", out), out
     assert re.search(r"two brokers ÷ one: \d+\.\d\d", out), out
     assert re.search(r"2 broker\(s\), 2 writers: .* 600 of 600 samples, verified: True", out), out
@@ -45,6 +46,8 @@ def test_the_quick_transport_benchmark_prints_its_ratio_and_an_exact_verified_co
     results = json.loads((REPO / "benchmarks/results/transport_quick.json").read_text())
     two = results["sets"]["flat"]["brokers"]["runs"][1]
     assert two["brokers"] == 2 and two["verified"] and two["latency"]["samples"] > 0
+    steps = results["sets"]["flat"]["steps_ms"]
+    assert len(steps) == 5 and all(ms > 0 for ms in steps.values()), steps
     run = results["sets"]["flat"]["runs"][0]
     assert run["engine"]["verified"] and run["raw"]["received"] == 600
     assert set(run["engine"]["cpu_ms_per_sample"]) == {
