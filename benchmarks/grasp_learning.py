@@ -122,6 +122,8 @@ def run_campaign(name: str, data: dict, args) -> dict:
     steady = seconds.get("steady")
     return {
         "success": [bool(o["success"]) for o in outcomes],
+        # whether the sampler found a grasp at all: no choice among candidates mends one it did not
+        "found": [o["failure_mode"] != "no_candidate" for o in outcomes],
         "failure_modes": dict(
             sorted(Counter(o["failure_mode"] for o in outcomes if not o["success"]).items())
         ),
@@ -217,6 +219,8 @@ def table(result: dict) -> str:
                     f"{arm:7} {domain:8} {sampler:15} {p:5.1f} ± {se:4.1f} (n {len(run['success'])})"
                     f"  {gain:20}  {speed if speed is not None else '-':>10}  {run['failure_modes']}"
                 )
+        for domain, runs in arm_result["domains"].items():
+            lines += coverage_lines(arm, domain, runs)
         lines.append(f"{arm} models (held-out training attempts):")
         for n, m in arm_result["models"].items():
             lines.append(
@@ -224,6 +228,26 @@ def table(result: dict) -> str:
                 f"ROC AUC {m['roc_auc']}, calibration error {m['ece']}, trained in {m['train_s']} s"
             )
     return "\n".join(lines)
+
+
+def coverage_lines(arm: str, domain: str, runs: dict) -> list[str]:
+    """What bounds the learned sampler in one domain: it chooses among the antipodal sampler's
+    candidates, so it succeeds at most where that sampler found one; and how the two samplers
+    do on the attempts where it did."""
+    base = runs["antipodal"]
+    if "found" not in base:  # kept by a run before this was recorded
+        return []
+    found = [i for i, ok in enumerate(base["found"]) if ok]
+    n = len(base["found"])
+    ceiling = 100 * len(found) / n - rate(base["success"])[0]
+    lines = [
+        f"{arm} {domain}: a candidate in {len(found)} of {n} attempts, so learned - antipodal "
+        f"is at most {ceiling:+.1f}; on those {len(found)}:"
+    ]
+    for sampler, run in runs.items():
+        p, se = rate([run["success"][i] for i in found]) if found else (float("nan"), 0.0)
+        lines.append(f"  {sampler:15} {p:5.1f} ± {se:4.1f}")
+    return lines
 
 
 def draw(result: dict, path: Path) -> None:
