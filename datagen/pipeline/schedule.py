@@ -68,7 +68,7 @@ class Schedule:
         """The workers that can take more now, in id order; it stops as soon as nothing is
         left to issue or the writers are ``backed_up`` (feeding one may make it so), so a
         freed slot costs one worker visited, not every idle one."""
-        for worker in sorted(self.hungry) if self.todo and not self.backed_up else []:
+        for worker in sorted(self.hungry):
             if not self.todo or self.backed_up:
                 return
             yield worker
