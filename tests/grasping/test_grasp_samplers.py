@@ -2,15 +2,18 @@
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 import pytest
 import trimesh
 
 from datagen.assets.shapes import build_geometry
-from datagen.convex import ConvexBody
+from datagen.convex import CORNER_SIGNS, BodySet, ConvexBody
 from datagen.errors import ConfigError
 from datagen.families.grasp_attempts.gripper_geometry import gripper_geometry
-from datagen.families.grasp_attempts.samplers import GraspTarget, Obstacles
+from datagen.families.grasp_attempts.samplers import GraspTarget, Obstacles, SampleResult
+from datagen.families.grasp_attempts.samplers.antipodal import PAD_MARGIN
 from datagen.registries import ROBOTS, SAMPLERS
 
 TABLE = 0.75
@@ -36,7 +39,11 @@ def check_antipodal(result, target: GraspTarget, mu: float = 0.5, clearance: flo
     assert abs(cand.approach @ cand.closing) < 1e-9
     assert np.allclose(cand.pose_world[:3, :3].T @ cand.pose_world[:3, :3], np.eye(3))
     assert np.linalg.det(cand.pose_world[:3, :3]) == pytest.approx(1.0)
-    assert np.allclose(cand.pose_world[:3, 3], (p1 + p2) / 2)
+    # the grasp frame at the contacts' midpoint, or stood back along the approach, the contacts
+    # still on the pads
+    depth = cand.info["depth"]
+    assert 0.0 <= depth <= PANDA_HAND.tip_reach(cand.width) - PAD_MARGIN + 1e-9
+    assert np.allclose(cand.pose_world[:3, 3], (p1 + p2) / 2 - depth * cand.approach)
     assert cand.width == pytest.approx(np.linalg.norm(p2 - p1) + clearance)
     assert cand.width <= PANDA_MAX_WIDTH
     # the surface normals at the contacts oppose each other within the friction cone
@@ -202,6 +209,14 @@ def test_gripper_boxes_follow_the_width():
         back = t0[2, 3] - np.abs(t0[2, :3]) @ (e0 / 2)
         assert t1[2, 3] + np.abs(t1[2, :3]) @ (e1 / 2) >= front - 1e-9  # covers the pose
         assert t1[2, 3] - np.abs(t1[2, :3]) @ (e1 / 2) <= back - 0.1 + 1e-9  # and the approach
+        # every corner of the box, anywhere on the approach, is inside its swept box; the
+        # diagonal block's sweep reaches no further inwards than its own corners
+        corners = (CORNER_SIGNS * e0 / 2) @ t0[:3, :3].T + t0[:3, 3]
+        for back_by in (0.0, 0.03, 0.1):
+            local = (corners - [0, 0, back_by] - t1[:3, 3]) @ t1[:3, :3]
+            assert np.all(np.abs(local) <= e1 / 2 + 1e-9)
+        swept_corners = (CORNER_SIGNS * e1 / 2) @ t1[:3, :3].T + t1[:3, 3]
+        assert np.abs(swept_corners[:, 1]).min() >= np.abs(corners[:, 1]).min() - 1e-9
 
 
 def test_box_vs_convex_matches_linear_programming():
@@ -212,7 +227,7 @@ def test_box_vs_convex_matches_linear_programming():
 
     rng = np.random.default_rng(3)
     body = ConvexBody.from_mesh(trimesh.creation.cylinder(radius=0.03, height=0.05, sections=12))
-    hits = 0
+    hits, cases = 0, []
     for _ in range(300):
         transform = np.eye(4)
         transform[:3, :3] = trimesh.transformations.random_rotation_matrix(rng.random(3))[:3, :3]
@@ -226,7 +241,36 @@ def test_box_vs_convex_matches_linear_programming():
         feasible = linprog(np.zeros(3), A_ub=a_ub, b_ub=b_ub, bounds=[(None, None)] * 3).status == 0
         hits += feasible
         assert box_hits_body(transform, extents, body) == feasible
+        cases.append((transform, extents, feasible))
     assert 30 < hits < 270
+    # tested together, in batches of any make-up, each box gets its own answer
+    transforms, sizes, expected = (np.array(column) for column in zip(*cases, strict=True))
+    together = BodySet((body,)).hit_by_boxes(transforms, sizes)
+    assert np.array_equal(together, expected)
+    order = rng.permutation(len(cases))
+    halves = [BodySet((body,)).hit_by_boxes(transforms[k], sizes[k]) for k in np.split(order, 2)]
+    assert np.array_equal(np.concatenate(halves), expected[order])
+
+
+def test_a_flat_object_is_grasped_standing_back_with_the_fingertips_above_the_table():
+    """A 9 mm tall box lying on the table: its side faces are in reach only with the grasp
+    frame stood back along the approach (the fingertips reach 9.5 mm past it). The contacts stay
+    on the pads and the gripper clear of the table; with no depth allowed there is no grasp."""
+    target = on_table(trimesh.creation.box(extents=(0.08, 0.04, 0.009)))
+    sampler = make_sampler("antipodal")
+    depths = []
+    for seed in range(6):
+        cand = check_antipodal(
+            sampler.sample(np.random.default_rng(seed), target, Obstacles([], TABLE)), target
+        )
+        assert not collides(cand.pose_world, cand.width, target.bodies, TABLE, 0.1)
+        tips = cand.pose_world[:3, 3] + PANDA_HAND.tip_reach(cand.width) * cand.approach
+        assert tips[2] >= TABLE
+        depths.append(cand.info["depth"])
+    assert min(depths) > 0
+    flat = dataclasses.replace(sampler, pad_margin=1.0)  # no depth but the contacts' midpoint
+    result = flat.sample(np.random.default_rng(0), target, Obstacles([], TABLE))
+    assert result.candidate is None and "every approach collides" in result.reason
 
 
 def test_a_five_joint_arm_gets_approaches_in_its_shoulder_plane_from_above():
@@ -251,3 +295,25 @@ def test_a_five_joint_arm_gets_approaches_in_its_shoulder_plane_from_above():
         assert cand.approach[2] <= -np.cos(np.deg2rad(10.0)) + 1e-12
         assert abs(cand.closing[2]) < 1e-9  # closes level: from above, across the side faces
     assert found >= 6
+
+
+def test_drawing_several_candidates_starts_with_the_single_one_and_keeps_to_the_budget():
+    """``draw``: its first candidate is ``sample``'s from the same stream; a contact pair gives
+    up to ``per_pair`` candidates (distinct clear approaches of the same contacts); it stops at
+    ``count`` or after ``max_tries`` tries in all."""
+    target = on_table(trimesh.creation.box(extents=(0.05, 0.04, 0.06)))
+    sampler, obstacles = make_sampler("antipodal"), Obstacles([], TABLE)
+    single = sampler.sample(np.random.default_rng(7), target, obstacles).candidate
+    found, tries, _ = sampler.draw(np.random.default_rng(7), target, obstacles, 12, 200, 4)
+    assert np.array_equal(found[0].pose_world, single.pose_world)
+    assert len(found) == 12 and tries <= 200
+    pairs: dict[bytes, list] = {}
+    for cand in found:
+        check_antipodal(SampleResult(cand, 1, ""), target)
+        pairs.setdefault(cand.contacts_world.tobytes(), []).append(cand.approach)
+    assert 3 <= len(pairs) < 12 and max(len(a) for a in pairs.values()) <= 4
+    for approaches in pairs.values():
+        assert len({tuple(np.round(a, 9)) for a in approaches}) == len(approaches)
+    wide = on_table(trimesh.creation.box(extents=(0.12, 0.12, 0.12)))  # wider than the opening
+    found, tries, reason = sampler.draw(np.random.default_rng(7), wide, obstacles, 12, 50, 4)
+    assert found == [] and tries == 50 and "in 50 tries" in reason

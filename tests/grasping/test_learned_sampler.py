@@ -60,7 +60,15 @@ def test_the_model_moves_the_chosen_grasps_where_it_prefers(configs):
         scores = info["scores"]
         assert info["candidates"] == len(scores) <= CANDIDATES
         assert info["chosen"] == int(np.argmax(scores))
-        assert set(info) == {"candidates", "scores", "chosen", "tries", "friction", "clearance"}
+        assert set(info) == {
+            "candidates",
+            "scores",
+            "chosen",
+            "tries",
+            "friction",
+            "clearance",
+            "depth",
+        }
         assert b["attempt"]["grasp"]["sampler"] == "learned"
         x_antipodal, x_learned = approach_seen_from_the_wrist(a), approach_seen_from_the_wrist(b)
         assert scores[0] == pytest.approx(x_antipodal, abs=1e-4)  # the antipodal sampler's own

@@ -256,8 +256,6 @@ def attempt_record(
     }
     if campaign.sampler == "learned":
         record["model"] = {"sha256": campaign.model_sha256, "camera": campaign.model_camera}
-    if campaign.sampler == "learned":
-        record["model"] = {"sha256": campaign.model_sha256, "camera": campaign.model_camera}
     return record
 
 

@@ -1,4 +1,5 @@
-"""Learned grasps: the antipodal sampler draws up to K candidates, a grasp-quality model scores
+"""Learned grasps: the antipodal sampler draws up to K candidates (each contact pair it finds
+gives up to ``approaches_per_pair`` of them: its clear approaches), a grasp-quality model scores
 each from what the camera sees of it (``datagen.grasp_model.inputs``), and the best is executed.
 
 The model is a file the user names (``campaign.model``; ONNX, ``datagen.grasp_model.model_file``
@@ -14,7 +15,6 @@ from dataclasses import dataclass
 import numpy as np
 
 from datagen.config.sections import CampaignConfig
-from datagen.families.grasp_attempts.grasps import GraspCandidate
 from datagen.families.grasp_attempts.gripper_geometry import GripperGeometry
 from datagen.families.grasp_attempts.samplers.antipodal import AntipodalSampler
 from datagen.families.grasp_attempts.samplers.base import GraspTarget, Obstacles, SampleResult
@@ -27,6 +27,9 @@ class LearnedSampler:
     antipodal: AntipodalSampler
     model: GraspModel
     candidates: int  # K: antipodal candidates drawn and scored per attempt
+    # candidates a contact pair may give (its clear approaches): a pair costs many collision
+    # tests, its further approaches none, and the model tells approaches apart (features)
+    approaches_per_pair: int = 4
     name: str = "learned"
 
     @classmethod
@@ -46,16 +49,11 @@ class LearnedSampler:
     ) -> SampleResult:
         if view is None:
             raise ValueError("the learned sampler scores candidates from a depth view: none given")
-        found: list[GraspCandidate] = []
-        tries = 0
-        for _ in range(self.candidates):
-            result = self.antipodal.sample(rng, target, obstacles, max_tries)
-            tries += result.tries
-            if result.candidate is None:  # a target this hard yields no more: score those found
-                if not found:
-                    return SampleResult(None, tries, result.reason)
-                break
-            found.append(result.candidate)
+        found, tries, reason = self.antipodal.draw(
+            rng, target, obstacles, self.candidates, max_tries, self.approaches_per_pair
+        )
+        if not found:
+            return SampleResult(None, tries, reason)
         crops, features = grasp_batch(
             view, [(c.pose_world, c.width) for c in found], self.model.crop_size
         )
