@@ -223,7 +223,8 @@ class AntipodalSampler:
     def _approach(self, rng, centre, closing, width, blocking, obstacles, plane_through):
         """(poses, depth): the collision-free grasp frames (P, 4, 4) closing along ``closing``,
         in the order tried, standing ``depth`` metres back from ``centre`` along their
-        approaches, at the nearest depth where there is one; or None."""
+        approaches; or None. Downward approaches at every depth, nearest first, come before
+        the others: an arm reaches a grasp from above far more often than one from the side."""
         u, v = _perpendicular_basis(closing)
         angles = rng.uniform(0, 2 * np.pi) + np.arange(self.approach_angles) * (
             2 * np.pi / self.approach_angles
@@ -232,23 +233,22 @@ class AntipodalSampler:
         if plane_through is not None:
             approaches = _in_base_plane(centre, closing, plane_through)
         down = approaches[:, 2] < self.downward_z
-        order = [*rng.permutation(np.flatnonzero(down))]
+        groups = [rng.permutation(np.flatnonzero(down))]
         if self.allow_side:
-            order += [*rng.permutation(np.flatnonzero(~down))]
-        if not order:
-            return None
+            groups.append(rng.permutation(np.flatnonzero(~down)))
         boxes = self.gripper.boxes(width, self.pregrasp_distance)
-        chosen = approaches[order]
-        for depth in self.depths(width):
-            poses = np.zeros((len(order), 4, 4))
-            poses[:, :3, 0] = np.cross(closing, chosen)
-            poses[:, :3, 1] = closing
-            poses[:, :3, 2] = chosen
-            poses[:, :3, 3] = centre - depth * chosen
-            poses[:, 3, 3] = 1.0
-            hit = self.gripper.collisions(
-                poses, width, blocking, obstacles.table_z, self.pregrasp_distance, boxes
-            )
-            if not hit.all():
-                return poses[~hit], float(depth)
+        for group in (g for g in groups if g.size):
+            chosen = approaches[group]
+            for depth in self.depths(width):
+                poses = np.zeros((len(group), 4, 4))
+                poses[:, :3, 0] = np.cross(closing, chosen)
+                poses[:, :3, 1] = closing
+                poses[:, :3, 2] = chosen
+                poses[:, :3, 3] = centre - depth * chosen
+                poses[:, 3, 3] = 1.0
+                hit = self.gripper.collisions(
+                    poses, width, blocking, obstacles.table_z, self.pregrasp_distance, boxes
+                )
+                if not hit.all():
+                    return poses[~hit], float(depth)
         return None
