@@ -41,8 +41,34 @@ class IndexSet(MutableSet[int]):
             self._count += 1
 
     def update(self, indices: Iterable[int]) -> None:
+        if isinstance(indices, range) and indices.step == 1 and indices.start >= 0:
+            self._add_run(indices.start, indices.stop)  # a page at a time, no index visited
+            return
         for index in indices:
             self.add(index)
+
+    def _add_run(self, start: int, stop: int) -> None:
+        while start < stop:
+            number, low = divmod(start, PAGE)
+            high = min(PAGE, low + stop - start)
+            page = self._pages.setdefault(number, bytearray(PAGE // 8))
+            bits = int.from_bytes(page, "little")  # bit k: index number * PAGE + k
+            merged = bits | ((1 << high) - (1 << low))
+            page[:] = merged.to_bytes(PAGE // 8, "little")
+            self._count += merged.bit_count() - bits.bit_count()
+            start += high - low
+
+    def __isub__(self, other):  # type: ignore[override]
+        if not isinstance(other, IndexSet):
+            return super().__isub__(other)
+        for number, theirs in other._pages.items():
+            page = self._pages.get(number)
+            if page is not None:
+                bits = int.from_bytes(page, "little")
+                kept = bits & ~int.from_bytes(theirs, "little")
+                page[:] = kept.to_bytes(PAGE // 8, "little")
+                self._count -= bits.bit_count() - kept.bit_count()
+        return self
 
     def discard(self, index: int) -> None:
         if index in self:
@@ -51,6 +77,13 @@ class IndexSet(MutableSet[int]):
 
     def __len__(self) -> int:
         return self._count
+
+    def copy(self) -> IndexSet:
+        """An independent copy, page by page (no index visited)."""
+        out = IndexSet()
+        out._pages = {number: bytearray(page) for number, page in self._pages.items()}
+        out._count = self._count
+        return out
 
     def __iter__(self) -> Iterator[int]:
         """Ascending."""

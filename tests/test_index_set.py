@@ -46,3 +46,28 @@ def test_a_key_set_holds_canonical_keys_as_bits_and_others_as_strings():
     assert list(keys)[:2] == [sample_key(0), sample_key(1)]
     memory = sum(sys.getsizeof(page) for page in keys._indices._pages.values())
     assert memory < 20_000  # 100,000 keys as strings in a set: some 10 MB
+
+
+def test_a_run_and_a_set_difference_go_a_page_at_a_time_and_agree_with_sets():
+    """``IndexSet(range(...))`` and ``-=`` with another IndexSet work on whole pages; they give
+    what adding and discarding one index at a time gives, across page edges."""
+    rng = random.Random(1)
+    for _ in range(200):
+        start = rng.randrange(3 * PAGE)
+        stop = start + rng.choice(
+            [0, 1, 7, 8, 9, PAGE - 1, PAGE, PAGE + 1, rng.randrange(3 * PAGE)]
+        )
+        ours = IndexSet(rng.randrange(4 * PAGE) for _ in range(50))
+        theirs = set(ours)
+        ours.update(range(start, stop))
+        theirs.update(range(start, stop))
+        assert len(ours) == len(theirs) and list(ours) == sorted(theirs)
+        other = IndexSet(rng.randrange(5 * PAGE) for _ in range(rng.randrange(5000)))
+        ours -= other
+        theirs -= set(other)
+        assert len(ours) == len(theirs) and list(ours) == sorted(theirs)
+    ours = IndexSet([1, 2, 3])
+    ours -= {2, 10}  # any other set: one at a time
+    assert list(ours) == [1, 3] and len(ours) == 2
+    everything = IndexSet(range(10**6))
+    assert len(everything) == 10**6 and sum(len(p) for p in everything._pages.values()) < 140_000

@@ -28,6 +28,7 @@ from typing import Any
 from datagen.config import BuildConfig
 from datagen.dataset.loader import DatasetError, check_complete
 from datagen.errors import BuildError
+from datagen.index_set import IndexSet
 from datagen.pipeline.executors.base import WorkerSpec
 from datagen.pipeline.live_status import LiveStatus
 from datagen.pipeline.local_writer import LOCAL_WRITER_ID, LocalWriter
@@ -163,11 +164,12 @@ class Coordinator:
                         collector.announce(self.writer_ids, timeout_s=WRITER_READY_TIMEOUT_S)
                     except TimeoutError as exc:
                         raise BuildError(str(exc)) from None
-                durable = {i for i in collector.acked if 0 <= i < total}
-                self.result.resumed_from = len(durable)
+                to_make = IndexSet(range(total))  # about a bit a sample, whatever the total
+                to_make -= collector.acked
+                self.result.resumed_from = total - len(to_make)
                 transfer = self.config.transfer
                 self.schedule = pool.schedule = Schedule(
-                    set(range(total)) - durable,
+                    to_make,
                     transfer.ack_timeout_s,
                     max_unacked=transfer.unacked_per_writer * len(self.writer_ids),
                 )

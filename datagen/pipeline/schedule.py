@@ -12,6 +12,7 @@ from __future__ import annotations
 from collections import OrderedDict, deque
 from collections.abc import Iterable, Iterator
 
+from datagen.index_set import IndexSet
 from datagen.pipeline.latency import LatencyHistogram
 
 
@@ -19,7 +20,9 @@ class Schedule:
     """Every step costs O(1) per sample or per event, whatever the number of workers: which
     worker holds each index (``holder``), the published samples in the order they were
     published (``by_time``, so the overdue are found at its front) and the workers with room
-    for more (``hungry``) are kept as they change."""
+    for more (``hungry``) are kept as they change. What it holds of the samples not yet issued
+    is about a bit each: ``remaining`` is an ``IndexSet``, the fresh indices are read from it
+    in ascending order as they are issued, and ``todo`` holds only the ones issued again."""
 
     def __init__(
         self,
@@ -28,8 +31,11 @@ class Schedule:
         per_worker: int = 2,
         max_unacked: int | None = None,
     ):
-        self.todo: deque[int] = deque(sorted(indices))
-        self.remaining = set(self.todo)
+        # an IndexSet given is taken over, not copied
+        self.remaining = indices if isinstance(indices, IndexSet) else IndexSet(indices)
+        self._fresh = iter(self.remaining)  # ascending; skips what is acked before its turn
+        self._next_fresh = next(self._fresh, None)
+        self.todo: deque[int] = deque()  # issued again: before any fresh index
         self.ack_timeout_s = ack_timeout_s
         self.per_worker = per_worker  # samples handed to a worker and not yet published
         # published samples no writer has acked yet, at most (None: no bound): past it nothing
@@ -69,16 +75,29 @@ class Schedule:
         left to issue or the writers are ``backed_up`` (feeding one may make it so), so a
         freed slot costs one worker visited, not every idle one."""
         for worker in sorted(self.hungry):
-            if not self.todo or self.backed_up:
+            if not self.has_work or self.backed_up:
                 return
             yield worker
+
+    @property
+    def has_work(self) -> bool:
+        """Whether an index is waiting to be issued (it may turn out acked meanwhile)."""
+        return bool(self.todo) or self._next_fresh is not None
+
+    def _pop(self) -> int:
+        if self.todo:
+            return self.todo.popleft()
+        index = self._next_fresh
+        assert index is not None  # callers check has_work
+        self._next_fresh = next(self._fresh, None)
+        return index
 
     def next_for(self, worker: int) -> list[int]:
         """Indices to send to ``worker`` now (it keeps ``per_worker`` unpublished at most;
         none while ``backed_up``)."""
         out, held = [], self.assigned[worker]
-        while len(held) < self.per_worker and self.todo and not self.backed_up:
-            index = self.todo.popleft()
+        while len(held) < self.per_worker and self.has_work and not self.backed_up:
+            index = self._pop()
             if index in self.remaining and index not in self.holder:
                 held.append(index)
                 self.holder[index] = worker

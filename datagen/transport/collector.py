@@ -97,9 +97,10 @@ class AckCollector:
         self.close()
 
     @property
-    def acked(self) -> set[int]:
+    def acked(self) -> IndexSet:
+        """A copy of the durable indices (about a bit each)."""
         with self._cond:
-            return set(self._acked)
+            return self._acked.copy()
 
     @property
     def rejected(self) -> dict[str, int]:
