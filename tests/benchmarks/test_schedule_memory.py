@@ -1,0 +1,30 @@
+"""benchmarks/schedule_memory.py run as docs/scale-out.md prints it: a line per size and kind
+of build, with what the schedule holds."""
+
+from __future__ import annotations
+
+import re
+import subprocess
+from pathlib import Path
+
+REPO = Path(__file__).resolve().parents[2]
+DOC = REPO / "docs" / "scale-out.md"
+
+
+def test_the_schedule_memory_benchmark_prints_what_each_schedule_holds():
+    command = next(
+        line for line in DOC.read_text().splitlines() if line.endswith("schedule_memory.py")
+    )
+    done = subprocess.run(
+        ["bash", "-c", command], cwd=REPO, capture_output=True, text=True, timeout=300
+    )
+    assert done.returncode == 0, done.stderr[-3000:]
+    lines = re.findall(
+        r"([\d,]+) samples, (fresh|half durable)\s*: holds\s+([\d.]+) MB", done.stdout
+    )
+    assert [(size, kind) for size, kind, _ in lines] == [
+        ("100,000", "fresh"),
+        ("100,000", "half durable"),
+        ("1,000,000", "fresh"),
+        ("1,000,000", "half durable"),
+    ], done.stdout
