@@ -38,7 +38,9 @@ post-grasp frames (attempts run in a rebuilt scene with SAT contacts; executed g
 Issue 39 then turned the wrist camera on by default and held it over the tray (``robot.pose:
 look``): every part of the default grasp and campaign samples was re-recorded on the AVX-512
 class and their ``wrist.*`` parts added; ``grasp_flat`` (arm folded back, no wrist camera) kept
-its bytes. The
+its bytes. Issue 41 gave the antipodal sampler grasp depths and a tighter approach sweep of
+the Franka finger's slanted block: the campaign sample's JSON (its grasp, ``info.depth``),
+trajectory and post-grasp frames were re-recorded on the AVX-512 class. The
 digests were recorded with Mesa's lavapipe (llvmpipe) on x86-64, as on CI; another renderer draws
 other pixels, so the test runs only there. The same commit draws other bytes on a CPU with
 AVX-512 than on one with AVX2 only, so each class has its digests (:func:`cpu_class`):
