@@ -9,9 +9,8 @@ The grasp closes along p2 - p1 with the grasp frame at the midpoint; the approac
 that axis, downward approaches first, and must be collision-free from the pre-grasp pose. Where
 none is, the frame stands back along the approach in steps (the grasp depth, as GPD searches
 it) while the contacts stay on the pads: a flat object lying in the tray is then grasped with
-the fingertips clear of the floor (measured on the robosuite meshes of the picture library,
-panda, 150 scenes: a candidate in 117 rather than 83). All approaches and depths of a pair are
-collision-checked in one batch (``GripperGeometry.collisions``).
+the fingertips clear of the floor. All approaches of a pair at one depth are collision-checked
+in one batch (``GripperGeometry.collisions``).
 """
 
 from __future__ import annotations
