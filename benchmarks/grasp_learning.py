@@ -117,8 +117,9 @@ def run_campaign(name: str, data: dict, args) -> dict:
         )
     seconds = json.loads(timing.read_text()) if timing.is_file() else {}
     dataset = load(out)
-    outcomes = [sample_outcome(dataset.metadata(i)) for i in range(len(dataset))]
+    metadata = [dataset.metadata(i) for i in range(len(dataset))]
     dataset.close()
+    outcomes = [sample_outcome(meta) for meta in metadata]
     steady = seconds.get("steady")
     return {
         "success": [bool(o["success"]) for o in outcomes],
@@ -127,8 +128,22 @@ def run_campaign(name: str, data: dict, args) -> dict:
         "failure_modes": dict(
             sorted(Counter(o["failure_mode"] for o in outcomes if not o["success"]).items())
         ),
+        "modes": [o["failure_mode"] for o in outcomes],
         "attempts_per_s": round(1 / steady, 4) if steady else None,
+        "reach_m": [round(reach(meta), 4) for meta in metadata],
+        "ik_failed": [
+            (meta["attempt"]["outcome"]["details"].get("transit") or {}).get("status")
+            == "IK failed"
+            for meta in metadata
+        ],
     }
+
+
+def reach(meta: dict) -> float:
+    """Metres from the robot's base to the target, in the horizontal plane."""
+    base = meta["robot"]["base_pose"]["position"]
+    target = meta["attempt"]["target"]["pose_world"]["position"]
+    return math.hypot(target[0] - base[0], target[1] - base[1])
 
 
 def train_model(arm: str, attempts: int, campaign: Path, args) -> dict:
@@ -220,7 +235,7 @@ def table(result: dict) -> str:
                     f"  {gain:20}  {speed if speed is not None else '-':>10}  {run['failure_modes']}"
                 )
         for domain, runs in arm_result["domains"].items():
-            lines += coverage_lines(arm, domain, runs)
+            lines += coverage_lines(arm, domain, runs) + reach_lines(arm, domain, runs)
         lines.append(f"{arm} models (held-out training attempts):")
         for n, m in arm_result["models"].items():
             lines.append(
@@ -247,6 +262,28 @@ def coverage_lines(arm: str, domain: str, runs: dict) -> list[str]:
     for sampler, run in runs.items():
         p, se = rate([run["success"][i] for i in found]) if found else (float("nan"), 0.0)
         lines.append(f"  {sampler:15} {p:5.1f} ± {se:4.1f}")
+    return lines
+
+
+def reach_lines(arm: str, domain: str, runs: dict) -> list[str]:
+    """Where the arm could not go: per sampler, its ``unreachable`` attempts (those with no IK
+    solution for the pre-grasp pose among them) and the median distance from the base to their
+    targets, against that of its successes."""
+    lines = []
+    for sampler, run in runs.items():
+        if "reach_m" not in run:  # kept by a run before this was recorded
+            continue
+        modes = [
+            None if ok else mode for ok, mode in zip(run["success"], run["modes"], strict=True)
+        ]
+        far = [r for r, m in zip(run["reach_m"], modes, strict=True) if m == "unreachable"]
+        near = [r for r, ok in zip(run["reach_m"], run["success"], strict=True) if ok]
+        ik = sum(run["ik_failed"])
+        lines.append(
+            f"{arm} {domain} {sampler}: unreachable {len(far)} (IK failed {ik}), targets a median "
+            f"{statistics.median(far) if far else float('nan'):.2f} m from the base; "
+            f"successes {statistics.median(near) if near else float('nan'):.2f} m"
+        )
     return lines
 
 

@@ -40,3 +40,18 @@ def test_the_learned_sampler_is_bounded_by_the_attempts_with_a_candidate(grasp_l
 def test_runs_kept_before_coverage_was_recorded_print_no_bound(grasp_learning):
     runs = {"antipodal": {"success": [True, False]}, "l": {"success": [True, True]}}
     assert grasp_learning.coverage_lines("panda", "scenes", runs) == []
+
+
+def test_the_reach_line_counts_unreachable_attempts_and_how_far_their_targets_were(grasp_learning):
+    run = {
+        "success": [True, True, False, False, False],
+        "modes": [None, None, "unreachable", "unreachable", "slipped"],
+        "reach_m": [0.6, 0.7, 0.8, 0.9, 0.5],
+        "ik_failed": [False, False, True, False, False],
+    }
+    lines = grasp_learning.reach_lines("panda", "objects", {"antipodal": run})
+    assert lines == [
+        "panda objects antipodal: unreachable 2 (IK failed 1), targets a median 0.85 m from "
+        "the base; successes 0.65 m"
+    ]
+    assert grasp_learning.reach_lines("panda", "scenes", {"antipodal": {"success": []}}) == []
