@@ -2,9 +2,10 @@
 
 A surface point p1 is drawn area-weighted over the target's part faces; the line from p1 along
 a direction drawn in the friction cone about -n1 (as Dex-Net does) is intersected with every
-convex part (exactly, from the part's face planes). A parallel gripper closing on that line from outside touches the object's extreme points on it, so p1
-must be the line's first entry into the union of parts (else it is rejected: occluded or an
-internal face) and p2 is its last exit, with n2 the normal of the plane it leaves through.
+convex part (exactly, from the part's face planes). A parallel gripper closing on that line from
+outside touches the object's extreme points on it, so p1 must be the line's first entry into the
+union of parts (else it is rejected: occluded or an internal face) and p2 is its last exit, with
+n2 the normal of the plane it leaves through.
 The grasp closes along p2 - p1 with the grasp frame at the midpoint; the approach is drawn about
 that axis, downward approaches first, and must be collision-free from the pre-grasp pose. Where
 none is, the frame stands back along the approach in steps (the grasp depth, as GPD searches
@@ -238,13 +239,13 @@ class AntipodalSampler:
         boxes = self.gripper.boxes(width, self.pregrasp_distance)
         for group in (g for g in groups if g.size):
             chosen = approaches[group]
-            for depth in self.depths(width):
-                poses = np.zeros((len(group), 4, 4))
-                poses[:, :3, 0] = np.cross(closing, chosen)
-                poses[:, :3, 1] = closing
-                poses[:, :3, 2] = chosen
+            poses = np.zeros((len(group), 4, 4))
+            poses[:, :3, 0] = np.cross(closing, chosen)
+            poses[:, :3, 1] = closing
+            poses[:, :3, 2] = chosen
+            poses[:, 3, 3] = 1.0
+            for depth in self.depths(width):  # only the position changes with the depth
                 poses[:, :3, 3] = centre - depth * chosen
-                poses[:, 3, 3] = 1.0
                 hit = self.gripper.collisions(
                     poses, width, blocking, obstacles.table_z, self.pregrasp_distance, boxes
                 )
