@@ -155,7 +155,7 @@ def train_model(arm: str, attempts: int, campaign: Path, args) -> dict:
     # kept by what makes it: a rerun with other epochs trains anew
     path = args.out / "models" / f"{arm}-{attempts}-{args.epochs}epochs.onnx"
     report = path.with_suffix(".json")
-    if path.is_file() and report.is_file():
+    if path.is_file() and report.is_file() and keeps_contract(path):
         return json.loads(report.read_text()) | {"path": str(path)}
     start = time.perf_counter()
     examples = campaign_examples([campaign], "wrist", limit=attempts)
@@ -164,6 +164,19 @@ def train_model(arm: str, attempts: int, campaign: Path, args) -> dict:
     save_model(fitted, path, facts | {"train_s": round(time.perf_counter() - start, 1)})
     print(f"  model {path.name}: held-out ROC AUC {fitted.scores['roc_auc']}", flush=True)
     return json.loads(report.read_text()) | {"path": str(path)}
+
+
+def keeps_contract(path: Path) -> bool:
+    """Whether a kept model still takes the learned sampler's inputs (a model trained before
+    the contract changed is trained anew)."""
+    from datagen.grasp_model.model_file import ModelFileError, load_model
+
+    try:
+        load_model(path)
+    except ModelFileError as error:
+        print(f"  model {path.name}: trained anew ({error})", flush=True)
+        return False
+    return True
 
 
 def rate(success: list[bool]) -> tuple[float, float]:

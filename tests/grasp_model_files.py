@@ -11,6 +11,8 @@ from pathlib import Path
 import torch
 from torch import nn
 
+from datagen.grasp_model.inputs import GRASP_FEATURES
+
 
 class Rule(nn.Module):
     def __init__(self, rule: Callable[[torch.Tensor, torch.Tensor], torch.Tensor]):
@@ -27,7 +29,7 @@ def onnx_file(
     rule: Callable[[torch.Tensor, torch.Tensor], torch.Tensor],
     size: int = 32,
     names: tuple[str, str] = ("crop", "grasp"),
-    features: int = 8,
+    features: int = GRASP_FEATURES,
 ) -> Path:
     """An ONNX file of ``rule(crop, grasp)`` with inputs named ``names`` (any batch size)."""
     buffer = io.BytesIO()

@@ -1,5 +1,5 @@
 """What a grasp model sees of one candidate: a depth crop centred on the grasp, turned so the
-fingers close left-right, and eight numbers on the grasp itself (as GQ-CNN does).
+fingers close left-right, as GQ-CNN does, and fourteen numbers on the grasp itself.
 
 The crop covers ``CROP_SIDE_M`` of the scene at the grasp centre's depth (so it shows the same
 extent of the object whatever the camera's resolution or distance), sampled to ``size`` x
@@ -9,7 +9,10 @@ millimetres); each pixel holds the scene's depth minus the grasp centre's, in me
 The features: the grasp centre's depth in metres, the opening width in metres, then the approach
 and the closing axes in the camera frame (OpenCV: x right, y down, z forward), the closing axis
 signed to point right in the image (the fingers are alike, so a grasp and its twin with the
-fingers swapped give the same inputs)."""
+fingers swapped give the same inputs); then the grasp centre (metres) and the approach axis in the
+robot's base frame. The crop shows the object but not where it lies from the arm; whether the
+arm reaches a grasp depends on that, and on a wrist camera whose pose is randomised per scene
+the camera frame does not tell it."""
 
 from __future__ import annotations
 
@@ -23,18 +26,22 @@ import numpy as np
 
 CROP_SIDE_M = 0.16  # metres of the scene a crop spans at the grasp centre's depth
 CROP_RANGE_M = 0.1  # metres: depths relative to the grasp centre are clipped to +-this
-GRASP_FEATURES = 8  # centre depth, width, approach (3), closing (3)
+# centre depth, width, approach (3), closing (3) in the camera frame; centre (3), approach (3)
+# in the robot's base frame
+GRASP_FEATURES = 14
 MIN_DEPTH_M = 0.01  # a grasp centre nearer than this to the camera is not in its view
 DEPTH_SCALE = 0.001  # metres per unit of a stored depth image (uint16 millimetres)
 
 
 @dataclass(frozen=True)
 class DepthView:
-    """One camera's depth image and calibration, as a campaign sample stores them."""
+    """One camera's depth image and calibration, and the pose of the robot's base, as a
+    campaign sample stores them."""
 
     depth_mm: np.ndarray  # (H, W) uint16 millimetres, 0 = no reading
     intrinsics: np.ndarray  # (3, 3) pixels, OpenCV convention
     extrinsics: np.ndarray  # (4, 4) world -> camera, OpenCV convention
+    robot_base: np.ndarray  # (4, 4) the robot's base pose in the world (base -> world)
 
     @cached_property
     def metres(self) -> np.ndarray:
@@ -45,12 +52,16 @@ class DepthView:
         return depth
 
     @classmethod
-    def from_record(cls, depth_mm: np.ndarray, camera: Mapping[str, Any]) -> DepthView:
-        """From a stored depth image and its view record's ``camera`` entry."""
+    def from_record(
+        cls, depth_mm: np.ndarray, camera: Mapping[str, Any], robot: Mapping[str, Any]
+    ) -> DepthView:
+        """From a stored depth image, its view record's ``camera`` entry and the sample's
+        ``robot`` record."""
         return cls(
             np.asarray(depth_mm),
             np.asarray(camera["intrinsics"], float),
             np.asarray(camera["extrinsics_world_to_camera"], float),
+            np.asarray(robot["base_pose"]["matrix"], float),
         )
 
 
@@ -60,13 +71,18 @@ def grasp_inputs(
     """The (``size``, ``size``) float32 crop and the (``GRASP_FEATURES``,) float32 features of
     the grasp whose TCP pose is ``pose_world`` (4x4; z approach, y closing) opened ``width``
     metres, seen in ``view``."""
+    pose = np.asarray(pose_world, float)
     rotation, translation = view.extrinsics[:3, :3], view.extrinsics[:3, 3]
-    centre = rotation @ np.asarray(pose_world, float)[:3, 3] + translation
-    approach = rotation @ np.asarray(pose_world, float)[:3, 2]
-    closing = rotation @ np.asarray(pose_world, float)[:3, 1]
+    centre = rotation @ pose[:3, 3] + translation
+    approach = rotation @ pose[:3, 2]
+    closing = rotation @ pose[:3, 1]
     if (closing[0], closing[1]) < (0.0, 0.0):  # the fingers are alike: one sign per grasp
         closing = -closing
-    features = np.array([centre[2], width, *approach, *closing], np.float32)
+    to_base = view.robot_base[:3, :3].T  # world -> base rotation
+    in_base = to_base @ (pose[:3, 3] - view.robot_base[:3, 3]), to_base @ pose[:3, 2]
+    features = np.array(
+        [centre[2], width, *approach, *closing, *np.concatenate(in_base)], np.float32
+    )
     if centre[2] < MIN_DEPTH_M:
         return np.full((size, size), CROP_RANGE_M, np.float32), features
     fx, fy, cx, cy = (view.intrinsics[0, 0], view.intrinsics[1, 1], *view.intrinsics[:2, 2])

@@ -10,7 +10,7 @@ domain onnxruntime does not know (no library is loaded for them). The contract (
 
 - input ``crop``: float32 (N, 1, S, S), S fixed in the file between ``MIN_CROP`` and
   ``MAX_CROP`` pixels (``datagen.grasp_model.inputs``);
-- input ``grasp``: float32 (N, 8), the candidate's features (same module);
+- input ``grasp``: float32 (N, 14), the candidate's features (same module);
 - one output: float32 (N,) or (N, 1), one finite score per candidate, higher = better (datagen's
   own models give the probability of success).
 

@@ -94,7 +94,7 @@ def campaign_examples(
                     f"{root}: sample {dataset.keys[i]} has no depth from the '{camera}' "
                     f"camera (part {depth_part(camera)}): choose a camera the campaign rendered"
                 )
-            view = DepthView.from_record(depth, views[camera]["camera"])
+            view = DepthView.from_record(depth, views[camera]["camera"], meta["robot"])
             grasp = attempt["grasp"]
             crop, numbers = grasp_inputs(
                 view, np.asarray(grasp["pose_world"]), grasp["width"], size

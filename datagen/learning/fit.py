@@ -13,6 +13,7 @@ import numpy as np
 import torch
 from torch import nn
 
+from datagen.grasp_model.inputs import GRASP_FEATURES
 from datagen.grasp_model.model_file import CROP_INPUT, GRASP_INPUT
 from datagen.learning.examples import GraspExamples
 from datagen.learning.grasp_net import GraspQualityNet, SuccessProbability
@@ -97,7 +98,7 @@ def predict(net: GraspQualityNet, crops: np.ndarray, features: np.ndarray) -> np
 def onnx_bytes(net: GraspQualityNet) -> bytes:
     """The net as an ONNX graph of the learned sampler's contract (any batch size)."""
     size = net.size
-    example = (torch.zeros(2, 1, size, size), torch.zeros(2, 8))
+    example = (torch.zeros(2, 1, size, size), torch.zeros(2, GRASP_FEATURES))
     buffer = io.BytesIO()
     net.eval()
     with warnings.catch_warnings():  # the TorchScript-based exporter says it is the legacy one

@@ -10,8 +10,9 @@ from torch import nn
 
 from datagen.grasp_model.inputs import CROP_RANGE_M, GRASP_FEATURES
 
-# centre depth (~0.2-1 m), width (~0-0.08 m), approach and closing (unit vectors)
-FEATURE_SCALE = (2.0, 20.0, 1.0, 1.0, 1.0, 1.0, 1.0, 1.0)
+# centre depth (~0.2-1 m), width (~0-0.08 m), approach and closing (unit vectors) in the
+# camera frame; centre (~0-1 m) and approach (a unit vector) in the robot's base frame
+FEATURE_SCALE = (2.0, 20.0, 1.0, 1.0, 1.0, 1.0, 1.0, 1.0, 2.0, 2.0, 2.0, 1.0, 1.0, 1.0)
 CROP_DIVISOR = 8  # three 2x poolings: a crop side must be a multiple of this
 
 

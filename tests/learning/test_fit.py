@@ -8,6 +8,7 @@ import itertools
 import numpy as np
 import pytest
 
+from datagen.grasp_model.inputs import GRASP_FEATURES
 from datagen.grasp_model.model_file import load_model
 from datagen.learning.examples import GraspExamples
 from datagen.learning.fit import fit, onnx_bytes, split, write_model
@@ -45,7 +46,7 @@ def planted(count: int, seed: int = 0) -> GraspExamples:
     crops = rng.normal(0.0, 0.01, (count, 1, 16, 16)).astype(np.float32)
     lifted = rng.random(count) < 0.5
     crops[lifted, 0, :, :8] -= 0.05
-    features = rng.normal(0.0, 1.0, (count, 8)).astype(np.float32)
+    features = rng.normal(0.0, 1.0, (count, GRASP_FEATURES)).astype(np.float32)
     success = lifted & (features[:, 2] > -0.5)
     return GraspExamples(
         crops, features, success, [f"a/{i}" for i in range(count)], ["box"] * count

@@ -8,6 +8,7 @@ import pytest
 from datagen.grasp_model.inputs import (
     CROP_RANGE_M,
     CROP_SIDE_M,
+    GRASP_FEATURES,
     DepthView,
     grasp_batch,
     grasp_inputs,
@@ -17,10 +18,12 @@ F = 300.0  # pixels, focal length
 W, H = 320, 240
 
 
-def looking_down(depth_m: np.ndarray) -> DepthView:
-    """A camera at the world origin looking along +z (world = camera frame), over a depth map."""
+def looking_down(depth_m: np.ndarray, robot_base: np.ndarray | None = None) -> DepthView:
+    """A camera at the world origin looking along +z (world = camera frame), over a depth map;
+    the robot's base at ``robot_base`` (default: the world origin)."""
     intrinsics = np.array([[F, 0, W / 2], [0, F, H / 2], [0, 0, 1]])
-    return DepthView(np.round(depth_m * 1000).astype(np.uint16), intrinsics, np.eye(4))
+    base = np.eye(4) if robot_base is None else robot_base
+    return DepthView(np.round(depth_m * 1000).astype(np.uint16), intrinsics, np.eye(4), base)
 
 
 def grasp_at(x: float, y: float, z: float, closing_deg: float) -> np.ndarray:
@@ -50,7 +53,25 @@ def test_the_crop_is_centred_on_the_grasp_in_metres_relative_to_its_depth():
     assert crop.shape == (32, 32) and crop.dtype == np.float32
     assert crop[16, 16] == pytest.approx(0.0, abs=1e-3)  # the bar's top is the grasp's depth
     assert crop[0, 0] == pytest.approx(0.03, abs=1e-3)  # the table, 3 cm behind it
-    assert features.tolist() == pytest.approx([0.47, 0.05, 0, 0, 1, 1, 0, 0], abs=1e-6)
+    camera_frame, base_frame = [0.47, 0.05, 0, 0, 1, 1, 0, 0], [0, 0, 0.47, 0, 0, 1]
+    assert features.tolist() == pytest.approx(camera_frame + base_frame, abs=1e-6)
+
+
+def test_the_grasp_is_told_in_the_robot_base_frame_too():
+    """Where the arm must reach: the centre and the approach as the base sees them, whatever
+    the camera's pose."""
+    base = np.eye(4)
+    base[:3, :3] = [[0, -1, 0], [1, 0, 0], [0, 0, 1]]  # turned 90 degrees about z
+    base[:3, 3] = (0.5, 0.0, 0.1)
+    view = looking_down(table_with_bar(0.5, 0.0), base)
+    _, features = grasp_inputs(view, grasp_at(0.1, 0.2, 0.47, 0.0), 0.05, 32)
+    # world (0.1, 0.2, 0.47) is (0.2, 0.4, 0.37) from the base; world +z is the base's +z
+    assert features[8:].tolist() == pytest.approx([0.2, 0.4, 0.37, 0, 0, 1], abs=1e-6)
+    assert features[:8].tolist() == pytest.approx(
+        grasp_inputs(
+            looking_down(table_with_bar(0.5, 0.0)), grasp_at(0.1, 0.2, 0.47, 0.0), 0.05, 32
+        )[1][:8].tolist()
+    )
 
 
 @pytest.mark.parametrize("angle", [0.0, 37.0, 90.0, 135.0])
@@ -96,5 +117,5 @@ def test_a_batch_stacks_the_candidates():
     view = looking_down(table_with_bar(0.5, 0.0))
     grasps = [(grasp_at(0, 0, 0.47, a), 0.04) for a in (0, 45, 90)]
     crops, features = grasp_batch(view, grasps, 24)
-    assert crops.shape == (3, 1, 24, 24) and features.shape == (3, 8)
+    assert crops.shape == (3, 1, 24, 24) and features.shape == (3, GRASP_FEATURES)
     assert crops.dtype == features.dtype == np.float32

@@ -14,6 +14,7 @@ import torch
 from grasp_model_files import onnx_file, prefers_feature  # tests/grasp_model_files.py
 
 from datagen.grasp_model import model_file
+from datagen.grasp_model.inputs import GRASP_FEATURES
 from datagen.grasp_model.model_file import ModelFileError, load_model
 
 
@@ -32,7 +33,7 @@ def test_a_model_of_the_contract_loads_and_scores(tmp_path):
     model = load_model(path)
     assert model.crop_size == 32 and model.name == str(path)
     assert model.sha256 == hashlib.sha256(path.read_bytes()).hexdigest()
-    features = np.zeros((3, 8), np.float32)
+    features = np.zeros((3, GRASP_FEATURES), np.float32)
     features[:, 0] = [0.5, 0.3, 0.9]
     scores = model.score(np.zeros((3, 1, 32, 32), np.float32), features)
     assert scores.tolist() == pytest.approx([-0.5, -0.3, -0.9])
@@ -62,7 +63,7 @@ def test_inputs_and_outputs_off_the_contract(tmp_path):
     named = onnx_file(tmp_path / "names.onnx", lambda c, g: g[:, 0], names=("image", "pose"))
     one_line_error(named, "expected inputs 'crop'", "'image'")
     features = onnx_file(tmp_path / "f.onnx", lambda c, g: g[:, 0], features=6)
-    one_line_error(features, "input 'grasp'", "(N, 8)")
+    one_line_error(features, "input 'grasp'", f"(N, {GRASP_FEATURES})")
     odd = onnx_file(tmp_path / "odd.onnx", lambda c, g: g[:, 0], size=5)
     one_line_error(odd, "input 'crop'", "from 8 to 256")
     two = onnx_file(tmp_path / "two.onnx", lambda c, g: g[:, :2])
@@ -90,7 +91,7 @@ class Weighted(torch.nn.Module):
 
     def __init__(self):
         super().__init__()
-        self.fc = torch.nn.Linear(8, 1)
+        self.fc = torch.nn.Linear(GRASP_FEATURES, 1)
 
     def forward(self, crop, grasp):
         return self.fc(grasp)[:, 0] + 0 * crop.mean()
@@ -104,7 +105,7 @@ def test_a_model_that_points_at_files_outside_is_refused_without_reading_them(tm
         warnings.simplefilter("ignore")
         torch.onnx.export(
             Weighted(),
-            (torch.zeros(2, 1, 32, 32), torch.zeros(2, 8)),
+            (torch.zeros(2, 1, 32, 32), torch.zeros(2, GRASP_FEATURES)),
             path,
             dynamo=False,
             input_names=["crop", "grasp"],

@@ -124,7 +124,9 @@ def _approach_plane_through(scene: GraspScene) -> tuple[float, float] | None:
 def _model_view(pre: AnnotatedSample, camera: str) -> DepthView:
     """The pre-grasp depth of ``camera`` as it is stored, with its calibration: what a model
     trained on the campaign's records sees."""
-    return DepthView.from_record(pre.views[camera].depth, pre.metadata["views"][camera]["camera"])
+    return DepthView.from_record(
+        pre.views[camera].depth, pre.metadata["views"][camera]["camera"], pre.metadata["robot"]
+    )
 
 
 def produce(config: BuildConfig, seed: int, index: int, attempt: int = 0) -> Sample:
