@@ -168,25 +168,30 @@ def propose_grasp(
 ) -> SampleResult:
     """The campaign's sampler's grasp of ``target`` (stream ``grasp``), clear of the other
     objects, the tray and the table."""
+    gripper = gripper_geometry(scene.spec)
+    sampler = SAMPLERS[campaign.sampler].load().from_campaign(campaign, gripper)
+    return sampler.sample(
+        sample_rng(seed, index, "grasp", attempt),
+        *grasp_problem(scene, target),
+        max_tries=campaign.sampler_tries,
+        view=_model_view(pre, campaign.model_camera) if campaign.sampler == "learned" else None,
+    )
+
+
+def grasp_problem(scene: GraspScene, target: SceneObject) -> tuple[GraspTarget, Obstacles]:
+    """What a sampler is given: the target's parts where they lie, and everything else it must
+    keep clear of (the other objects, the tray and the table)."""
     obstacles = Obstacles(
         meshes_world=[p for o in scene.objects if o is not target for p in _parts_world(o)]
         + _tray_meshes(scene.workspace),
         table_z=scene.workspace.table_top,
     )
-    gripper = gripper_geometry(scene.spec)
-    sampler = SAMPLERS[campaign.sampler].load().from_campaign(campaign, gripper)
-    result = sampler.sample(
-        sample_rng(seed, index, "grasp", attempt),
-        GraspTarget(
-            _parts_world(target),
-            np.asarray(target.entity.pose.to_transformation_matrix(), float),
-            _approach_plane_through(scene),
-        ),
-        obstacles,
-        max_tries=campaign.sampler_tries,
-        view=_model_view(pre, campaign.model_camera) if campaign.sampler == "learned" else None,
+    grasp_target = GraspTarget(
+        _parts_world(target),
+        np.asarray(target.entity.pose.to_transformation_matrix(), float),
+        _approach_plane_through(scene),
     )
-    return result
+    return grasp_target, obstacles
 
 
 def execute_proposal(
