@@ -169,7 +169,7 @@ def main() -> None:
         per_scene.append((*cost, one, many))
         print(
             f"  scene {index}: fresh {one} {cost[0]:.2f} CPU-s; "
-            f"{len(many)} candidates {many} {cost[1]:.2f} CPU-s",
+            f"its candidates {many} {cost[1]:.2f} CPU-s",
             flush=True,
         )
     report(args, fresh_clock, rebuilt_clock, per_scene, matched)
