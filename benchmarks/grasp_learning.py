@@ -11,8 +11,12 @@ evaluation campaigns, seed 1000, in two domains: ``scenes`` (held-out scenes of 
 objects) and ``objects`` (held-out objects: the picture library's real robosuite meshes through
 ``objects.source: folder``, shapes no training scene drew). In each domain the antipodal sampler
 and the learned one run on the same seed and indices, so the same scenes and the same targets;
-the learned sampler's first candidate is the antipodal sampler's own. The learning curve (every
-model size) is measured on held-out objects; held-out scenes with the largest model.
+the learned sampler's first candidate is the antipodal sampler's own. Each sampler runs twice:
+as it is, and with ``campaign.check_reach`` (``-reach``: the candidates planned before one is
+executed; the antipodal sampler then executes the first of K it draws that the arm reaches, the
+learned one the best-scored the arm reaches), so the model's share and the planning's are told
+apart. The learning curve (every model size) is measured on held-out objects; held-out scenes
+with the largest model.
 
 Printed per arm and domain: success ± binomial standard error per sampler, the paired
 difference learned − antipodal ± its standard error over the same attempts, failure modes, and
@@ -49,6 +53,7 @@ FULL = {
 }
 QUICK = {"arms": ["panda"], "curve": [16, 32], "eval_attempts": 12, "epochs": 20, "size": "160x120"}
 DOMAINS = {"scenes": "held-out scenes", "objects": "held-out objects (real meshes)"}
+REACH = "-reach"  # a sampler's label with campaign.check_reach on
 
 
 def arguments() -> argparse.Namespace:
@@ -76,9 +81,12 @@ def arguments() -> argparse.Namespace:
     return args
 
 
-def campaign_data(args, arm: str, seed: int, attempts: int, domain: str | None, model=None):
+def campaign_data(
+    args, arm: str, seed: int, attempts: int, domain: str | None, model=None, reach=False
+):
     """The config dict of one campaign: ``configs/grasp_campaign.yaml`` with the arm, the
-    camera size, no post-grasp frame and no step-by-step recording (not needed here)."""
+    camera size, no post-grasp frame and no step-by-step recording (not needed here); with
+    ``reach``, the sampler executes a candidate the arm reaches (``campaign.check_reach``)."""
     from datagen.config.yaml_file import read_yaml
 
     data = read_yaml(REPO / "configs/grasp_campaign.yaml")
@@ -86,6 +94,8 @@ def campaign_data(args, arm: str, seed: int, attempts: int, domain: str | None, 
     campaign = data["campaign"] | {"post_grasp_frame": False, "record_hz": 0}
     if model is not None:
         campaign |= {"sampler": "learned", "model": str(model), "candidates": args.candidates}
+    if reach:
+        campaign |= {"check_reach": True, "candidates": args.candidates}
     data |= {
         "num_samples": attempts,
         "seed": seed,
@@ -204,10 +214,12 @@ def run_arm(arm: str, args) -> dict:
     for domain in DOMAINS:
         sizes = args.curve if domain == "objects" else [largest]
         samplers = {"antipodal": None} | {f"learned-{n}": models[n] for n in sizes}
+        samplers |= {f"{sampler}{REACH}": model for sampler, model in samplers.items()}
         runs = {}
         for sampler, model in samplers.items():
             path = model and model["path"]
-            data = campaign_data(args, arm, EVAL_SEED, args.eval_attempts, domain, path)
+            reach = sampler.endswith(REACH)
+            data = campaign_data(args, arm, EVAL_SEED, args.eval_attempts, domain, path, reach)
             scored_by = f"-{model['model_sha256'][:12]}" if model else ""  # a new model, anew
             name = f"{arm}-{domain}-{sampler}{scored_by}-{args.eval_attempts}"
             runs[sampler] = run_campaign(name, data, args)
@@ -230,22 +242,26 @@ def _model_summary(report: dict) -> dict:
 def table(result: dict) -> str:
     lines = [
         f"{result['cpu']}; {result['command']}; commit {result['commit']}",
-        "arm     domain   sampler          success %        learned - antipodal   attempts/s  "
-        "failures",
+        "arm     domain   sampler             success %        - antipodal     "
+        "- antipodal-reach  attempts/s  failures",
     ]
     for arm, arm_result in result["arms"].items():
         for domain, runs in arm_result["domains"].items():
-            base = runs["antipodal"]
             for sampler, run in runs.items():
                 p, se = rate(run["success"])
-                gain = ""
-                if sampler != "antipodal":
-                    g, gse = paired_gain(run["success"], base["success"])
-                    gain = f"{g:+6.1f} ± {gse:4.1f}"
+                gains = []
+                for base in ("antipodal", f"antipodal{REACH}"):
+                    paired = sampler != base and base in runs
+                    paired &= base == "antipodal" or (sampler.endswith(REACH))
+                    g, gse = (
+                        paired_gain(run["success"], runs[base]["success"]) if paired else (0, 0)
+                    )
+                    gains.append(f"{g:+6.1f} ± {gse:4.1f}" if paired else "")
                 speed = run["attempts_per_s"]
                 lines.append(
-                    f"{arm:7} {domain:8} {sampler:15} {p:5.1f} ± {se:4.1f} (n {len(run['success'])})"
-                    f"  {gain:20}  {speed if speed is not None else '-':>10}  {run['failure_modes']}"
+                    f"{arm:7} {domain:8} {sampler:19} {p:5.1f} ± {se:4.1f} (n {len(run['success'])})"
+                    f"  {gains[0]:15} {gains[1]:16}  {speed if speed is not None else '-':>10}  "
+                    f"{run['failure_modes']}"
                 )
         for domain, runs in arm_result["domains"].items():
             lines += coverage_lines(arm, domain, runs) + reach_lines(arm, domain, runs)
@@ -274,7 +290,7 @@ def coverage_lines(arm: str, domain: str, runs: dict) -> list[str]:
     ]
     for sampler, run in runs.items():
         p, se = rate([run["success"][i] for i in found]) if found else (float("nan"), 0.0)
-        lines.append(f"  {sampler:15} {p:5.1f} ± {se:4.1f}")
+        lines.append(f"  {sampler:19} {p:5.1f} ± {se:4.1f}")
     return lines
 
 
@@ -311,13 +327,18 @@ def draw(result: dict, path: Path) -> None:
         [axes] if len(result["arms"]) == 1 else axes, result["arms"].items(), strict=True
     ):
         runs = arm_result["domains"]["objects"]
-        sizes = [int(s.split("-")[1]) for s in runs if s.startswith("learned-")]
-        rates = [rate(runs[f"learned-{n}"]["success"]) for n in sizes]
-        ax.errorbar(
-            sizes, [r[0] for r in rates], [r[1] for r in rates], marker="o", label="learned"
-        )
-        base, se = rate(runs["antipodal"]["success"])
-        ax.axhspan(base - se, base + se, color="grey", alpha=0.3, label="antipodal ± SE")
+        sizes = [int(s.split("-")[1]) for s in runs if s.startswith("learned-") and REACH not in s]
+        for suffix, label in (("", "learned"), (REACH, "learned, reach checked")):
+            if f"learned-{sizes[0]}{suffix}" not in runs:
+                continue
+            rates = [rate(runs[f"learned-{n}{suffix}"]["success"]) for n in sizes]
+            ax.errorbar(
+                sizes, [r[0] for r in rates], [r[1] for r in rates], marker="o", label=label
+            )
+        for sampler, colour in (("antipodal", "grey"), (f"antipodal{REACH}", "tan")):
+            if sampler in runs:
+                base, se = rate(runs[sampler]["success"])
+                ax.axhspan(base - se, base + se, color=colour, alpha=0.3, label=f"{sampler} ± SE")
         ax.set(title=f"{arm}, held-out objects", xlabel="training attempts", ylabel="success %")
         ax.set_xscale("log")
         ax.legend()

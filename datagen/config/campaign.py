@@ -11,12 +11,18 @@ from datagen.errors import ConfigError
 from datagen.grasp_model.model_file import ModelFileError, load_model
 
 MODEL_CAMERAS = ("wrist", "workspace")
+REACH_CHECKED = ("antipodal", "learned")  # samplers with candidates to choose among
 
 
 def check_campaign_model(config: Any, source: str) -> Any:
     """``config`` (a BuildConfig) with ``campaign.model_sha256`` filled in when the sampler is
     ``learned``; ConfigError naming the key otherwise. Other samplers leave it as it is."""
     campaign = config.campaign
+    if campaign.check_reach and campaign.sampler not in REACH_CHECKED:
+        raise ConfigError(
+            f"{source}: campaign.check_reach: the {campaign.sampler!r} sampler draws one pose "
+            f"and has none to choose among: use it with {' or '.join(REACH_CHECKED)}"
+        )
     if campaign.sampler != "learned":
         return config
     if not campaign.model:

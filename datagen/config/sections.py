@@ -242,6 +242,9 @@ class CampaignConfig:
         default=16, metadata=ranged(1, 256, "antipodal candidates the learned sampler scores")
     )
     model_camera: str = "wrist"  # whose depth the model sees: wrist or workspace
+    # plan candidates before executing one: the antipodal sampler executes the first of its
+    # ``candidates`` the arm reaches, the learned one the best-scored the arm reaches
+    check_reach: bool = False
 
 
 @dataclass(frozen=True)

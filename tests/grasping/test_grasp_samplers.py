@@ -317,3 +317,29 @@ def test_drawing_several_candidates_starts_with_the_single_one_and_keeps_to_the_
     wide = on_table(trimesh.creation.box(extents=(0.12, 0.12, 0.12)))  # wider than the opening
     found, tries, reason = sampler.draw(np.random.default_rng(7), wide, obstacles, 12, 50, 4)
     assert found == [] and tries == 50 and "in 50 tries" in reason
+
+
+def test_with_reach_checked_the_first_candidate_the_arm_reaches_is_chosen():
+    """``reachable`` stands for the arm's planner (``grasp_attempts.reach``): here, only
+    approaches within 20 degrees of straight down reach. The sampler draws its K candidates as
+    for the learned sampler and executes the first that reaches, or its first if none does."""
+    target = on_table(trimesh.creation.box(extents=(0.05, 0.04, 0.06)))
+    sampler, obstacles = make_sampler("antipodal"), Obstacles([], TABLE)
+    found, _, _ = sampler.draw(np.random.default_rng(7), target, obstacles, 16, 200, 4)
+    steep = np.cos(np.deg2rad(20.0))
+    checked = []
+
+    def reachable(candidate) -> bool:
+        checked.append(candidate)
+        return bool(-candidate.approach[2] > steep)
+
+    result = sampler.sample(np.random.default_rng(7), target, obstacles, reachable=reachable)
+    first = next(i for i, c in enumerate(found) if -c.approach[2] > steep)
+    assert np.array_equal(result.candidate.pose_world, found[first].pose_world)
+    assert result.candidate.info["reach_checked"] == first + 1 == len(checked)
+    assert result.candidate.info["reached"] is True
+
+    none = sampler.sample(np.random.default_rng(7), target, obstacles, reachable=lambda c: False)
+    assert np.array_equal(none.candidate.pose_world, found[0].pose_world)
+    assert none.candidate.info["reached"] is False
+    assert none.candidate.info["reach_checked"] == len(found)

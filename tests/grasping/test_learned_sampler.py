@@ -4,6 +4,7 @@ prefers, stores every candidate's score and the one chosen, and an attempt is re
 
 from __future__ import annotations
 
+import dataclasses
 import json
 
 import numpy as np
@@ -84,3 +85,19 @@ def test_an_attempt_is_reproduced_from_seed_index_and_model(configs):
     assert first.parts.keys() == again.parts.keys()
     for name in first.parts:
         assert first.parts[name] == again.parts[name], name
+
+
+def test_with_reach_checked_the_best_scored_candidate_the_arm_reaches_is_executed(configs):
+    _, learned = configs
+    checked = dataclasses.replace(
+        learned, campaign=dataclasses.replace(learned.campaign, check_reach=True)
+    )
+    for index in range(ATTEMPTS):
+        b = attempt(produce(checked, SEED, index))["attempt"]
+        if b["grasp"] is None:
+            continue
+        info = b["grasp"]["info"]
+        ranked = sorted(range(len(info["scores"])), key=lambda i: -info["scores"][i])
+        assert 1 <= info["reach_checked"] <= info["candidates"]
+        expected = ranked[info["reach_checked"] - 1] if info["reached"] else ranked[0]
+        assert info["chosen"] == expected

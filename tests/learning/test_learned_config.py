@@ -91,3 +91,9 @@ def test_the_wrist_camera_must_be_on_for_a_model_that_sees_through_it(tmp_path):
         config_from_dict(data)
     data["campaign"]["model_camera"] = "workspace"
     assert config_from_dict(data).campaign.model_camera == "workspace"
+
+
+def test_checking_reach_with_the_random_sampler_is_refused_not_ignored(tmp_path):
+    done = check(tmp_path, "--sampler", "random", campaign={"check_reach": True})
+    refused(done, "campaign.check_reach", "'random'", "antipodal or learned")
+    assert check(tmp_path, campaign={"check_reach": True}).returncode == 0  # antipodal

@@ -21,7 +21,7 @@ import sapien
 from datagen.families.grasp_attempts.disturbance import DisturbanceWatch
 from datagen.families.grasp_attempts.executed import executed_grasp
 from datagen.families.grasp_attempts.grasps import GraspCandidate, GraspOutcome
-from datagen.families.grasp_attempts.gripper_geometry import gripper_geometry
+from datagen.families.grasp_attempts.gripper_geometry import GripperGeometry, gripper_geometry
 from datagen.families.grasp_attempts.planner import (
     make_planner,
     plan_straight,
@@ -219,6 +219,22 @@ class _Runner:
         return self.robot.get_qpos().astype(float)
 
 
+def planned_poses(
+    candidate: GraspCandidate, geometry: GripperGeometry, params: ExecutionParams
+) -> tuple[float, sapien.Pose, sapien.Pose]:
+    """(opening width in metres, pre-grasp pose, grasp pose): where the planner sends the TCP
+    link for ``candidate`` (the candidate is the grasp frame, between the pads)."""
+    max_width = geometry.max_width
+    width = max_width if params.open_fully else min(max_width, candidate.width + params.open_margin)
+    tcp_in_grasp = geometry.tcp_in_grasp(width)
+    tcp_target = np.asarray(candidate.pose_world, float)
+    if not np.array_equal(tcp_in_grasp, np.eye(4)):  # a jaw gripper's TCP is off-centre
+        tcp_target = tcp_target @ tcp_in_grasp
+    grasp = sapien.Pose(tcp_target)
+    pre = sapien.Pose(grasp.p - params.pregrasp_distance * candidate.approach, grasp.q)
+    return width, pre, grasp
+
+
 def execute_grasp(
     scene: GraspScene,
     target_instance_id: int,
@@ -245,18 +261,10 @@ def execute_grasp(
         width = round(run.width(), 6)
         return GraspOutcome(success, mode, round(rise, 6), width, details, executed)
 
-    max_width = run.geometry.max_width
-    width = max_width if params.open_fully else min(max_width, candidate.width + params.open_margin)
+    width, pre, grasp = planned_poses(candidate, run.geometry, params)
+    tcp_in_grasp = run.geometry.tcp_in_grasp(width)
     run.begin_phase("open")
     run.move_fingers(width)
-
-    # the planner moves the TCP link; the candidate is the grasp frame, between the pads
-    tcp_in_grasp = run.geometry.tcp_in_grasp(width)
-    tcp_target = np.asarray(candidate.pose_world, float)
-    if not np.array_equal(tcp_in_grasp, np.eye(4)):  # a jaw gripper's TCP is off-centre
-        tcp_target = tcp_target @ tcp_in_grasp
-    grasp = sapien.Pose(tcp_target)
-    pre = sapien.Pose(grasp.p - params.pregrasp_distance * candidate.approach, grasp.q)
     planner = make_planner(run.scene, run.robot, scene.objects, scene.spec)
     transit = plan_transit(planner, pre, run.qpos(), run.dt)
     details["transit"] = {"status": transit["status"], "method": transit["method"]}

@@ -27,6 +27,7 @@ from datagen.families.grasp_attempts.contacts import sat_twin
 from datagen.families.grasp_attempts.execute import ExecutionParams, execute_grasp
 from datagen.families.grasp_attempts.grasps import GraspOutcome
 from datagen.families.grasp_attempts.gripper_geometry import gripper_geometry
+from datagen.families.grasp_attempts.reach import ArmReach
 from datagen.families.grasp_attempts.recording import Recorder
 from datagen.families.grasp_attempts.samplers import GraspTarget, Obstacles, SampleResult
 from datagen.families.grasp_tabletop.produce import AnnotatedSample, annotate_scene, to_sample
@@ -175,6 +176,7 @@ def propose_grasp(
         *grasp_problem(scene, target),
         max_tries=campaign.sampler_tries,
         view=_model_view(pre, campaign.model_camera) if campaign.sampler == "learned" else None,
+        reachable=ArmReach(scene, execution_params(campaign)) if campaign.check_reach else None,
     )
 
 
@@ -211,16 +213,21 @@ def execute_proposal(
             False, "no_candidate", 0.0, 0.0, {"reason": result.reason, "tries": result.tries}
         )
     else:
-        params = ExecutionParams(
-            pregrasp_distance=campaign.pre_grasp_distance,
-            lift_height=campaign.lift_height,
-            hold_time=campaign.hold_time,
-            open_fully=False,  # open to the width the sampler checked for collisions
-        )
+        params = execution_params(campaign)
         outcome = execute_grasp(scene, target.instance_id, candidate, params, recorder)
         if recorder is not None:
             recorded["trajectory.npz"] = recorder.encode()
     return outcome
+
+
+def execution_params(campaign: CampaignConfig) -> ExecutionParams:
+    """How a campaign executes its grasps."""
+    return ExecutionParams(
+        pregrasp_distance=campaign.pre_grasp_distance,
+        lift_height=campaign.lift_height,
+        hold_time=campaign.hold_time,
+        open_fully=False,  # open to the width the sampler checked for collisions
+    )
 
 
 def attempt_record(

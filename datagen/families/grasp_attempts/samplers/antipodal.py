@@ -25,7 +25,13 @@ from datagen.config.sections import CampaignConfig
 from datagen.convex import BodySet, ConvexBody
 from datagen.families.grasp_attempts.grasps import GraspCandidate
 from datagen.families.grasp_attempts.gripper_geometry import GripperGeometry
-from datagen.families.grasp_attempts.samplers.base import GraspTarget, Obstacles, SampleResult
+from datagen.families.grasp_attempts.samplers.base import (
+    GraspTarget,
+    Obstacles,
+    Reachable,
+    SampleResult,
+    first_reached,
+)
 from datagen.grasp_model.inputs import DepthView
 
 EPS = 1e-6  # metres
@@ -55,6 +61,9 @@ def _perpendicular_basis(axis: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 BASE_PLANE_TILT_DEG = 10.0
 DEPTH_STEP = 0.002  # metres between the grasp depths tried
 PAD_MARGIN = 0.003  # metres the contacts stay short of the fingertips
+# a contact pair gives up to this many candidates (its clear approaches) to a sampler choosing
+# among several: a pair costs many collision tests, its further approaches none
+APPROACHES_PER_PAIR = 4
 
 
 def _in_base_plane(centre, closing, base_xy) -> np.ndarray:
@@ -84,11 +93,18 @@ class AntipodalSampler:
     downward_z: float = -0.3  # approaches with a z component below this are tried first
     allow_side: bool = True  # then try the others (still collision-checked)
     pad_margin: float = PAD_MARGIN  # metres; a margin past the fingertips: no grasp depth
+    # when the campaign checks reach: candidates drawn, of which the first reached is executed
+    reach_candidates: int = 16
     name: str = "antipodal"
 
     @classmethod
     def from_campaign(cls, campaign: CampaignConfig, gripper: GripperGeometry) -> AntipodalSampler:
-        return cls(gripper, campaign.friction, pregrasp_distance=campaign.pre_grasp_distance)
+        return cls(
+            gripper,
+            campaign.friction,
+            pregrasp_distance=campaign.pre_grasp_distance,
+            reach_candidates=campaign.candidates,
+        )
 
     @property
     def max_width(self) -> float:
@@ -101,9 +117,18 @@ class AntipodalSampler:
         obstacles: Obstacles,
         max_tries: int = 200,
         view: DepthView | None = None,
+        reachable: Reachable | None = None,
     ) -> SampleResult:
-        found, tries, reason = self.draw(rng, target, obstacles, 1, max_tries)
-        return SampleResult(found[0] if found else None, tries, reason)
+        if reachable is None:
+            found, tries, reason = self.draw(rng, target, obstacles, 1, max_tries)
+            return SampleResult(found[0] if found else None, tries, reason)
+        found, tries, reason = self.draw(
+            rng, target, obstacles, self.reach_candidates, max_tries, APPROACHES_PER_PAIR
+        )
+        if not found:
+            return SampleResult(None, tries, reason)
+        chosen = first_reached(found, reachable)
+        return SampleResult(chosen, tries, f"the first of {len(found)} the arm reaches")
 
     def draw(
         self,

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import dataclasses
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from functools import cached_property
 from typing import Protocol
@@ -62,11 +64,28 @@ class SampleResult:
     reason: str  # why sampling failed, or how the candidate was found
 
 
+# whether the arm reaches a candidate as execution will plan it (``grasp_attempts.reach``)
+Reachable = Callable[[GraspCandidate], bool]
+
+
+def first_reached(ranked: Sequence[GraspCandidate], reachable: Reachable) -> GraspCandidate:
+    """The first of ``ranked`` the arm reaches, else the first (it will fail, unreachable);
+    its ``info`` says how many were checked and whether it was reached."""
+    for checked, candidate in enumerate(ranked, 1):
+        if reachable(candidate):
+            info = candidate.info | {"reach_checked": checked, "reached": True}
+            return dataclasses.replace(candidate, info=info)
+    info = ranked[0].info | {"reach_checked": len(ranked), "reached": False}
+    return dataclasses.replace(ranked[0], info=info)
+
+
 class GraspSampler(Protocol):
     """What ``datagen.registries.SAMPLERS`` names: a class built from the campaign section and
     the robot's gripper (its opening and collision boxes). ``view`` is the pre-grasp depth of
     the campaign's ``model_camera``, for samplers that look (the learned one); the others
-    ignore it."""
+    ignore it. ``reachable``, when the campaign checks reach, tells a sampler with candidates to
+    choose among which ones the arm reaches; the random sampler draws one pose and is not
+    given it (the config refuses ``check_reach`` there)."""
 
     name: str
 
@@ -80,4 +99,5 @@ class GraspSampler(Protocol):
         obstacles: Obstacles,
         max_tries: int = 200,
         view: DepthView | None = None,
+        reachable: Reachable | None = None,
     ) -> SampleResult: ...

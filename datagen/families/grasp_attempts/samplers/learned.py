@@ -1,6 +1,7 @@
 """Learned grasps: the antipodal sampler draws up to K candidates (each contact pair it finds
 gives up to ``approaches_per_pair`` of them: its clear approaches), a grasp-quality model scores
-each from what the camera sees of it (``datagen.grasp_model.inputs``), and the best is executed.
+each from what the camera sees of it (``datagen.grasp_model.inputs``), and the best is executed
+(with ``campaign.check_reach``, the best the arm reaches: ``grasp_attempts.reach``).
 
 The model is a file the user names (``campaign.model``; ONNX, ``datagen.grasp_model.model_file``
 states the contract), so datagen's own model (``datagen train grasp``) and a user's plug in the
@@ -16,8 +17,17 @@ import numpy as np
 
 from datagen.config.sections import CampaignConfig
 from datagen.families.grasp_attempts.gripper_geometry import GripperGeometry
-from datagen.families.grasp_attempts.samplers.antipodal import AntipodalSampler
-from datagen.families.grasp_attempts.samplers.base import GraspTarget, Obstacles, SampleResult
+from datagen.families.grasp_attempts.samplers.antipodal import (
+    APPROACHES_PER_PAIR,
+    AntipodalSampler,
+)
+from datagen.families.grasp_attempts.samplers.base import (
+    GraspTarget,
+    Obstacles,
+    Reachable,
+    SampleResult,
+    first_reached,
+)
 from datagen.grasp_model.inputs import DepthView, grasp_batch
 from datagen.grasp_model.model_file import GraspModel, cached_model
 
@@ -27,9 +37,8 @@ class LearnedSampler:
     antipodal: AntipodalSampler
     model: GraspModel
     candidates: int  # K: antipodal candidates drawn and scored per attempt
-    # candidates a contact pair may give (its clear approaches): a pair costs many collision
-    # tests, its further approaches none, and the model tells approaches apart (features)
-    approaches_per_pair: int = 4
+    # candidates a contact pair may give (its clear approaches); the model tells them apart
+    approaches_per_pair: int = APPROACHES_PER_PAIR
     name: str = "learned"
 
     @classmethod
@@ -46,6 +55,7 @@ class LearnedSampler:
         obstacles: Obstacles,
         max_tries: int = 200,
         view: DepthView | None = None,
+        reachable: Reachable | None = None,
     ) -> SampleResult:
         if view is None:
             raise ValueError("the learned sampler scores candidates from a depth view: none given")
@@ -58,11 +68,17 @@ class LearnedSampler:
             view, [(c.pose_world, c.width) for c in found], self.model.crop_size
         )
         scores = self.model.score(crops, features)
-        best = int(np.argmax(scores))  # the first of equal scores
+        ranked = [int(i) for i in np.argsort(-scores, kind="stable")]  # equal scores: first first
+        best = ranked[0]
+        if reachable is not None:
+            reached = first_reached([found[i] for i in ranked], reachable)
+            best = ranked[reached.info["reach_checked"] - 1] if reached.info["reached"] else best
+            found[best] = reached
         info = found[best].info | {
             "candidates": len(found),
             "scores": [round(float(s), 6) for s in scores],
             "chosen": best,
         }
         chosen = dataclasses.replace(found[best], sampler=self.name, info=info)
-        return SampleResult(chosen, tries, f"the best of {len(found)} by the model")
+        which = "the best" if reachable is None else "the best the arm reaches"
+        return SampleResult(chosen, tries, f"{which} of {len(found)} by the model")

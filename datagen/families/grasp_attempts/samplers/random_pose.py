@@ -10,7 +10,12 @@ import trimesh
 from datagen.config.sections import CampaignConfig
 from datagen.families.grasp_attempts.grasps import GraspCandidate
 from datagen.families.grasp_attempts.gripper_geometry import GripperGeometry
-from datagen.families.grasp_attempts.samplers.base import GraspTarget, Obstacles, SampleResult
+from datagen.families.grasp_attempts.samplers.base import (
+    GraspTarget,
+    Obstacles,
+    Reachable,
+    SampleResult,
+)
 from datagen.grasp_model.inputs import DepthView
 
 
@@ -37,6 +42,7 @@ class RandomSampler:
         obstacles: Obstacles,
         max_tries: int = 200,
         view: DepthView | None = None,
+        reachable: Reachable | None = None,  # refused by the config: one pose, no choice
     ) -> SampleResult:
         lo = np.min([part.bounds[0] for part in target.parts_world], axis=0) - self.margin
         hi = np.max([part.bounds[1] for part in target.parts_world], axis=0) + self.margin
