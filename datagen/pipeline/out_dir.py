@@ -15,9 +15,9 @@ from datetime import UTC, datetime
 from pathlib import Path
 from typing import Any
 
-from datagen.config import BuildConfig
+from datagen.config import BuildConfig, config_from_dict
 from datagen.config.versions import as_current_version
-from datagen.errors import BuildError, OutDirError
+from datagen.errors import BuildError, ConfigError, OutDirError
 from datagen.pipeline import finished_build
 from datagen.registries import EXPORTS
 from datagen.safe_json import loads_bounded
@@ -160,6 +160,8 @@ def check_build_state(out_dir: Path, config: BuildConfig) -> None:
     started = state.get("config")
     if isinstance(started, dict) and started.get("version") == 1:  # started by an older datagen
         started = as_current_version(started, str(out_dir / BUILD_STATE))
+    if isinstance(started, dict):
+        started = _as_read_now(started, str(out_dir / BUILD_STATE))
     if started != config.to_dict():
         previous = started if isinstance(started, dict) else {}
         differing = sorted(k for k, v in config.to_dict().items() if previous.get(k) != v)
@@ -173,6 +175,15 @@ def check_build_state(out_dir: Path, config: BuildConfig) -> None:
             raise ValueError("build_id is not a string")
     except (KeyError, TypeError, ValueError) as exc:
         raise OutDirError(f"{out_dir / BUILD_STATE}: unreadable build state ({exc})") from None
+
+
+def _as_read_now(started: dict[str, Any], source: str) -> dict[str, Any]:
+    """A started build's config as this datagen reads it: a key added since takes its default,
+    so a build started before the key existed resumes while the key keeps it."""
+    try:
+        return config_from_dict(started, source).to_dict()
+    except ConfigError:  # compared as it is, and found different
+        return started
 
 
 def finished_build_problems(out_dir: Path, config: BuildConfig, resume: bool) -> list[str]:

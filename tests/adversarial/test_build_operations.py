@@ -6,6 +6,7 @@ exit status, no traceback, nothing of the user's deleted."""
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import os
 import shutil
@@ -167,3 +168,24 @@ def test_a_build_started_with_a_version_1_config_resumes_and_another_config_is_r
     other = config.replace(num_samples=config.num_samples + 1)
     with pytest.raises(OutDirError, match=r"another config \(differs in: num_samples\)"):
         check_build_state(out, other)
+
+
+def test_a_build_started_before_a_key_was_added_resumes_while_the_key_keeps_its_default(tmp_path):
+    """A datagen that adds a config key (with a default) still resumes a build started by the
+    one before it; a started config that no longer parses is refused as another config."""
+    from datagen.errors import OutDirError
+    from datagen.pipeline.out_dir import BUILD_STATE, check_build_state
+
+    config = BuildConfig()
+    out = datagen_output(tmp_path / "out")
+    state = json.loads((out / BUILD_STATE).read_text())
+    del state["config"]["campaign"]["check_reach"]  # as a datagen before the key wrote it
+    (out / BUILD_STATE).write_text(json.dumps(state))
+    check_build_state(out, config)
+    with pytest.raises(OutDirError, match=r"another config \(differs in: campaign\)"):
+        checking = dataclasses.replace(config.campaign, check_reach=True)
+        check_build_state(out, config.replace(campaign=checking))
+    state["config"]["campaign"]["friction"] = "slippery"
+    (out / BUILD_STATE).write_text(json.dumps(state))
+    with pytest.raises(OutDirError, match=r"another config \(differs in: campaign\)"):
+        check_build_state(out, config)
