@@ -156,8 +156,9 @@ def reach(meta: dict) -> float:
     return math.hypot(target[0] - base[0], target[1] - base[1])
 
 
-def train_model(arm: str, attempts: int, campaign: Path, args) -> dict:
-    """The model trained on the first ``attempts`` of ``campaign`` (kept under --out/models)."""
+def train_model(arm: str, attempts: int, campaign, args) -> dict:
+    """The model trained on the first ``attempts`` of the training campaign (``campaign()``
+    builds or reads it; the model is kept under --out/models)."""
     from datagen.learning.examples import campaign_examples
     from datagen.learning.fit import fit
     from datagen.learning.report import save_model
@@ -167,8 +168,9 @@ def train_model(arm: str, attempts: int, campaign: Path, args) -> dict:
     report = path.with_suffix(".json")
     if path.is_file() and report.is_file() and keeps_contract(path):
         return json.loads(report.read_text()) | {"path": str(path)}
+    root = campaign()
     start = time.perf_counter()
-    examples = campaign_examples([campaign], "wrist", limit=attempts)
+    examples = campaign_examples([root], "wrist", limit=attempts)
     fitted = fit(examples, args.epochs, seed=0)
     facts = {"attempts": attempts, "examples": len(examples), "epochs": args.epochs}
     save_model(fitted, path, facts | {"train_s": round(time.perf_counter() - start, 1)})
@@ -207,9 +209,13 @@ def run_arm(arm: str, args) -> dict:
     print(f"{arm}:", flush=True)
     largest = args.curve[-1]
     train_name = f"{arm}-train-{largest}"
-    run_campaign(train_name, campaign_data(args, arm, 0, largest, None), args)
     campaign = args.out / "campaigns" / train_name
-    models = {n: train_model(arm, n, campaign, args) for n in args.curve}
+
+    def training_campaign() -> Path:  # built only when a model is to be trained
+        run_campaign(train_name, campaign_data(args, arm, 0, largest, None), args)
+        return campaign
+
+    models = {n: train_model(arm, n, training_campaign, args) for n in args.curve}
     result: dict = {"models": {n: _model_summary(m) for n, m in models.items()}, "domains": {}}
     for domain in DOMAINS:
         sizes = args.curve if domain == "objects" else [largest]

@@ -113,10 +113,13 @@ def plan_out_dir(out_dir: Path, config: BuildConfig, overwrite: bool, resume: bo
         )
     _check_writable(out_dir)
     manifest = _read_json(out_dir / MANIFEST)
+    finished = manifest.get("config") if manifest else None
+    if isinstance(finished, dict):
+        finished = _as_read_now(finished, str(out_dir / MANIFEST))
     if (
         not overwrite
         and manifest
-        and manifest.get("config") == config.to_dict()
+        and finished == config.to_dict()
         and manifest.get("samples") == config.num_samples
     ):
         return "complete"
@@ -177,13 +180,14 @@ def check_build_state(out_dir: Path, config: BuildConfig) -> None:
         raise OutDirError(f"{out_dir / BUILD_STATE}: unreadable build state ({exc})") from None
 
 
-def _as_read_now(started: dict[str, Any], source: str) -> dict[str, Any]:
-    """A started build's config as this datagen reads it: a key added since takes its default,
-    so a build started before the key existed resumes while the key keeps it."""
+def _as_read_now(recorded: dict[str, Any], source: str) -> dict[str, Any]:
+    """A build's recorded config (build state or manifest) as this datagen reads it: a key added
+    since takes its default, so a build made before the key existed is still this build (kept
+    when finished, resumed when not) while the key keeps its default."""
     try:
-        return config_from_dict(started, source).to_dict()
+        return config_from_dict(recorded, source).to_dict()
     except ConfigError:  # compared as it is, and found different
-        return started
+        return recorded
 
 
 def finished_build_problems(out_dir: Path, config: BuildConfig, resume: bool) -> list[str]:

@@ -189,3 +189,19 @@ def test_a_build_started_before_a_key_was_added_resumes_while_the_key_keeps_its_
     (out / BUILD_STATE).write_text(json.dumps(state))
     with pytest.raises(OutDirError, match=r"another config \(differs in: campaign\)"):
         check_build_state(out, config)
+
+
+def test_a_build_finished_before_a_key_was_added_is_kept_not_made_again(tmp_path):
+    from datagen.errors import OutDirError
+    from datagen.pipeline.out_dir import plan_out_dir
+
+    config = BuildConfig()
+    out = datagen_output(tmp_path / "out")
+    recorded = config.to_dict()
+    del recorded["campaign"]["check_reach"]  # as a datagen before the key wrote it
+    manifest = {"config": recorded, "samples": config.num_samples}
+    (out / "manifest.json").write_text(json.dumps(manifest))
+    assert plan_out_dir(out, config, overwrite=False, resume=False) == "complete"
+    checking = dataclasses.replace(config.campaign, check_reach=True)
+    with pytest.raises(OutDirError, match="does not hold a complete build of this config"):
+        plan_out_dir(out, config.replace(campaign=checking), overwrite=False, resume=False)
