@@ -88,27 +88,16 @@ def fresh(config, index: int, clock: StepClock) -> list[str | None]:
 def rebuilt(config, index: int, per_scene: int, clock: StepClock) -> tuple[list, bool]:
     """The first ``per_scene`` candidates of ``index``'s scene, each executed in a rebuild of
     it: their failure modes, and whether every rebuild matched the first build."""
-    from datagen.config.robot import robot_spec
     from datagen.families.grasp_attempts import produce as attempt
     from datagen.families.grasp_attempts.gripper_geometry import gripper_geometry
     from datagen.families.grasp_attempts.samplers import SampleResult
     from datagen.families.grasp_attempts.samplers.antipodal import AntipodalSampler
-    from datagen.randomisers.workspace import scaled_to_robot
     from datagen.seeding import sample_rng
 
-    arm = robot_spec(config.robot)
-
-    def build():
-        values = attempt.draw_values(config, SEED, index, 0, arm)
-        return attempt.sat_twin(config, attempt.build_scene(config, SEED, index, 0, values, arm))
-
     with clock("build"):
-        scene = build()
-    campaign = scaled_to_robot(config, scene.spec).campaign
+        scene = attempt.attempt_scene(config, SEED, index)
     with clock("observe"):
-        pre = attempt.annotate_scene(scene, config, SEED, index)
-        workspace = pre.metadata["views"]["workspace"]
-        target = attempt.choose_target(sample_rng(SEED, index, "grasp_target"), scene, workspace)
+        campaign, pre, target = attempt.observe_attempt(config, SEED, index, 0, scene)
         attempt.to_sample(pre, config.output.png_level)  # stored once, whatever the labels
     with clock("candidates"):
         sampler = AntipodalSampler.from_campaign(campaign, gripper_geometry(scene.spec))
@@ -123,7 +112,7 @@ def rebuilt(config, index: int, per_scene: int, clock: StepClock) -> tuple[list,
     for k, candidate in enumerate(found):
         if k:
             with clock("rebuild"):
-                scene = build()
+                scene = attempt.attempt_scene(config, SEED, index)
             same &= poses(scene) == settled
             target = next(o for o in scene.objects if o.instance_id == target.instance_id)
         with clock("execute"):

@@ -42,21 +42,14 @@ def reach_of(config, seed: int, index: int, tries: int) -> dict:
     """The candidates of attempt ``index``'s scene and how many of them the arm reaches."""
     import numpy as np
 
-    from datagen.config.robot import robot_spec
     from datagen.families.grasp_attempts import produce as attempt
     from datagen.families.grasp_attempts.gripper_geometry import gripper_geometry
     from datagen.families.grasp_attempts.reach import ArmReach
     from datagen.families.grasp_attempts.samplers.antipodal import AntipodalSampler
-    from datagen.randomisers.workspace import scaled_to_robot
     from datagen.seeding import sample_rng
 
-    arm = robot_spec(config.robot)
-    values = attempt.draw_values(config, seed, index, 0, arm)
-    scene = attempt.sat_twin(config, attempt.build_scene(config, seed, index, 0, values, arm))
-    campaign = scaled_to_robot(config, scene.spec).campaign
-    pre = attempt.annotate_scene(scene, config, seed, index)
-    workspace = pre.metadata["views"]["workspace"]
-    target = attempt.choose_target(sample_rng(seed, index, "grasp_target"), scene, workspace)
+    scene = attempt.attempt_scene(config, seed, index)
+    campaign, _, target = attempt.observe_attempt(config, seed, index, 0, scene)
     geometry = gripper_geometry(scene.spec)
     sampler = AntipodalSampler.from_campaign(campaign, geometry)
     found, _, _ = sampler.draw(

@@ -5,10 +5,10 @@ the labels per CPU-second of both ways are printed with their ratio."""
 from __future__ import annotations
 
 import re
-import subprocess
 from pathlib import Path
 
 import pytest
+from printed_commands import run_printed  # tests/printed_commands.py
 
 REPO = Path(__file__).resolve().parents[2]
 DOC = REPO / "docs" / "campaigns.md"
@@ -17,12 +17,7 @@ pytestmark = [pytest.mark.sim, pytest.mark.slow]
 
 
 def test_several_candidates_of_one_scene_against_fresh_scenes():
-    command = next(
-        line for line in DOC.read_text().splitlines() if line.endswith("grasp_labels.py --quick")
-    )
-    done = subprocess.run(
-        ["bash", "-c", command], cwd=REPO, capture_output=True, text=True, timeout=600
-    )
+    done = run_printed(DOC, "grasp_labels.py --quick", timeout=600)
     assert done.returncode == 0, done.stderr[-3000:]
     out = done.stdout
     assert "rebuilt scenes matching the first build: 2 of 2" in out, out

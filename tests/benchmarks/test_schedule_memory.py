@@ -4,20 +4,16 @@ of build, with what the schedule holds."""
 from __future__ import annotations
 
 import re
-import subprocess
 from pathlib import Path
+
+from printed_commands import run_printed  # tests/printed_commands.py
 
 REPO = Path(__file__).resolve().parents[2]
 DOC = REPO / "docs" / "scale-out.md"
 
 
 def test_the_schedule_memory_benchmark_prints_what_each_schedule_holds():
-    command = next(
-        line for line in DOC.read_text().splitlines() if line.endswith("schedule_memory.py")
-    )
-    done = subprocess.run(
-        ["bash", "-c", command], cwd=REPO, capture_output=True, text=True, timeout=300
-    )
+    done = run_printed(DOC, "schedule_memory.py", timeout=300)
     assert done.returncode == 0, done.stderr[-3000:]
     lines = re.findall(
         r"([\d,]+) samples, (fresh|half durable)\s*: holds\s+([\d.]+) MB", done.stdout

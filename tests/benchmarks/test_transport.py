@@ -11,6 +11,7 @@ import subprocess
 from pathlib import Path
 
 import pytest
+from printed_commands import printed_line  # tests/printed_commands.py
 
 REPO = Path(__file__).resolve().parents[2]
 DOC = REPO / "docs" / "scale-out.md"
@@ -19,9 +20,7 @@ pytestmark = [pytest.mark.sim, pytest.mark.mqtt, pytest.mark.slow]
 
 
 def test_the_quick_transport_benchmark_prints_its_ratio_and_an_exact_verified_count(tmp_path):
-    command = next(
-        line for line in DOC.read_text().splitlines() if line.endswith("transport.py --quick")
-    )
+    command = printed_line(DOC, "transport.py --quick")
     temp = tmp_path / "tmp"
     temp.mkdir()
     done = subprocess.run(

@@ -221,9 +221,10 @@ class _Runner:
 
 def planned_poses(
     candidate: GraspCandidate, geometry: GripperGeometry, params: ExecutionParams
-) -> tuple[float, sapien.Pose, sapien.Pose]:
-    """(opening width in metres, pre-grasp pose, grasp pose): where the planner sends the TCP
-    link for ``candidate`` (the candidate is the grasp frame, between the pads)."""
+) -> tuple[float, np.ndarray, sapien.Pose, sapien.Pose]:
+    """(opening width in metres, the TCP link's (4, 4) pose in the grasp frame at that width,
+    pre-grasp pose, grasp pose): where the planner sends the TCP link for ``candidate`` (the
+    candidate is the grasp frame, between the pads)."""
     max_width = geometry.max_width
     width = max_width if params.open_fully else min(max_width, candidate.width + params.open_margin)
     tcp_in_grasp = geometry.tcp_in_grasp(width)
@@ -232,7 +233,7 @@ def planned_poses(
         tcp_target = tcp_target @ tcp_in_grasp
     grasp = sapien.Pose(tcp_target)
     pre = sapien.Pose(grasp.p - params.pregrasp_distance * candidate.approach, grasp.q)
-    return width, pre, grasp
+    return width, tcp_in_grasp, pre, grasp
 
 
 def execute_grasp(
@@ -261,8 +262,7 @@ def execute_grasp(
         width = round(run.width(), 6)
         return GraspOutcome(success, mode, round(rise, 6), width, details, executed)
 
-    width, pre, grasp = planned_poses(candidate, run.geometry, params)
-    tcp_in_grasp = run.geometry.tcp_in_grasp(width)
+    width, tcp_in_grasp, pre, grasp = planned_poses(candidate, run.geometry, params)
     run.begin_phase("open")
     run.move_fingers(width)
     planner = make_planner(run.scene, run.robot, scene.objects, scene.spec)

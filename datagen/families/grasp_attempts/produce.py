@@ -137,13 +137,8 @@ def produce(config: BuildConfig, seed: int, index: int, attempt: int = 0) -> Sam
     (:func:`choose_target`), propose a grasp (:func:`propose_grasp`: the campaign's sampler),
     execute it (:func:`execute_proposal`), record the sample (:func:`attempt_record`)."""
     keep_renderer_alive()
-    arm = robot_spec(config.robot)  # resolved once for the sample, passed down
-    values = draw_values(config, seed, index, attempt, arm)
-    scene = sat_twin(config, build_scene(config, seed, index, attempt, values, arm))
-    campaign = scaled_to_robot(config, scene.spec).campaign  # pre-grasp and lift for a small arm
-    pre = annotate_scene(scene, config, seed, index, attempt=attempt)
-    workspace = pre.metadata["views"]["workspace"]
-    target = choose_target(sample_rng(seed, index, "grasp_target", attempt), scene, workspace)
+    scene = attempt_scene(config, seed, index, attempt)
+    campaign, pre, target = observe_attempt(config, seed, index, attempt, scene)
     result = propose_grasp(campaign, seed, index, attempt, scene, pre, target)
     recorded: dict[str, bytes] = {}  # the trajectory part and the frames
     outcome = execute_proposal(config, campaign, scene, target, result, recorded)
@@ -156,6 +151,26 @@ def produce(config: BuildConfig, seed: int, index: int, attempt: int = 0) -> Sam
     sample = to_sample(pre, config.output.png_level)
     sample.parts |= recorded
     return sample
+
+
+def attempt_scene(config: BuildConfig, seed: int, index: int, attempt: int = 0) -> GraspScene:
+    """The attempt's settled scene, drawn and built from (seed, index, attempt); the same
+    scene again on every call (a rebuild, for a further candidate of the scene)."""
+    arm = robot_spec(config.robot)  # resolved once for the sample, passed down
+    values = draw_values(config, seed, index, attempt, arm)
+    return sat_twin(config, build_scene(config, seed, index, attempt, values, arm))
+
+
+def observe_attempt(
+    config: BuildConfig, seed: int, index: int, attempt: int, scene: GraspScene
+) -> tuple[CampaignConfig, AnnotatedSample, SceneObject]:
+    """(campaign section scaled to the arm, pre-grasp frame, target) of the attempt's settled
+    ``scene``: the attempt up to the moment a grasp is proposed."""
+    campaign = scaled_to_robot(config, scene.spec).campaign  # pre-grasp and lift for a small arm
+    pre = annotate_scene(scene, config, seed, index, attempt=attempt)
+    workspace = pre.metadata["views"]["workspace"]
+    target = choose_target(sample_rng(seed, index, "grasp_target", attempt), scene, workspace)
+    return campaign, pre, target
 
 
 def propose_grasp(

@@ -34,7 +34,7 @@ class ArmReach:
         remove_obstacles(self.free)
 
     def __call__(self, candidate: GraspCandidate) -> bool:
-        _, pre, grasp = planned_poses(candidate, self.geometry, self.params)
+        _, _, pre, grasp = planned_poses(candidate, self.geometry, self.params)
         return any(
             plan_straight(self.free, grasp, q, self.time_step)["status"] == "Success"
             for q in solve_ik(self.clear, pre, self.qpos)

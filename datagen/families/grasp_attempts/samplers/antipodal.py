@@ -127,7 +127,7 @@ class AntipodalSampler:
         )
         if not found:
             return SampleResult(None, tries, reason)
-        chosen = first_reached(found, reachable)
+        _, chosen = first_reached(found, reachable)
         return SampleResult(chosen, tries, f"the first of {len(found)} the arm reaches")
 
     def draw(

@@ -68,15 +68,18 @@ class SampleResult:
 Reachable = Callable[[GraspCandidate], bool]
 
 
-def first_reached(ranked: Sequence[GraspCandidate], reachable: Reachable) -> GraspCandidate:
-    """The first of ``ranked`` the arm reaches, else the first (it will fail, unreachable);
-    its ``info`` says how many were checked and whether it was reached."""
+def first_reached(
+    ranked: Sequence[GraspCandidate], reachable: Reachable
+) -> tuple[int, GraspCandidate]:
+    """(its position in ``ranked``, the candidate): the first the arm reaches, else the first
+    (it will fail, unreachable); its ``info`` says how many were checked and whether it was
+    reached."""
     for checked, candidate in enumerate(ranked, 1):
         if reachable(candidate):
             info = candidate.info | {"reach_checked": checked, "reached": True}
-            return dataclasses.replace(candidate, info=info)
+            return checked - 1, dataclasses.replace(candidate, info=info)
     info = ranked[0].info | {"reach_checked": len(ranked), "reached": False}
-    return dataclasses.replace(ranked[0], info=info)
+    return 0, dataclasses.replace(ranked[0], info=info)
 
 
 class GraspSampler(Protocol):

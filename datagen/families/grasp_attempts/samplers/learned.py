@@ -71,8 +71,8 @@ class LearnedSampler:
         ranked = [int(i) for i in np.argsort(-scores, kind="stable")]  # equal scores: first first
         best = ranked[0]
         if reachable is not None:
-            reached = first_reached([found[i] for i in ranked], reachable)
-            best = ranked[reached.info["reach_checked"] - 1] if reached.info["reached"] else best
+            position, reached = first_reached([found[i] for i in ranked], reachable)
+            best = ranked[position]
             found[best] = reached
         info = found[best].info | {
             "candidates": len(found),
