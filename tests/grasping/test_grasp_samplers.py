@@ -11,9 +11,11 @@ import trimesh
 from datagen.assets.shapes import build_geometry
 from datagen.convex import CORNER_SIGNS, BodySet, ConvexBody
 from datagen.errors import ConfigError
+from datagen.families.grasp_attempts.grasps import GraspCandidate
 from datagen.families.grasp_attempts.gripper_geometry import gripper_geometry
 from datagen.families.grasp_attempts.samplers import GraspTarget, Obstacles, SampleResult
 from datagen.families.grasp_attempts.samplers.antipodal import PAD_MARGIN
+from datagen.families.grasp_attempts.samplers.base import REACH_ROUNDS, choose_reached
 from datagen.registries import ROBOTS, SAMPLERS
 
 TABLE = 0.75
@@ -339,7 +341,61 @@ def test_with_reach_checked_the_first_candidate_the_arm_reaches_is_chosen():
     assert result.candidate.info["reach_checked"] == first + 1 == len(checked)
     assert result.candidate.info["reached"] is True
 
-    none = sampler.sample(np.random.default_rng(7), target, obstacles, reachable=lambda c: False)
+    assert result.candidate.info["reach_rounds"] == 1
+
+    rounds = []  # the candidates of each round drawn while none is reached
+    none = sampler.sample(
+        np.random.default_rng(7), target, obstacles, reachable=lambda c: rounds.append(c) or False
+    )
     assert np.array_equal(none.candidate.pose_world, found[0].pose_world)
     assert none.candidate.info["reached"] is False
-    assert none.candidate.info["reach_checked"] == len(found)
+    assert none.candidate.info["reach_rounds"] == REACH_ROUNDS
+    assert none.candidate.info["reach_checked"] == len(rounds) == REACH_ROUNDS * len(found)
+    assert len({c.pose_world.tobytes() for c in rounds}) == len(rounds)  # each round new ones
+
+
+def test_while_no_candidate_drawn_is_reached_another_round_is_drawn():
+    """The arm reaches none of the first round's candidates: the sampler draws a second round
+    from the same stream and executes the first of it the arm reaches."""
+    target = on_table(trimesh.creation.box(extents=(0.05, 0.04, 0.06)))
+    sampler, obstacles = make_sampler("antipodal"), Obstacles([], TABLE)
+    rng = np.random.default_rng(7)
+    first = sampler.draw(rng, target, obstacles, 16, 200, 4)[0]
+    second = sampler.draw(rng, target, obstacles, 16, 200, 4)[0]
+    refused = {c.pose_world.tobytes() for c in first}
+
+    result = sampler.sample(
+        np.random.default_rng(7),
+        target,
+        obstacles,
+        reachable=lambda c: c.pose_world.tobytes() not in refused,
+    )
+    assert np.array_equal(result.candidate.pose_world, second[0].pose_world)
+    info = result.candidate.info
+    assert (info["reached"], info["reach_rounds"], info["reach_checked"]) == (
+        True,
+        2,
+        len(first) + 1,
+    )
+
+
+def test_choosing_among_rounds_keeps_the_best_of_the_first_when_none_is_reached():
+    """``choose_reached`` as a pure function: rounds ranked by their own order, the first
+    reached taken, and the best of the first round when none is."""
+    rounds = iter([[_candidate(0), _candidate(1)], [_candidate(2), _candidate(3)], []])
+    worst_first = choose_reached(lambda: (next(rounds), 5, "found"), lambda f: [1, 0], bool)
+    assert worst_first.chosen == 1 and worst_first.tries == 5  # ranked first, reached
+
+    rounds = iter([[_candidate(0), _candidate(1)], [_candidate(2), _candidate(3)], []])
+    never = choose_reached(lambda: (next(rounds), 5, "found"), lambda f: [1, 0], lambda c: False)
+    assert never.chosen == 1 and len(never.drawn) == 4 and never.tries == 15
+    assert never.drawn[1].info == {"reach_checked": 4, "reached": False, "reach_rounds": 3}
+
+    nothing = choose_reached(lambda: ([], 200, "no antipodal grasp"), lambda f: [], bool)
+    assert (nothing.chosen, nothing.drawn, nothing.reason) == (-1, [], "no antipodal grasp")
+
+
+def _candidate(n: int) -> GraspCandidate:
+    pose = np.eye(4)
+    pose[0, 3] = n
+    return GraspCandidate(pose, 0.05, "antipodal", np.zeros((2, 3)), {})

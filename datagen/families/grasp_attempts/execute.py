@@ -15,6 +15,7 @@ from __future__ import annotations
 from dataclasses import asdict, dataclass
 from typing import Any
 
+import mplib
 import numpy as np
 import sapien
 
@@ -236,6 +237,27 @@ def planned_poses(
     return width, tcp_in_grasp, pre, grasp
 
 
+def plan_lift(
+    planner: mplib.Planner,
+    tcp: sapien.Pose,
+    grasp: sapien.Pose,
+    qpos: np.ndarray,
+    lift_height: float,
+    time_step: float,
+) -> dict[str, Any]:
+    """A straight lift of the TCP by ``lift_height`` metres in world z from ``tcp``, keeping its
+    rotation; else (``planned`` true) the planned grasp's. mplib's screw failed from the
+    closed hand's own rotation, a few milliradians off the one its forward kinematics gives,
+    where the planned rotation lifted the same hand (4 of the panda's 11 unreachable attempts on
+    held-out objects, docs/campaigns.md)."""
+    up = np.add(tcp.p, [0.0, 0.0, lift_height])
+    lift = plan_straight(planner, sapien.Pose(up, tcp.q), qpos, time_step)
+    if lift["status"] == "Success":
+        return lift | {"planned": False}
+    lifted = sapien.Pose(up, grasp.q)
+    return plan_straight(planner, lifted, qpos, time_step) | {"planned": True}
+
+
 def execute_grasp(
     scene: GraspScene,
     target_instance_id: int,
@@ -302,11 +324,10 @@ def execute_grasp(
     held_after_close = run.held() and run.width() > run.closed + params.closed_width
     details["close"] = {"width": round(run.width(), 6), "held": held_after_close}
 
-    tcp = run.tcp.entity_pose
-    lift = plan_straight(
-        planner, sapien.Pose(np.add(tcp.p, [0, 0, params.lift_height]), tcp.q), run.qpos(), run.dt
+    lift = plan_lift(planner, run.tcp.entity_pose, grasp, run.qpos(), params.lift_height, run.dt)
+    details["lift"] = {"status": lift["status"]} | (
+        {"rotation": "planned"} if lift["planned"] else {}
     )
-    details["lift"] = {"status": lift["status"]}
     if lift["status"] == "Success":
         run.follow(lift)
     run.begin_phase("hold")

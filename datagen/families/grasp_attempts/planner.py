@@ -128,7 +128,9 @@ def solve_ik(planner: ArmPlanner, pose: sapien.Pose, qpos: np.ndarray) -> list[n
     return solutions
 
 
-def _straight_path_free(planner: mplib.Planner, start: np.ndarray, goal: np.ndarray) -> bool:
+def straight_path_free(planner: mplib.Planner, start: np.ndarray, goal: np.ndarray) -> bool:
+    """Whether the straight joint-space path from ``start`` to ``goal`` (the move group's
+    joints, radians) is collision-free, checked every ``INTERP_STEP``."""
     n = max(2, int(np.ceil(np.abs(goal - start).max() / INTERP_STEP)) + 1)
     for q in np.linspace(start, goal, n):
         planner.planning_world.set_qpos_all(q)
@@ -147,7 +149,7 @@ def plan_transit(
     if not solutions:
         return {"status": "IK failed", "method": "ik"}
     for goal in solutions:
-        if _straight_path_free(planner, qpos[idx], goal[idx]):
+        if straight_path_free(planner, qpos[idx], goal[idx]):
             path = np.linspace(qpos[idx], goal[idx], 8)
             _, pos, vel, _, _ = planner.TOPP(path, time_step)
             return {"status": "Success", "method": "joint_line", "position": pos, "velocity": vel}

@@ -30,7 +30,7 @@ from datagen.families.grasp_attempts.samplers.base import (
     Obstacles,
     Reachable,
     SampleResult,
-    first_reached,
+    choose_reached,
 )
 from datagen.grasp_model.inputs import DepthView
 
@@ -122,13 +122,17 @@ class AntipodalSampler:
         if reachable is None:
             found, tries, reason = self.draw(rng, target, obstacles, 1, max_tries)
             return SampleResult(found[0] if found else None, tries, reason)
-        found, tries, reason = self.draw(
-            rng, target, obstacles, self.reach_candidates, max_tries, APPROACHES_PER_PAIR
+        reached = choose_reached(
+            lambda: self.draw(
+                rng, target, obstacles, self.reach_candidates, max_tries, APPROACHES_PER_PAIR
+            ),
+            lambda found: list(range(len(found))),
+            reachable,
         )
-        if not found:
-            return SampleResult(None, tries, reason)
-        _, chosen = first_reached(found, reachable)
-        return SampleResult(chosen, tries, f"the first of {len(found)} the arm reaches")
+        if reached.chosen < 0:
+            return SampleResult(None, reached.tries, reached.reason)
+        chosen = reached.drawn[reached.chosen]
+        return SampleResult(chosen, reached.tries, f"the first of {len(reached.drawn)} reached")
 
     def draw(
         self,

@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import dataclasses
-from collections.abc import Callable, Sequence
+from collections.abc import Callable
 from dataclasses import dataclass
 from functools import cached_property
 from typing import Protocol
@@ -66,20 +66,65 @@ class SampleResult:
 
 # whether the arm reaches a candidate as execution will plan it (``grasp_attempts.reach``)
 Reachable = Callable[[GraspCandidate], bool]
+# one round of candidates: (candidates, tries, reason), no candidate when the sampler found none
+Draw = Callable[[], tuple[list[GraspCandidate], int, str]]
+Rank = Callable[[list[GraspCandidate]], list[int]]  # a round's indices, best first
+# rounds of K candidates drawn while none drawn is reached: 3 of the panda's 11 unreachable
+# attempts on held-out objects had 1-2 candidates in one round, none reached, where 400 tries
+# found reached ones (docs/campaigns.md)
+REACH_ROUNDS = 3
 
 
-def first_reached(
-    ranked: Sequence[GraspCandidate], reachable: Reachable
-) -> tuple[int, GraspCandidate]:
-    """(its position in ``ranked``, the candidate): the first the arm reaches, else the first
-    (it will fail, unreachable); its ``info`` says how many were checked and whether it was
-    reached."""
-    for checked, candidate in enumerate(ranked, 1):
-        if reachable(candidate):
-            info = candidate.info | {"reach_checked": checked, "reached": True}
-            return checked - 1, dataclasses.replace(candidate, info=info)
-    info = ranked[0].info | {"reach_checked": len(ranked), "reached": False}
-    return 0, dataclasses.replace(ranked[0], info=info)
+@dataclass(frozen=True)
+class Reached:
+    """What :func:`choose_reached` drew and chose."""
+
+    drawn: list[GraspCandidate]  # every candidate, round after round, in the order drawn
+    chosen: int  # index into ``drawn``; -1 when the first round found none
+    tries: int  # summed over the rounds
+    reason: str  # the last round's
+
+
+def choose_reached(
+    draw: Draw, rank: Rank, reachable: Reachable, rounds: int = REACH_ROUNDS
+) -> Reached:
+    """Draws a round of candidates, ranks it and takes the first the arm reaches; while none is
+    reached, draws another round, up to ``rounds``. None reached: the best of the first round
+    (it will fail, unreachable). The chosen candidate's ``info`` says how many were planned
+    (``reach_checked``), whether it was reached and in how many rounds (``reach_rounds``)."""
+    drawn: list[GraspCandidate] = []
+    checked = tries = best = 0
+    reason = ""
+    for done in range(1, rounds + 1):
+        found, spent, reason = draw()
+        tries += spent
+        if not found:
+            break
+        start = len(drawn)
+        drawn += found
+        order = rank(found)
+        best = best if done > 1 else order[0]
+        for i in order:
+            checked += 1
+            if reachable(found[i]):
+                chosen = start + i
+                return Reached(_marked(drawn, chosen, checked, True, done), chosen, tries, reason)
+    if not drawn:
+        return Reached([], -1, tries, reason)
+    return Reached(_marked(drawn, best, checked, False, done), best, tries, reason)
+
+
+def _marked(
+    drawn: list[GraspCandidate], chosen: int, checked: int, reached: bool, rounds: int
+) -> list[GraspCandidate]:
+    info = drawn[chosen].info | {
+        "reach_checked": checked,
+        "reached": reached,
+        "reach_rounds": rounds,
+    }
+    marked = list(drawn)
+    marked[chosen] = dataclasses.replace(drawn[chosen], info=info)
+    return marked
 
 
 class GraspSampler(Protocol):

@@ -16,6 +16,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from datagen.config.sections import CampaignConfig
+from datagen.families.grasp_attempts.grasps import GraspCandidate
 from datagen.families.grasp_attempts.gripper_geometry import GripperGeometry
 from datagen.families.grasp_attempts.samplers.antipodal import (
     APPROACHES_PER_PAIR,
@@ -26,7 +27,7 @@ from datagen.families.grasp_attempts.samplers.base import (
     Obstacles,
     Reachable,
     SampleResult,
-    first_reached,
+    choose_reached,
 )
 from datagen.grasp_model.inputs import DepthView, grasp_batch
 from datagen.grasp_model.model_file import GraspModel, cached_model
@@ -59,26 +60,37 @@ class LearnedSampler:
     ) -> SampleResult:
         if view is None:
             raise ValueError("the learned sampler scores candidates from a depth view: none given")
-        found, tries, reason = self.antipodal.draw(
-            rng, target, obstacles, self.candidates, max_tries, self.approaches_per_pair
-        )
-        if not found:
-            return SampleResult(None, tries, reason)
-        crops, features = grasp_batch(
-            view, [(c.pose_world, c.width) for c in found], self.model.crop_size
-        )
-        scores = self.model.score(crops, features)
-        ranked = [int(i) for i in np.argsort(-scores, kind="stable")]  # equal scores: first first
-        best = ranked[0]
-        if reachable is not None:
-            position, reached = first_reached([found[i] for i in ranked], reachable)
-            best = ranked[position]
-            found[best] = reached
-        info = found[best].info | {
-            "candidates": len(found),
-            "scores": [round(float(s), 6) for s in scores],
-            "chosen": best,
-        }
+        scores: list[float] = []
+
+        def draw() -> tuple[list[GraspCandidate], int, str]:
+            return self.antipodal.draw(
+                rng, target, obstacles, self.candidates, max_tries, self.approaches_per_pair
+            )
+
+        def rank(found: list[GraspCandidate]) -> list[int]:
+            crops, features = grasp_batch(
+                view, [(c.pose_world, c.width) for c in found], self.model.crop_size
+            )
+            scored = self.model.score(crops, features)
+            scores.extend(round(float(s), 6) for s in scored)
+            return [int(i) for i in np.argsort(-scored, kind="stable")]  # ties: first first
+
+        if reachable is None:
+            found, tries, reason = draw()
+            if not found:
+                return SampleResult(None, tries, reason)
+            best = rank(found)[0]
+        else:
+            reached = choose_reached(draw, rank, reachable)
+            found, best, tries, reason = (
+                reached.drawn,
+                reached.chosen,
+                reached.tries,
+                reached.reason,
+            )
+            if best < 0:
+                return SampleResult(None, tries, reason)
+        info = found[best].info | {"candidates": len(found), "scores": scores, "chosen": best}
         chosen = dataclasses.replace(found[best], sampler=self.name, info=info)
         which = "the best" if reachable is None else "the best the arm reaches"
         return SampleResult(chosen, tries, f"{which} of {len(found)} by the model")
