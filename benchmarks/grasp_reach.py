@@ -8,10 +8,11 @@ rebuilt from the campaign's config, seed and index, the target chosen again, and
 sampler asked for every candidate it finds in ``--tries`` tries: every clear approach of every
 contact pair, from the attempt's own ``grasp`` stream. Each is planned as the campaign executes
 it (``datagen.families.grasp_attempts.reach``, what ``campaign.check_reach`` asks): collision-free
-IK at the pre-grasp pose, then a straight approach to the grasp pose. Printed per
-attempt: the target, its horizontal distance from the base, the candidates, the range of their
-approach's tilt from straight down and how many the arm reaches; then how many attempts have
-none, which bounds any sampler that chooses among these candidates.
+IK at the pre-grasp pose, a straight approach to the grasp pose and a straight lift. Printed per
+attempt: the target, its extents, its horizontal distance from the base, the candidates, the
+range of their approach's tilt from straight down and how many the arm reaches (and, for an
+attempt whose sampler found none, the reasons it recorded); then how many attempts have none,
+which bounds any sampler that chooses among these candidates.
 """
 
 from __future__ import annotations
@@ -67,6 +68,7 @@ def reach_of(config, seed: int, index: int, tries: int) -> dict:
     return {
         "class": target.class_name,
         "distance_m": math.hypot(centre[0] - base[0], centre[1] - base[1]),
+        "extents_m": sorted(float(e) for e in target.geometry.obb_extents),
         "candidates": len(found),
         "tilts": (min(tilts), max(tilts)) if tilts else None,
         "reached": reached,
@@ -83,21 +85,26 @@ def main() -> None:
     )
     dataset = load(args.campaign)
     config = config_from_dict(dataset.manifest["config"], str(args.campaign / "manifest.json"))
-    chosen = []
+    chosen, reasons = [], {}
     for i in range(len(dataset)):
         record = dataset.metadata(i)["attempt"]
         if (record["outcome"]["failure_mode"] or "success") in args.modes:
             chosen.append((int(record["scene_seed"]), int(record["index"])))
+            # why a sampler found none: its rejections, most frequent first
+            reasons[int(record["index"])] = record["outcome"]["details"].get("reason", "")
     dataset.close()
     none = 0
     for seed, index in chosen:
         found = reach_of(config, seed, index, args.tries)
         none += found["reached"] == 0
         tilts = "-".join(f"{t:.0f}" for t in found["tilts"]) if found["tilts"] else "-"
+        why = f"; the campaign's sampler: {reasons[index]}" if reasons[index] else ""
         print(
-            f"  attempt {index}: {found['class']} {found['distance_m']:.3f} m from the base, "
+            f"  attempt {index}: {found['class']} "
+            f"({' x '.join(f'{e:.3f}' for e in found['extents_m'])} m) "
+            f"{found['distance_m']:.3f} m from the base, "
             f"{found['candidates']} candidates ({tilts} deg from straight down), "
-            f"{found['reached']} reached",
+            f"{found['reached']} reached{why}",
             flush=True,
         )
     print(

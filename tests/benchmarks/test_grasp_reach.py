@@ -24,10 +24,15 @@ def test_every_candidate_of_the_chosen_attempts_is_planned(campaign_dataset):
     )
     assert done.returncode == 0, done.stderr[-3000:]
     attempts = re.findall(
-        r"attempt (\d+): \w+ [\d.]+ m from the base, (\d+) candidates .* (\d+) reached", done.stdout
+        r"attempt (\d+): \w+ \(([\d.]+) x ([\d.]+) x ([\d.]+) m\) [\d.]+ m from the base, "
+        r"(\d+) candidates .* (\d+) reached",
+        done.stdout,
     )
-    assert [int(index) for index, _, _ in attempts] == [0, 1, 2], done.stdout
-    assert all(int(reached) <= int(found) for _, found, reached in attempts), done.stdout
+    assert [int(index) for index, *_ in attempts] == [0, 1, 2], done.stdout
+    for _, *extents, found, reached in attempts:
+        assert 0 < float(extents[0]) <= float(extents[1]) <= float(extents[2]) < 0.5
+        assert int(reached) <= int(found), done.stdout
+    attempts = [(index, found, reached) for index, *_, found, reached in attempts]
     summary = re.search(
         r": (\d+) of 3 attempts \(.*\) have no candidate the arm reaches", done.stdout
     )

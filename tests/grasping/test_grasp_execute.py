@@ -11,8 +11,9 @@ import sapien
 from datagen.assets.tabletop_layout import TRAY_CENTRE, TRAY_FLOOR
 from datagen.config import BuildConfig
 from datagen.config.sections import ObjectsConfig
-from datagen.families.grasp_attempts.execute import ExecutionParams, execute_grasp
+from datagen.families.grasp_attempts.execute import ExecutionParams, execute_grasp, plan_lift
 from datagen.families.grasp_attempts.grasps import GraspCandidate
+from datagen.families.grasp_attempts.planner import make_planner, plan_straight, remove_obstacles
 from datagen.families.grasp_tabletop.world import GraspScene, build_scene
 
 pytestmark = pytest.mark.sim
@@ -88,3 +89,30 @@ def test_same_attempt_gives_the_same_outcome(easy):
     scene = box_scene()
     again = execute_grasp(scene, 1, top_down(scene), PARAMS)
     assert json.dumps(again.to_json(), sort_keys=True) == json.dumps(easy.to_json(), sort_keys=True)
+
+
+def test_a_lift_the_screw_cannot_plan_from_the_hands_rotation_keeps_the_planned_one():
+    """``plan_lift`` lifts from the hand's own rotation, and falls back to the planned grasp's
+    when mplib's screw cannot plan from it (here the hand's pose turned half a turn about the
+    approach: a screw of pi, which mplib refuses)."""
+    scene = box_scene()
+    planner = make_planner(scene.scene, scene.robot, scene.objects, scene.spec)
+    remove_obstacles(planner)
+    tcp_link = next(
+        x for x in scene.robot.get_links() if x.get_name() == scene.spec.gripper.tcp_link
+    )
+    hand, qpos = tcp_link.entity_pose, np.asarray(scene.robot.get_qpos(), float)
+    dt = scene.scene.get_timestep()
+
+    held = plan_lift(planner, hand, hand, qpos, PARAMS.lift_height, dt)
+    assert (held["status"], held["planned"]) == ("Success", False)
+
+    turned = hand * sapien.Pose(q=[0.0, 0.0, 0.0, 1.0])  # half a turn about the TCP's z
+    refused = plan_straight(
+        planner, sapien.Pose(np.add(hand.p, [0, 0, PARAMS.lift_height]), turned.q), qpos, dt
+    )
+    assert refused["status"] != "Success"
+    lifted = plan_lift(planner, turned, hand, qpos, PARAMS.lift_height, dt)
+    assert (lifted["status"], lifted["planned"]) == ("Success", True)
+    end = lifted["position"][-1]
+    assert len(end) == len(planner.move_group_joint_indices)

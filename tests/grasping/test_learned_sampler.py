@@ -97,6 +97,8 @@ def test_with_reach_checked_the_best_scored_candidate_the_arm_reaches_is_execute
         if b["grasp"] is None:
             continue
         info = b["grasp"]["info"]
+        if info["reach_rounds"] > 1:
+            continue  # each round ranked on its own: test_grasp_samplers.py
         ranked = sorted(range(len(info["scores"])), key=lambda i: -info["scores"][i])
         assert 1 <= info["reach_checked"] <= info["candidates"]
         expected = ranked[info["reach_checked"] - 1] if info["reached"] else ranked[0]
