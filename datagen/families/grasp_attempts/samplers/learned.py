@@ -82,14 +82,9 @@ class LearnedSampler:
             best = rank(found)[0]
         else:
             reached = choose_reached(draw, rank, reachable)
-            found, best, tries, reason = (
-                reached.drawn,
-                reached.chosen,
-                reached.tries,
-                reached.reason,
-            )
-            if best < 0:
-                return SampleResult(None, tries, reason)
+            if reached.chosen < 0:
+                return SampleResult(None, reached.tries, reached.reason)
+            found, best, tries = reached.drawn, reached.chosen, reached.tries
         info = found[best].info | {"candidates": len(found), "scores": scores, "chosen": best}
         chosen = dataclasses.replace(found[best], sampler=self.name, info=info)
         which = "the best" if reachable is None else "the best the arm reaches"
