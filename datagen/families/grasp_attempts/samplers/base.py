@@ -69,9 +69,10 @@ Reachable = Callable[[GraspCandidate], bool]
 # one round of candidates: (candidates, tries, reason), no candidate when the sampler found none
 Draw = Callable[[], tuple[list[GraspCandidate], int, str]]
 Rank = Callable[[list[GraspCandidate]], list[int]]  # a round's indices, best first
-# rounds of K candidates drawn while none drawn is reached: 3 of the panda's 11 unreachable
-# attempts on held-out objects had 1-2 candidates in one round, none reached, where 400 tries
-# found reached ones (docs/campaigns.md)
+# rounds of K candidates drawn while none drawn is reached, a round that found none included:
+# 3 of the panda's 11 unreachable attempts on held-out objects had 1-2 candidates in one round,
+# none reached, where 400 tries found reached ones; 4 of its 32 attempts without a candidate in
+# 200 tries had one in 400 (docs/campaigns.md)
 REACH_ROUNDS = 3
 
 
@@ -80,7 +81,7 @@ class Reached:
     """What :func:`choose_reached` drew and chose."""
 
     drawn: list[GraspCandidate]  # every candidate, round after round, in the order drawn
-    chosen: int  # index into ``drawn``; -1 when the first round found none
+    chosen: int  # index into ``drawn``; -1 when no round found any
     tries: int  # summed over the rounds
     reason: str  # the last round's
 
@@ -89,9 +90,10 @@ def choose_reached(
     draw: Draw, rank: Rank, reachable: Reachable, rounds: int = REACH_ROUNDS
 ) -> Reached:
     """Draws a round of candidates, ranks it and takes the first the arm reaches; while none is
-    reached, draws another round, up to ``rounds``. None reached: the best of the first round
-    (it will fail, unreachable). The chosen candidate's ``info`` says how many were planned
-    (``reach_checked``), whether it was reached and in how many rounds (``reach_rounds``)."""
+    reached (a round that found none included), draws another round, up to ``rounds``. None
+    reached: the best of the first round that found any (it will fail, unreachable). The chosen
+    candidate's ``info`` says how many were planned (``reach_checked``), whether it was reached
+    and in how many rounds (``reach_rounds``)."""
     drawn: list[GraspCandidate] = []
     checked = tries = best = 0
     reason = ""
@@ -99,18 +101,19 @@ def choose_reached(
         found, spent, reason = draw()
         tries += spent
         if not found:
-            break
+            continue
         start = len(drawn)
         drawn += found
         order = rank(found)
-        best = best if done > 1 else order[0]
+        best = best if start else order[0]
         for i in order:
             checked += 1
             if reachable(found[i]):
                 chosen = start + i
                 return Reached(_marked(drawn, chosen, checked, True, done), chosen, tries, reason)
     if not drawn:
-        return Reached([], -1, tries, reason)
+        each = f", in each of {rounds} rounds" if rounds > 1 else ""
+        return Reached([], -1, tries, reason + each)
     return Reached(_marked(drawn, best, checked, False, done), best, tries, reason)
 
 
