@@ -392,7 +392,30 @@ def test_choosing_among_rounds_keeps_the_best_of_the_first_when_none_is_reached(
     assert never.drawn[1].info == {"reach_checked": 4, "reached": False, "reach_rounds": 3}
 
     nothing = choose_reached(lambda: ([], 200, "no antipodal grasp"), lambda f: [], bool)
-    assert (nothing.chosen, nothing.drawn, nothing.reason) == (-1, [], "no antipodal grasp")
+    assert (nothing.chosen, nothing.drawn, nothing.tries) == (-1, [], 600)
+    assert nothing.reason == "no antipodal grasp, in each of 3 rounds"
+    once = choose_reached(lambda: ([], 200, "no antipodal grasp"), lambda f: [], bool, rounds=1)
+    assert (once.tries, once.reason) == (200, "no antipodal grasp")
+
+
+def test_a_round_without_candidates_is_followed_by_another():
+    """A round that found no candidate reached none either: the next round is drawn, and when
+    none is reached the best of the first round that found any is kept."""
+    rounds = iter([[], [_candidate(0), _candidate(1)], []])
+    late = choose_reached(lambda: (next(rounds), 200, "r"), lambda f: [1, 0], bool)
+    assert (late.chosen, late.tries, len(late.drawn)) == (1, 400, 2)
+    assert late.drawn[1].info == {"reach_checked": 1, "reached": True, "reach_rounds": 2}
+
+    rounds = iter([[], [_candidate(0), _candidate(1)], [_candidate(2)]])
+    never = choose_reached(
+        lambda: (next(rounds), 200, "r"), lambda f: list(range(len(f)))[::-1], _no
+    )
+    assert (never.chosen, never.tries, len(never.drawn)) == (1, 600, 3)
+    assert never.drawn[1].info == {"reach_checked": 3, "reached": False, "reach_rounds": 3}
+
+
+def _no(candidate: GraspCandidate) -> bool:
+    return False
 
 
 def _candidate(n: int) -> GraspCandidate:
