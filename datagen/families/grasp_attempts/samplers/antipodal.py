@@ -266,32 +266,18 @@ class AntipodalSampler:
         if self.allow_side:
             groups.append(rng.permutation(np.flatnonzero(~down)))
         boxes = self.gripper.boxes(width, self.pregrasp_distance)
-        depths = self.depths(width)
         for group in (g for g in groups if g.size):
             chosen = approaches[group]
-            frame = np.zeros((len(group), 4, 4))
-            frame[:, :3, 0] = np.cross(closing, chosen)
-            frame[:, :3, 1] = closing
-            frame[:, :3, 2] = chosen
-            frame[:, 3, 3] = 1.0
-            # the nearest depth alone (it is usually clear), then every further one in one
-            # batch: a box's answer does not depend on its batch, so the result is the same as
-            # depth by depth, at a fraction of the calls where every approach collides
-            for batch in (depths[:1], depths[1:]):
-                if not batch.size:
-                    continue
-                poses = np.repeat(frame[None], len(batch), axis=0)  # (D, P, 4, 4)
-                poses[:, :, :3, 3] = centre - batch[:, None, None] * chosen
+            poses = np.zeros((len(group), 4, 4))
+            poses[:, :3, 0] = np.cross(closing, chosen)
+            poses[:, :3, 1] = closing
+            poses[:, :3, 2] = chosen
+            poses[:, 3, 3] = 1.0
+            for depth in self.depths(width):  # only the position changes with the depth
+                poses[:, :3, 3] = centre - depth * chosen
                 hit = self.gripper.collisions(
-                    poses.reshape(-1, 4, 4),
-                    width,
-                    blocking,
-                    obstacles.table_z,
-                    self.pregrasp_distance,
-                    boxes,
-                ).reshape(len(batch), -1)
-                clear = np.flatnonzero(~hit.all(axis=1))
-                if clear.size:
-                    at = clear[0]
-                    return poses[at][~hit[at]], float(batch[at])
+                    poses, width, blocking, obstacles.table_z, self.pregrasp_distance, boxes
+                )
+                if not hit.all():
+                    return poses[~hit], float(depth)
         return None
