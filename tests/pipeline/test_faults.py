@@ -255,10 +255,29 @@ def _start_cli_build(tmp_path: Path, out: Path, *options: str) -> subprocess.Pop
 def _wait_for_samples_on_disk(
     out: Path, minimum_bytes: int = 60_000, timeout_s: float = 120
 ) -> None:
+    """Until the shards hold ``minimum_bytes`` and the writer has journalled a sample as
+    durable: bytes in a shard are not yet durable (on a loaded machine the kill can come
+    between the two, and the resumed build then has nothing to keep)."""
     deadline = time.monotonic() + timeout_s
-    while sum(p.stat().st_size for p in out.glob("*.tar")) < minimum_bytes:
-        assert time.monotonic() < deadline, "the build wrote nothing"
+    while _shard_bytes(out) < minimum_bytes or not _journalled_durable(out):
+        assert time.monotonic() < deadline, "the build wrote nothing durable"
         time.sleep(0.2)
+
+
+def _shard_bytes(out: Path) -> int:
+    return sum(p.stat().st_size for p in out.glob("*.tar"))
+
+
+def _journalled_durable(out: Path) -> bool:
+    """Whether a writer's journal has a line making a sample durable."""
+    for journal in out.glob(".writer-*.journal"):
+        for line in journal.read_text().splitlines():
+            try:
+                if json.loads(line).get("samples", 0) > 0:
+                    return True
+            except json.JSONDecodeError:  # a line cut by the kill
+                continue
+    return False
 
 
 def _processes_using(out: Path) -> list[psutil.Process]:
