@@ -44,7 +44,12 @@ def arguments() -> argparse.Namespace:
     parser.add_argument("--size", default="320x240", help="camera width x height (320x240)")
     parser.add_argument("--candidates", type=int, default=16, help="K, candidates scored (16)")
     parser.add_argument("--workers", type=int, default=2, help="campaign workers (2)")
-    return parser.parse_args()
+    parser.add_argument(
+        "--samplers", nargs="+", choices=SAMPLERS, default=list(SAMPLERS), help="(all four)"
+    )
+    args = parser.parse_args()
+    args.samplers = [BASE] + [s for s in args.samplers if s != BASE]  # the ratios' base first
+    return args
 
 
 def attempts_per_s(sampler: str, args) -> float:
@@ -91,9 +96,9 @@ def main() -> int:
         f"{' '.join(sys.argv[1:])}; commit {commit(REPO)}",
         flush=True,
     )
-    rates: dict[str, list[float]] = {sampler: [] for sampler in SAMPLERS}
+    rates: dict[str, list[float]] = {sampler: [] for sampler in args.samplers}
     for repeat in range(1, args.repeats + 1):
-        for sampler in SAMPLERS:
+        for sampler in args.samplers:
             rates[sampler].append(attempts_per_s(sampler, args))
             print(f"  repeat {repeat}: {sampler} {rates[sampler][-1]:.3f} attempts/s", flush=True)
     print(
