@@ -5,8 +5,8 @@ run in turn ``--repeats`` times.
     .venv/bin/python benchmarks/grasp_speed.py --model MODEL.onnx [--arm panda] [--repeats 3]
 
 A campaign's attempts/s measured once, minutes apart from another's, moves with the machine:
-on a shared 2-core host the same campaign (same code, same outcomes) ran at 0.96 and at 0.66
-attempts/s an hour apart. Here the samplers take turns, so a drift slows each alike: printed
+on a shared 2-core host the same campaign (same code, same outcome for every attempt) ran at
+0.96 attempts/s one day and 0.66 the next. Here the samplers take turns, so a drift slows each alike: printed
 are each sampler's attempts/s (mean ± standard error over the repeats, from the first durable
 attempt to the last) and its ratio to the antipodal sampler's within each repeat (mean ±
 standard error), the figure the learned sampler's speed target is stated in. The scenes are
