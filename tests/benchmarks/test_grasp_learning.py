@@ -3,19 +3,12 @@ among the antipodal sampler's candidates), from recorded outcomes."""
 
 from __future__ import annotations
 
-from pathlib import Path
-
 import pytest
-
-REPO = Path(__file__).resolve().parents[2]
 
 
 @pytest.fixture
-def grasp_learning(monkeypatch):
-    monkeypatch.syspath_prepend(str(REPO / "benchmarks"))
-    import grasp_learning
-
-    return grasp_learning
+def grasp_learning(benchmark_module):
+    return benchmark_module("grasp_learning")
 
 
 def test_the_learned_sampler_is_bounded_by_the_attempts_with_a_candidate(grasp_learning):

@@ -4,19 +4,13 @@ repeat, so a machine that slows between repeats slows both sides of it alike."""
 from __future__ import annotations
 
 import math
-from pathlib import Path
 
 import pytest
 
-REPO = Path(__file__).resolve().parents[2]
-
 
 @pytest.fixture
-def grasp_speed(monkeypatch):
-    monkeypatch.syspath_prepend(str(REPO / "benchmarks"))
-    import grasp_speed
-
-    return grasp_speed
+def grasp_speed(benchmark_module):
+    return benchmark_module("grasp_speed")
 
 
 def test_ratios_are_taken_within_each_repeat(grasp_speed):

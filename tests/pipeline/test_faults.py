@@ -31,6 +31,7 @@ from datagen.transport.publisher import SamplePublisher
 from datagen.transport.run_binding import RunBinding, config_digest
 from datagen.transport.topics import topics
 from datagen.transport.wire import encode_sample
+from datagen.writer.journal_lines import journal_entries
 
 pytestmark = [pytest.mark.sim, pytest.mark.mqtt, pytest.mark.slow]  # real builds
 
@@ -269,15 +270,13 @@ def _shard_bytes(out: Path) -> int:
 
 
 def _journalled_durable(out: Path) -> bool:
-    """Whether a writer's journal has a line making a sample durable."""
-    for journal in out.glob(".writer-*.journal"):
-        for line in journal.read_text().splitlines():
-            try:
-                if json.loads(line).get("samples", 0) > 0:
-                    return True
-            except json.JSONDecodeError:  # a line cut by the kill
-                continue
-    return False
+    """Whether a writer's journal has a line making a sample durable (read as recovery reads
+    it: a line the writer is still appending is skipped)."""
+    return any(
+        entry["samples"] > 0
+        for journal in out.glob(".writer-*.journal")
+        for entry in journal_entries(journal, strict=False)
+    )
 
 
 def _processes_using(out: Path) -> list[psutil.Process]:
