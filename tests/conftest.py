@@ -3,6 +3,7 @@
 
 from __future__ import annotations
 
+import importlib
 import json
 import os
 import shutil
@@ -12,6 +13,7 @@ import sys
 import uuid
 from collections.abc import Callable, Iterator, Sequence
 from pathlib import Path
+from types import ModuleType
 
 import cv2
 import numpy as np
@@ -182,6 +184,18 @@ def start_writer(
     yield start
     for w in started:
         w.stop()
+
+
+@pytest.fixture
+def benchmark_module(monkeypatch) -> Callable[[str], ModuleType]:
+    """A script of ``benchmarks/`` imported as a module, as it imports its neighbours (that
+    folder on the path)."""
+
+    def imported(name: str) -> ModuleType:
+        monkeypatch.syspath_prepend(str(Path(__file__).resolve().parents[1] / "benchmarks"))
+        return importlib.import_module(name)
+
+    return imported
 
 
 def python_lines(code: str, *args: object, timeout: float = 600) -> list[str]:
