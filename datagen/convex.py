@@ -1,9 +1,9 @@
-"""Exact collision checks of convex polyhedra: a convex body and separating-axis tests (box
-against body, body against body).
+"""Exact collision checks of convex polyhedra: a convex body, oriented boxes against bodies
+(separating axes, then vertices and edges) and bodies against bodies (separating axes).
 
-Collision is a separating-axis test between an oriented box and an obstacle, taken as a convex
-polyhedron: exact for convex parts, conservative (the convex hull) for anything else, so pass
-objects as their convex parts. The gripper's boxes: :mod:`datagen.families.grasp_attempts.gripper_geometry`.
+An obstacle is taken as a convex polyhedron: exact for convex parts, conservative (the convex
+hull) for anything else, so pass objects as their convex parts. The gripper's boxes:
+:mod:`datagen.families.grasp_attempts.gripper_geometry`.
 """
 
 from __future__ import annotations
@@ -14,7 +14,16 @@ from functools import cached_property
 import numpy as np
 import trimesh
 
+NEAR_GAP = 1e-9  # metres; see BodySet._near
 CORNER_SIGNS = np.array(np.meshgrid(*[[-1.0, 1.0]] * 3)).reshape(3, -1).T  # (8, 3)
+BOX_EDGES = np.array(
+    [
+        (a, b)
+        for a in range(8)
+        for b in range(a + 1, 8)
+        if np.abs(CORNER_SIGNS[a] - CORNER_SIGNS[b]).sum() == 2
+    ]
+)  # (12, 2) corner indices
 
 
 @dataclass(frozen=True)
@@ -26,9 +35,13 @@ class ConvexBody:
     offsets: np.ndarray  # (F,)
     edges: np.ndarray  # (E, 3) unit edge directions, duplicates merged
     bounds: np.ndarray  # (2, 3) axis-aligned bounds
+    segments: np.ndarray  # (S, 2) vertex indices of each edge
 
     @classmethod
     def from_mesh(cls, mesh: trimesh.Trimesh) -> ConvexBody:
+        """The body of a convex mesh; of anything else, its convex hull's."""
+        if not mesh.is_convex:
+            mesh = mesh.convex_hull
         vertices = np.asarray(mesh.vertices, float)
         normals = np.asarray(mesh.face_normals, float)
         offsets = np.einsum("ij,ij->i", normals, vertices[mesh.faces[:, 0]])
@@ -37,7 +50,9 @@ class ConvexBody:
         edges = edges / np.linalg.norm(edges, axis=1, keepdims=True)
         edges = edges * np.where(edges[:, [0]] < 0, -1.0, 1.0)  # canonical sign
         edges = np.unique(np.round(edges, 6), axis=0)
-        return cls(vertices, planes[:, :3], planes[:, 3], edges, np.asarray(mesh.bounds, float))
+        segments = np.asarray(mesh.edges_unique, np.intp)
+        bounds = np.asarray(mesh.bounds, float)
+        return cls(vertices, planes[:, :3], planes[:, 3], edges, bounds, segments)
 
     @cached_property
     def face_extents(self) -> tuple[np.ndarray, np.ndarray]:
@@ -67,26 +82,53 @@ class BodySet:
     def highs(self) -> np.ndarray:  # (B, 3)
         return np.array([b.bounds[1] for b in self.bodies]).reshape(-1, 3)
 
+    @cached_property
+    def centres(self) -> np.ndarray:  # (B, 3) the bounds' centres
+        return (self.lows + self.highs) / 2
+
     def hit_by_box(self, transform: np.ndarray, extents: np.ndarray) -> bool:
         """Whether the oriented box (world transform, full extents) meets any body."""
         return bool(self.hit_by_boxes(transform[None], np.asarray(extents, float)[None])[0])
 
-    def hit_by_boxes(self, transforms: np.ndarray, extents: np.ndarray) -> np.ndarray:
+    def hit_by_boxes(
+        self, transforms: np.ndarray, extents: np.ndarray, owners: np.ndarray | None = None
+    ) -> np.ndarray:
         """(N,) whether each oriented box (transforms (N, 4, 4) in the world, full extents
-        (N, 3)) meets any body: one bounds test of every box against every body, then, body by
-        body, the full test of the boxes near it not yet known to hit."""
+        (N, 3)) meets any body. With ``owners`` ((N,) the index of the group each box belongs
+        to, such as the gripper pose it is part of), (G,) whether any box of each group meets
+        one: a group's boxes are not tested once one of them hit.
+
+        The bodies' bounds are tested against every box at once, along the world's axes and
+        the box's own (a necessary condition for a hit); then, body by body, the boxes near it
+        whose answer is not yet known get the full test."""
         rot, centre, half = transforms[:, :3, :3], transforms[:, :3, 3], extents / 2
+        near = self._near(rot, centre, half)  # (N, B)
+        owners = np.arange(len(transforms)) if owners is None else np.asarray(owners)
+        hit = np.zeros(int(owners.max(initial=-1)) + 1, bool)
+        for k in np.flatnonzero(near.any(axis=0)):
+            boxes = np.flatnonzero(near[:, k] & ~hit[owners])
+            if boxes.size:
+                met = boxes_hit_body(rot[boxes], centre[boxes], half[boxes], self.bodies[k])
+                hit[owners[boxes[met]]] = True
+        return hit
+
+    def _near(self, rot: np.ndarray, centre: np.ndarray, half: np.ndarray) -> np.ndarray:
+        """(N, B) whether each box overlaps each body's bounds along the world's axes and along
+        the box's: where it does not, the box misses the body. A gap must exceed ``NEAR_GAP``,
+        so that the full test, whose sums round differently, never finds a meeting here."""
         reach = _rows_dot(np.abs(rot), half)
         near = np.all(
             ((centre + reach)[:, None] >= self.lows) & ((centre - reach)[:, None] <= self.highs),
             axis=2,
-        )  # (N, B)
-        hit = np.zeros(len(transforms), bool)
-        for k in np.flatnonzero(near.any(axis=0)):
-            boxes = np.flatnonzero(near[:, k] & ~hit)
-            if boxes.size:
-                hit[boxes] = boxes_hit_body(rot[boxes], centre[boxes], half[boxes], self.bodies[k])
-        return hit
+        )
+        offset = self.centres[None] - centre[:, None]  # (N, B, 3) world
+        bounds_half = (self.highs - self.lows) / 2  # (B, 3)
+        for k in range(3):  # box axis k is rot[:, :, k]
+            axis = rot[:, None, :, k]  # (N, 1, 3)
+            along = sum(offset[..., j] * axis[..., j] for j in range(3))  # (N, B)
+            radius = sum(np.abs(axis[..., j]) * bounds_half[None, :, j] for j in range(3))
+            near &= np.abs(along) <= half[:, None, k] + radius + NEAR_GAP
+        return near
 
 
 def box_hits_body(transform: np.ndarray, extents: np.ndarray, body: ConvexBody) -> bool:
@@ -101,11 +143,12 @@ def box_hits_body(transform: np.ndarray, extents: np.ndarray, body: ConvexBody) 
 def boxes_hit_body(
     rot: np.ndarray, centre: np.ndarray, half: np.ndarray, body: ConvexBody
 ) -> np.ndarray:
-    """(n,) separating-axis tests of n oriented boxes (rotations (n, 3, 3), centres (n, 3),
-    half extents (n, 3)) against one body. The axes are tried cheapest first, for all boxes at
-    once: the boxes' own face normals, the body's face normals (its side precomputed), then,
-    box by box for those still not separated, the cross products of their edges. Dot products
-    are written out term by term, so a box's answer does not depend on the batch it is in."""
+    """(n,) whether each of n oriented boxes (rotations (n, 3, 3), centres (n, 3), half extents
+    (n, 3)) meets one body. For all boxes at once, cheapest first: separating axes along the
+    boxes' own face normals, then the body's (its side precomputed); for the boxes still not
+    separated, a body vertex in the box or a box corner in the body; for the rest, a box edge
+    through the body or a body edge through the box (:func:`_edges_meet`). Dot products are
+    written out term by term, so a box's answer does not depend on the batch it is in."""
     vertices = body.vertices
     # box axis k of box i is rot[i, :, k]
     proj = sum(vertices[None, :, j, None] * rot[:, None, j, :] for j in range(3))  # (n, V, 3)
@@ -122,45 +165,61 @@ def boxes_hit_body(
         radius = sum(np.abs(turned[..., k]) * half[left, None, k] for k in range(3))
         separated[left] = ((along + radius < lows) | (along - radius > highs)).any(axis=1)
     left = np.flatnonzero(~separated)
-    if left.size:  # a body vertex in a box or a box corner in the body: they meet, no more axes
-        offset = np.abs(proj[left] - along_own[left, None])
-        meet = (offset <= half[left, None]).all(axis=2).any(axis=1)
-        corners = centre[left, None] + sum(
-            rot[left, None, :, k] * (CORNER_SIGNS[None, :, k, None] * half[left, None, k, None])
-            for k in range(3)
-        )  # (m, 8, 3)
-        level = sum(corners[:, :, None, j] * body.normals[None, None, :, j] for j in range(3))
-        meet |= (level <= body.face_extents[1]).all(axis=2).any(axis=1)
-        left = left[~meet]
-    for i in left:
-        cross = _cross(rot[i].T, body.edges)
-        norms = np.linalg.norm(cross, axis=1)
-        cross = cross[norms > 1e-9] / norms[norms > 1e-9, None]
-        separated[i] = _separated(cross, rot[i], centre[i], half[i], vertices)
+    if not left.size:
+        return ~separated
+    inside = proj[left] - along_own[left, None]  # (m, V, 3) body vertices in each box's frame
+    meet = (np.abs(inside) <= half[left, None]).all(axis=2).any(axis=1)
+    corners = centre[left, None] + sum(
+        rot[left, None, :, k] * (CORNER_SIGNS[None, :, k, None] * half[left, None, k, None])
+        for k in range(3)
+    )  # (m, 8, 3)
+    level = sum(corners[:, :, None, j] * body.normals[None, None, :, j] for j in range(3))
+    meet |= (level <= body.face_extents[1]).all(axis=2).any(axis=1)
+    rest = np.flatnonzero(~meet)
+    if rest.size:
+        meet[rest] = _edges_meet(
+            level[rest], body.face_extents[1], inside[rest], half[left[rest]], body.segments
+        )
+    separated[left] = ~meet
     return ~separated
+
+
+def _edges_meet(
+    level: np.ndarray, highs: np.ndarray, inside: np.ndarray, half: np.ndarray, segments
+) -> np.ndarray:
+    """(m,) whether a box edge passes through the body or a body edge through the box, for m
+    boxes with no corner in the body and none of its vertices inside them: then these are the
+    only ways two convex polyhedra meet (a vertex of their intersection lies on an edge of one,
+    in the other). ``level`` (m, 8, F): the box corners on the body's face normals, whose
+    ``highs`` (F,) bound the body; ``inside`` (m, V, 3): the body's vertices in each box's frame,
+    ``half`` (m, 3) the boxes' half extents; ``segments`` (S, 2) the body's edges."""
+    # a box edge clipped by each face plane to its part inside, as t in [0, 1] from corner a to b
+    gap_a = level[:, BOX_EDGES[:, 0]] - highs  # (m, 12, F), <= 0 inside the plane
+    gap_b = level[:, BOX_EDGES[:, 1]] - highs
+    crossing = (gap_a > 0) != (gap_b > 0)
+    t = gap_a / np.where(crossing, gap_a - gap_b, 1.0)
+    t_enter = np.where(crossing & (gap_a > 0), t, 0.0).max(axis=2)
+    t_exit = np.where(crossing & (gap_b > 0), t, 1.0).min(axis=2)
+    outside = ((gap_a > 0) & (gap_b > 0)).any(axis=2)
+    meet = (~outside & (t_enter <= t_exit)).any(axis=1)
+    # a body edge against each box: the segment-box separating-axis test (the box's 3 axes and
+    # their cross products with the segment), no division
+    start, end = inside[:, segments[:, 0]], inside[:, segments[:, 1]]  # (m, S, 3)
+    mid, along = (start + end) / 2, (end - start) / 2
+    h = half[:, None]
+    apart = (np.abs(mid) > h + np.abs(along)).any(axis=2)
+    for k in range(3):  # the axis e_k x along
+        i, j = (k + 1) % 3, (k + 2) % 3
+        offset = mid[..., j] * along[..., i] - mid[..., i] * along[..., j]
+        apart |= np.abs(offset) > h[..., i] * np.abs(along[..., j]) + h[..., j] * np.abs(
+            along[..., i]
+        )
+    return meet | (~apart).any(axis=1)
 
 
 def _rows_dot(matrices: np.ndarray, vectors: np.ndarray) -> np.ndarray:
     """(n, 3) each matrix (n, 3, 3) times its vector (n, 3), term by term."""
     return sum(matrices[:, :, j] * vectors[:, j, None] for j in range(3))
-
-
-def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """(A * B, 3) every a x b, as ``np.cross(a[:, None], b[None]).reshape(-1, 3)`` computes
-    them, without its axis juggling (a hot path of the samplers)."""
-    a0, a1, a2 = a[:, 0, None], a[:, 1, None], a[:, 2, None]
-    b0, b1, b2 = b[None, :, 0], b[None, :, 1], b[None, :, 2]
-    return np.stack([a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0], axis=-1).reshape(
-        -1, 3
-    )
-
-
-def _separated(axes, rot, centre, half, vertices) -> bool:
-    """Whether one of ``axes`` (unit vectors, (A, 3)) separates the box from ``vertices``."""
-    proj = vertices @ axes.T
-    box_c = axes @ centre
-    box_r = np.abs(axes @ rot) @ half
-    return bool(((box_c + box_r < proj.min(axis=0)) | (box_c - box_r > proj.max(axis=0))).any())
 
 
 def bodies_meet(a: ConvexBody, b: ConvexBody, clearance: float = 0.0) -> bool:

@@ -221,30 +221,46 @@ def test_gripper_boxes_follow_the_width():
         assert np.abs(swept_corners[:, 1]).min() >= np.abs(corners[:, 1]).min() - 1e-9
 
 
-def test_box_vs_convex_matches_linear_programming():
-    """The separating-axis test agrees with an exact LP feasibility test on random poses."""
+def _box_meets_body_lp(transform, extents, body) -> bool:
+    """Whether the box and the body share a point: the feasibility of their joint half-spaces."""
     from scipy.optimize import linprog
 
+    rot, centre = transform[:3, :3], transform[:3, 3]
+    a_ub = np.concatenate([body.normals, rot.T, -rot.T])
+    b_ub = np.concatenate(
+        [body.offsets, rot.T @ centre + extents / 2, -(rot.T @ centre) + extents / 2]
+    )
+    return linprog(np.zeros(3), A_ub=a_ub, b_ub=b_ub, bounds=[(None, None)] * 3).status == 0
+
+
+def test_box_vs_convex_matches_linear_programming():
+    """The box test agrees with an exact LP feasibility test on random poses: compact boxes,
+    long thin ones (a finger swept along its approach) and flat wide ones that cross the body
+    with no corner in it and none of its vertices inside them, the cases only edges decide (a
+    box edge through the body, a body edge through a plate)."""
     from datagen.convex import box_hits_body
 
     rng = np.random.default_rng(3)
     body = ConvexBody.from_mesh(trimesh.creation.cylinder(radius=0.03, height=0.05, sections=12))
-    hits, cases = 0, []
-    for _ in range(300):
+    shapes = [([0.005] * 3, [0.05] * 3), ([0.002] * 2 + [0.1], [0.01] * 2 + [0.2])]
+    shapes += [([0.08] * 2 + [0.001], [0.15] * 2 + [0.004])]
+    hits, edges_only, cases = 0, 0, []
+    for k in range(600):
         transform = np.eye(4)
         transform[:3, :3] = trimesh.transformations.random_rotation_matrix(rng.random(3))[:3, :3]
         transform[:3, 3] = rng.uniform(-0.06, 0.06, 3)
-        extents = rng.uniform(0.005, 0.05, 3)
-        rot, centre = transform[:3, :3], transform[:3, 3]
-        a_ub = np.concatenate([body.normals, rot.T, -rot.T])
-        b_ub = np.concatenate(
-            [body.offsets, rot.T @ centre + extents / 2, -(rot.T @ centre) + extents / 2]
-        )
-        feasible = linprog(np.zeros(3), A_ub=a_ub, b_ub=b_ub, bounds=[(None, None)] * 3).status == 0
+        low, high = shapes[k % 3]  # compact, long and thin, flat and wide
+        extents = rng.uniform(low, high)
+        feasible = _box_meets_body_lp(transform, extents, body)
         hits += feasible
+        corners = (CORNER_SIGNS * extents / 2) @ transform[:3, :3].T + transform[:3, 3]
+        inside = (body.vertices - transform[:3, 3]) @ transform[:3, :3]
+        edges_only += feasible and not (
+            body.depth(corners).min() <= 0 or (np.abs(inside) <= extents / 2).all(axis=1).any()
+        )
         assert box_hits_body(transform, extents, body) == feasible
         cases.append((transform, extents, feasible))
-    assert 30 < hits < 270
+    assert 60 < hits < 540 and edges_only > 20
     # tested together, in batches of any make-up, each box gets its own answer
     transforms, sizes, expected = (np.array(column) for column in zip(*cases, strict=True))
     together = BodySet((body,)).hit_by_boxes(transforms, sizes)
@@ -252,6 +268,10 @@ def test_box_vs_convex_matches_linear_programming():
     order = rng.permutation(len(cases))
     halves = [BodySet((body,)).hit_by_boxes(transforms[k], sizes[k]) for k in np.split(order, 2)]
     assert np.array_equal(np.concatenate(halves), expected[order])
+    # grouped (two boxes a group): a group meets the body when either of its boxes does
+    owners = np.arange(len(cases)) // 2
+    grouped = BodySet((body,)).hit_by_boxes(transforms, sizes, owners=owners)
+    assert np.array_equal(grouped, expected.reshape(-1, 2).any(axis=1))
 
 
 def test_a_flat_object_is_grasped_standing_back_with_the_fingertips_above_the_table():

@@ -181,23 +181,26 @@ class _Runner:
             if still >= 10:
                 break
 
-    def _contacts(self):
+    def _contact_pairs(self):
+        """(contact, id of one body, id of the other) of every contact this step."""
         for contact in self.scene.get_contacts():
             a, b = (body.entity.per_scene_id for body in contact.bodies)
-            impulse = float(sum(np.linalg.norm(p.impulse) for p in contact.points))
-            yield a, b, impulse
+            yield contact, a, b
 
     def collision_impulse(self) -> float:
-        target, worst = self.target.per_scene_id, 0.0
-        for a, b, impulse in self._contacts():
-            if (a in self.robot_ids) != (b in self.robot_ids) and target not in (a, b):
-                worst = max(worst, impulse)
+        """N·s: the largest summed impulse of a contact between the robot and anything but the
+        target. Only those contacts' points are summed: every step's hot path, and the objects'
+        contacts with each other and the tray outnumber them."""
+        target, robot, worst = self.target.per_scene_id, self.robot_ids, 0.0
+        for contact, a, b in self._contact_pairs():
+            if (a in robot) != (b in robot) and target not in (a, b):
+                worst = max(worst, float(sum(np.linalg.norm(p.impulse) for p in contact.points)))
         return worst
 
     def finger_contacts(self) -> tuple[bool, bool]:
         """Whether the target touches the first (left) and the second (right) finger."""
         target, touching = self.target.per_scene_id, set()
-        for a, b, _ in self._contacts():
+        for _, a, b in self._contact_pairs():
             if target in (a, b):
                 touching |= {a, b} & set(self.finger_ids)
         return self.finger_ids[0] in touching, self.finger_ids[1] in touching

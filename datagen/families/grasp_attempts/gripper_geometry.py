@@ -167,10 +167,11 @@ class GripperGeometry:
             hit = (lowest < table_z).any(axis=1)
         clear = np.flatnonzero(~hit)
         if clear.size:
-            flat = bodies.hit_by_boxes(
-                transforms[clear].reshape(-1, 4, 4), np.tile(extents, (clear.size, 1))
+            hit[clear] = bodies.hit_by_boxes(
+                transforms[clear].reshape(-1, 4, 4),
+                np.tile(extents, (clear.size, 1)),
+                owners=np.repeat(np.arange(clear.size), len(boxes)),
             )
-            hit[clear] = flat.reshape(clear.size, -1).any(axis=1)
         return hit
 
 
