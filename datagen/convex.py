@@ -15,6 +15,7 @@ import numpy as np
 import trimesh
 
 NEAR_GAP = 1e-9  # metres; see BodySet._near
+CONVEX_TOLERANCE = 1e-7  # metres a vertex may lie outside a face of a mesh taken as convex
 CORNER_SIGNS = np.array(np.meshgrid(*[[-1.0, 1.0]] * 3)).reshape(3, -1).T  # (8, 3)
 BOX_EDGES = np.array(
     [
@@ -39,12 +40,12 @@ class ConvexBody:
 
     @classmethod
     def from_mesh(cls, mesh: trimesh.Trimesh) -> ConvexBody:
-        """The body of a convex mesh; of anything else, its convex hull's."""
-        if not mesh.is_convex:
+        """The body of a convex mesh; of anything else (a vertex more than ``CONVEX_TOLERANCE``
+        outside a face's plane), its convex hull's."""
+        vertices, normals, offsets = _faces(mesh)
+        if (vertices @ normals.T - offsets).max(initial=0.0) > CONVEX_TOLERANCE:
             mesh = mesh.convex_hull
-        vertices = np.asarray(mesh.vertices, float)
-        normals = np.asarray(mesh.face_normals, float)
-        offsets = np.einsum("ij,ij->i", normals, vertices[mesh.faces[:, 0]])
+            vertices, normals, offsets = _faces(mesh)
         planes = np.unique(np.round(np.c_[normals, offsets], 9), axis=0)
         edges = np.diff(vertices[mesh.edges_unique], axis=1)[:, 0]
         edges = edges / np.linalg.norm(edges, axis=1, keepdims=True)
@@ -65,6 +66,13 @@ class ConvexBody:
     def depth(self, points: np.ndarray) -> np.ndarray:
         """Signed distance-like value per point: max over planes of n . p - offset (< 0 inside)."""
         return (np.atleast_2d(points) @ self.normals.T - self.offsets).max(axis=1)
+
+
+def _faces(mesh: trimesh.Trimesh) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(vertices (V, 3), face normals (F, 3), face offsets (F,)) of a mesh."""
+    vertices = np.asarray(mesh.vertices, float)
+    normals = np.asarray(mesh.face_normals, float)
+    return vertices, normals, np.einsum("ij,ij->i", normals, vertices[mesh.faces[:, 0]])
 
 
 @dataclass(frozen=True)

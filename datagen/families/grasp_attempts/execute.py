@@ -81,6 +81,7 @@ class _Runner:
         self.closed = float(self.geometry.widths[0])  # metres between the pads, fully closed
         self.target = next(o.entity for o in scene.objects if o.instance_id == target_id)
         self.steps, self.phase = 0, ""
+        self._body_ids: dict[Any, int] = {}  # a contact's body component -> its per-scene id
         bodies = [
             (o.instance_id, o.entity.find_component_by_type(RigidBody)) for o in scene.objects
         ]
@@ -182,10 +183,16 @@ class _Runner:
                 break
 
     def _contact_pairs(self):
-        """(contact, id of one body, id of the other) of every contact this step."""
+        """(contact, id of one body, id of the other) of every contact this step. A body's id
+        is looked up once per attempt: SAPIEN hands out the same component object every step."""
+        ids = self._body_ids
         for contact in self.scene.get_contacts():
-            a, b = (body.entity.per_scene_id for body in contact.bodies)
-            yield contact, a, b
+            a, b = contact.bodies
+            if a not in ids:
+                ids[a] = a.entity.per_scene_id
+            if b not in ids:
+                ids[b] = b.entity.per_scene_id
+            yield contact, ids[a], ids[b]
 
     def collision_impulse(self) -> float:
         """N·s: the largest summed impulse of a contact between the robot and anything but the
