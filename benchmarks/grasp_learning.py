@@ -21,7 +21,8 @@ with the largest model.
 Printed per arm and domain: success ± binomial standard error per sampler, the paired
 difference learned − antipodal ± its standard error over the same attempts, failure modes, and
 attempts/s with their ratio; each model's held-out accuracy, ROC AUC and calibration error on
-training attempts it never saw. Everything is kept under ``--out`` (campaigns, models,
+training attempts it never saw, and its ROC AUC on the grasps the antipodal sampler executed in
+each domain, all of them and those the arm reached (the choice left to a model with the check). Everything is kept under ``--out`` (campaigns, models,
 ``results.json``, ``grasp_learning.png``): a rerun continues an interrupted campaign and keeps
 what is finished, so a run of hours can be done in parts.
 """
@@ -206,6 +207,8 @@ def paired_gain(learned: list[bool], antipodal: list[bool]) -> tuple[float, floa
 
 
 def run_arm(arm: str, args) -> dict:
+    from datagen.learning.transfer import campaign_auc
+
     print(f"{arm}:", flush=True)
     largest = args.curve[-1]
     train_name = f"{arm}-train-{largest}"
@@ -221,15 +224,19 @@ def run_arm(arm: str, args) -> dict:
         sizes = args.curve if domain == "objects" else [largest]
         samplers = {"antipodal": None} | {f"learned-{n}": models[n] for n in sizes}
         samplers |= {f"{sampler}{REACH}": model for sampler, model in samplers.items()}
-        runs = {}
+        runs, folders = {}, {}
         for sampler, model in samplers.items():
             path = model and model["path"]
             reach = sampler.endswith(REACH)
             data = campaign_data(args, arm, EVAL_SEED, args.eval_attempts, domain, path, reach)
             scored_by = f"-{model['model_sha256'][:12]}" if model else ""  # a new model, anew
             name = f"{arm}-{domain}-{sampler}{scored_by}-{args.eval_attempts}"
-            runs[sampler] = run_campaign(name, data, args)
+            runs[sampler], folders[sampler] = run_campaign(name, data, args), name
         result["domains"][domain] = runs
+        antipodal = args.out / "campaigns" / folders["antipodal"]
+        for n, model in models.items():  # each model on the grasps the antipodal sampler tried
+            transfer = result["models"][n].setdefault("transfer", {})
+            transfer[domain] = campaign_auc(model["path"], antipodal)
     return result
 
 
@@ -277,6 +284,12 @@ def table(result: dict) -> str:
                 f"  {n:>5} attempts: {m['examples']} examples, accuracy {m['accuracy']}, "
                 f"ROC AUC {m['roc_auc']}, calibration error {m['ece']}, trained in {m['train_s']} s"
             )
+            for domain, auc in m.get("transfer", {}).items():
+                lines.append(
+                    f"    ROC AUC on the antipodal sampler's {domain} grasps: {auc['all']['roc_auc']}"
+                    f" (n {auc['all']['n']}), reached only {auc['reached']['roc_auc']} (n "
+                    f"{auc['reached']['n']})"
+                )
     return "\n".join(lines)
 
 

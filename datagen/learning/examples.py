@@ -29,6 +29,7 @@ class GraspExamples:
     success: np.ndarray  # (N,) bool
     attempts: list[str] = field(default_factory=list)  # "<campaign folder>/<key>" per example
     families: list[str] = field(default_factory=list)  # the target's class (shape family)
+    modes: list[str | None] = field(default_factory=list)  # failure mode; None: it held
     left_out: Counter[str] = field(default_factory=Counter)  # failure mode -> attempts skipped
 
     def __len__(self) -> int:
@@ -41,6 +42,7 @@ class GraspExamples:
             self.success[rows],
             [self.attempts[i] for i in rows],
             [self.families[i] for i in rows],
+            modes=[self.modes[i] for i in rows] if self.modes else [],
         )
 
 
@@ -60,7 +62,7 @@ def campaign_examples(
     order), seen by ``camera`` in crops of ``size`` pixels; DatasetError naming the folder for
     one that is not a campaign or lacks the camera's depth. ``on_progress(read, total)`` after
     each attempt read."""
-    crops, features, success, attempts, families = [], [], [], [], []
+    crops, features, success, attempts, families, modes = [], [], [], [], [], []
     left_out: Counter[str] = Counter()
     datasets = [(root, load(root)) for root in roots]
     total = sum(len(d) if limit is None else min(limit, len(d)) for _, d in datasets)
@@ -104,6 +106,7 @@ def campaign_examples(
             success.append(bool(attempt["outcome"]["success"]))
             attempts.append(f"{Path(root).name}/{dataset.keys[i]}")
             families.append(str(attempt["target"]["class"]))
+            modes.append(None if attempt["outcome"]["success"] else mode)
         dataset.close()
     return GraspExamples(
         np.stack(crops) if crops else np.zeros((0, 1, size, size), np.float32),
@@ -111,5 +114,6 @@ def campaign_examples(
         np.array(success, bool),
         attempts,
         families,
-        left_out,
+        left_out=left_out,
+        modes=modes,
     )
