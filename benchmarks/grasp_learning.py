@@ -285,10 +285,13 @@ def table(result: dict) -> str:
                 f"ROC AUC {m['roc_auc']}, calibration error {m['ece']}, trained in {m['train_s']} s"
             )
             for domain, auc in m.get("transfer", {}).items():
+                every, reached = (
+                    f"{a['roc_auc']:.3f} (n {a['n']})" if a["roc_auc"] is not None else "-"
+                    for a in (auc["all"], auc["reached"])
+                )
                 lines.append(
-                    f"    ROC AUC on the antipodal sampler's {domain} grasps: {auc['all']['roc_auc']}"
-                    f" (n {auc['all']['n']}), reached only {auc['reached']['roc_auc']} (n "
-                    f"{auc['reached']['n']})"
+                    f"    ROC AUC on the antipodal sampler's {domain} grasps: {every}, "
+                    f"reached only {reached}"
                 )
     return "\n".join(lines)
 
