@@ -22,9 +22,10 @@ Printed per arm and domain: success ± binomial standard error per sampler, the 
 difference learned − antipodal ± its standard error over the same attempts, failure modes, and
 attempts/s with their ratio; each model's held-out accuracy, ROC AUC and calibration error on
 training attempts it never saw, and its ROC AUC on the grasps the antipodal sampler executed in
-each domain, all of them and those the arm reached (the choice left to a model with the check). Everything is kept under ``--out`` (campaigns, models,
-``results.json``, ``grasp_learning.png``): a rerun continues an interrupted campaign and keeps
-what is finished, so a run of hours can be done in parts.
+each domain, all of them and those the arm reached (the choice left to a model with the check).
+Everything is kept under ``--out`` (campaigns, models, ``results.json``,
+``grasp_learning.png``): a rerun continues an interrupted campaign and keeps what is finished,
+so a run of hours can be done in parts.
 """
 
 from __future__ import annotations

@@ -56,11 +56,9 @@ def differences(kept: list[dict], made: list[dict]) -> list[tuple[int, list[str]
 
 def rebuild(campaign: Path, attempts: int | None, workers: int) -> tuple[int, list]:
     """(attempts compared, differences) of ``campaign`` against its rebuild."""
-    from datagen.dataset.loader import load
+    from datagen.dataset.manifest import read_manifest
 
-    dataset = load(campaign)
-    data = dataset.manifest["config"]
-    dataset.close()
+    data = read_manifest(campaign)["config"]
     if attempts is not None:
         data = data | {"num_samples": min(attempts, data["num_samples"])}
     out = Path(tempfile.mkdtemp(prefix="datagen-grasp-rebuild-"))

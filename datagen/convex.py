@@ -94,6 +94,10 @@ class BodySet:
     def centres(self) -> np.ndarray:  # (B, 3) the bounds' centres
         return (self.lows + self.highs) / 2
 
+    @cached_property
+    def half_sizes(self) -> np.ndarray:  # (B, 3) the bounds' half extents
+        return (self.highs - self.lows) / 2
+
     def hit_by_box(self, transform: np.ndarray, extents: np.ndarray) -> bool:
         """Whether the oriented box (world transform, full extents) meets any body."""
         return bool(self.hit_by_boxes(transform[None], np.asarray(extents, float)[None])[0])
@@ -130,11 +134,10 @@ class BodySet:
             axis=2,
         )
         offset = self.centres[None] - centre[:, None]  # (N, B, 3) world
-        bounds_half = (self.highs - self.lows) / 2  # (B, 3)
         for k in range(3):  # box axis k is rot[:, :, k]
             axis = rot[:, None, :, k]  # (N, 1, 3)
             along = sum(offset[..., j] * axis[..., j] for j in range(3))  # (N, B)
-            radius = sum(np.abs(axis[..., j]) * bounds_half[None, :, j] for j in range(3))
+            radius = sum(np.abs(axis[..., j]) * self.half_sizes[None, :, j] for j in range(3))
             near &= np.abs(along) <= half[:, None, k] + radius + NEAR_GAP
         return near
 
