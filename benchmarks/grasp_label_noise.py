@@ -19,7 +19,8 @@ scene again):
 - ``turn±``: the hand turned ``--angle`` degrees about its approach axis.
 
 Printed, over the attempts whose grasp the arm reached: how often each perturbation keeps the
-label, how many grasps change their label under at least one, by outcome, and the ROC AUC with
+label (over the copies the arm still reached and that nothing disturbed: a copy's reach is
+planned, not learned), how many grasps change their label under at least one, by outcome, and the ROC AUC with
 which the perturbed copies' share of successes ranks the attempts' own labels: what a model
 that knew each grasp's chance of holding within those tolerances, and nothing finer, would
 score (the models of ``benchmarks/grasp_learning.py`` score 0.55-0.63 on reached grasps of
@@ -30,6 +31,7 @@ from __future__ import annotations
 
 import argparse
 import sys
+from collections import Counter
 from pathlib import Path
 
 import numpy as np
@@ -135,18 +137,28 @@ def report(args, moves: dict, rows: list[dict]) -> None:
     held = np.array([r["attempt"] is None for r in rows], bool)
     print(f"  attempts that held: {int(held.sum())} of {n}")
     for name in moves:
-        same = sum((r[name] is None) == (r["attempt"] is None) for r in rows)
-        print(f"  {name:9}: label equal to the attempt's {same} of {n}")
+        copies = [r for r in rows if r[name] not in NOT_EXECUTED]
+        same = sum((r[name] is None) == (r["attempt"] is None) for r in copies)
+        print(
+            f"  {name:9}: label equal to the attempt's {same} of {len(copies)} executed "
+            f"({n - len(copies)} not: {dict(Counter(r[name] for r in rows if r not in copies))})"
+        )
     moved = [name for name in moves if name != "none"]
-    flips = np.array([any((r[m] is None) != (r["attempt"] is None) for m in moved) for r in rows])
+    executed = [[r[m] for m in moved if r[m] not in NOT_EXECUTED] for r in rows]
+    flips = np.array(
+        [
+            any((m is None) != (r["attempt"] is None) for m in e)
+            for r, e in zip(rows, executed, strict=True)
+        ]
+    )
     print(
-        f"  label changed under at least one perturbation: {int(flips[held].sum())} of "
-        f"{int(held.sum())} that held, {int(flips[~held].sum())} of {int((~held).sum())} "
+        f"  label changed under at least one executed perturbation: {int(flips[held].sum())} "
+        f"of {int(held.sum())} that held, {int(flips[~held].sum())} of {int((~held).sum())} "
         "that failed"
     )
     from datagen.learning.metrics import roc_auc
 
-    share = np.array([np.mean([r[m] is None for m in moved]) for r in rows])
+    share = np.array([np.mean([m is None for m in e]) if e else 0.5 for e in executed])
     auc = roc_auc(share, held) if n else None
     shown = "n/a (one outcome only)" if auc is None else f"{auc:.3f}"
     print(f"  ROC AUC of the perturbed copies' share of successes on the attempts' labels: {shown}")
