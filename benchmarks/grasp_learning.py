@@ -15,8 +15,8 @@ the learned sampler's first candidate is the antipodal sampler's own. Each sampl
 as it is, and with ``campaign.check_reach`` (``-reach``: the candidates planned before one is
 executed; the antipodal sampler then executes the first of K it draws that the arm reaches, the
 learned one the best-scored the arm reaches), so the model's share and the planning's are told
-apart. The learning curve (every model size) is measured on held-out objects; held-out scenes
-with the largest model.
+apart. Every model runs in both domains: the learning curve on scenes of the objects it
+learned from, and on shapes it never saw.
 
 Printed per arm and domain: success ± binomial standard error per sampler, the paired
 difference learned − antipodal ± its standard error over the same attempts, failure modes, and
@@ -34,7 +34,6 @@ import argparse
 import json
 import math
 import os
-import statistics
 import sys
 import time
 from collections import Counter
@@ -42,6 +41,7 @@ from pathlib import Path
 
 from dr_transfer.building import build
 from dr_transfer.hardware import commit
+from grasp_learning_report import REACH, draw, table
 from machine import cpu_model
 
 REPO = Path(__file__).resolve().parents[1]
@@ -55,7 +55,6 @@ FULL = {
 }
 QUICK = {"arms": ["panda"], "curve": [16, 32], "eval_attempts": 12, "epochs": 20, "size": "160x120"}
 DOMAINS = {"scenes": "held-out scenes", "objects": "held-out objects (real meshes)"}
-REACH = "-reach"  # a sampler's label with campaign.check_reach on
 
 
 def arguments() -> argparse.Namespace:
@@ -193,20 +192,6 @@ def keeps_contract(path: Path) -> bool:
     return True
 
 
-def rate(success: list[bool]) -> tuple[float, float]:
-    """Success rate and its binomial standard error, in percent."""
-    n = len(success)
-    p = sum(success) / n
-    return 100 * p, 100 * math.sqrt(p * (1 - p) / n)
-
-
-def paired_gain(learned: list[bool], antipodal: list[bool]) -> tuple[float, float]:
-    """Mean of learned - antipodal over the same attempts, and its standard error, in points."""
-    diff = [int(a) - int(b) for a, b in zip(learned, antipodal, strict=True)]
-    se = statistics.stdev(diff) / math.sqrt(len(diff)) if len(diff) > 1 else float("nan")
-    return 100 * statistics.fmean(diff), 100 * se
-
-
 def run_arm(arm: str, args) -> dict:
     from datagen.learning.transfer import campaign_auc
 
@@ -222,8 +207,7 @@ def run_arm(arm: str, args) -> dict:
     models = {n: train_model(arm, n, training_campaign, args) for n in args.curve}
     result: dict = {"models": {n: _model_summary(m) for n, m in models.items()}, "domains": {}}
     for domain in DOMAINS:
-        sizes = args.curve if domain == "objects" else [largest]
-        samplers = {"antipodal": None} | {f"learned-{n}": models[n] for n in sizes}
+        samplers = {"antipodal": None} | {f"learned-{n}": models[n] for n in args.curve}
         samplers |= {f"{sampler}{REACH}": model for sampler, model in samplers.items()}
         runs, folders = {}, {}
         for sampler, model in samplers.items():
@@ -251,123 +235,6 @@ def _model_summary(report: dict) -> dict:
         "ece": held["calibration"]["ece"],
         "train_s": report.get("train_s"),
     }
-
-
-def table(result: dict) -> str:
-    lines = [
-        f"{result['cpu']}; {result['command']}; commit {result['commit']}",
-        "arm     domain   sampler             success %        - antipodal     "
-        "- antipodal-reach  attempts/s  failures",
-    ]
-    for arm, arm_result in result["arms"].items():
-        for domain, runs in arm_result["domains"].items():
-            for sampler, run in runs.items():
-                p, se = rate(run["success"])
-                gains = []
-                for base in ("antipodal", f"antipodal{REACH}"):
-                    paired = sampler != base and base in runs
-                    paired &= base == "antipodal" or (sampler.endswith(REACH))
-                    g, gse = (
-                        paired_gain(run["success"], runs[base]["success"]) if paired else (0, 0)
-                    )
-                    gains.append(f"{g:+6.1f} ± {gse:4.1f}" if paired else "")
-                speed = run["attempts_per_s"]
-                lines.append(
-                    f"{arm:7} {domain:8} {sampler:19} {p:5.1f} ± {se:4.1f} (n {len(run['success'])})"
-                    f"  {gains[0]:15} {gains[1]:16}  {speed if speed is not None else '-':>10}  "
-                    f"{run['failure_modes']}"
-                )
-        for domain, runs in arm_result["domains"].items():
-            lines += coverage_lines(arm, domain, runs) + reach_lines(arm, domain, runs)
-        lines.append(f"{arm} models (held-out training attempts):")
-        for n, m in arm_result["models"].items():
-            lines.append(
-                f"  {n:>5} attempts: {m['examples']} examples, accuracy {m['accuracy']}, "
-                f"ROC AUC {m['roc_auc']}, calibration error {m['ece']}, trained in {m['train_s']} s"
-            )
-            for domain, auc in m.get("transfer", {}).items():
-                every, reached = (
-                    f"{a['roc_auc']:.3f} (n {a['n']})" if a["roc_auc"] is not None else "-"
-                    for a in (auc["all"], auc["reached"])
-                )
-                lines.append(
-                    f"    ROC AUC on the antipodal sampler's {domain} grasps: {every}, "
-                    f"reached only {reached}"
-                )
-    return "\n".join(lines)
-
-
-def coverage_lines(arm: str, domain: str, runs: dict) -> list[str]:
-    """What bounds the learned sampler in one domain: it chooses among the antipodal sampler's
-    candidates, so it succeeds at most where that sampler found one; and how the two samplers
-    do on the attempts where it did."""
-    base = runs["antipodal"]
-    if "found" not in base:  # kept by a run before this was recorded
-        return []
-    found = [i for i, ok in enumerate(base["found"]) if ok]
-    n = len(base["found"])
-    ceiling = 100 * len(found) / n - rate(base["success"])[0]
-    lines = [
-        f"{arm} {domain}: a candidate in {len(found)} of {n} attempts, so learned - antipodal "
-        f"is at most {ceiling:+.1f}; on those {len(found)}:"
-    ]
-    for sampler, run in runs.items():
-        p, se = rate([run["success"][i] for i in found]) if found else (float("nan"), 0.0)
-        lines.append(f"  {sampler:19} {p:5.1f} ± {se:4.1f}")
-    return lines
-
-
-def reach_lines(arm: str, domain: str, runs: dict) -> list[str]:
-    """Where the arm could not go: per sampler, its ``unreachable`` attempts (those with no IK
-    solution for the pre-grasp pose among them) and the median distance from the base to their
-    targets, against that of its successes."""
-    lines = []
-    for sampler, run in runs.items():
-        if "reach_m" not in run:  # kept by a run before this was recorded
-            continue
-        modes = [
-            None if ok else mode for ok, mode in zip(run["success"], run["modes"], strict=True)
-        ]
-        far = [r for r, m in zip(run["reach_m"], modes, strict=True) if m == "unreachable"]
-        near = [r for r, ok in zip(run["reach_m"], run["success"], strict=True) if ok]
-        ik = sum(run["ik_failed"])
-        lines.append(
-            f"{arm} {domain} {sampler}: unreachable {len(far)} (IK failed {ik}), targets a median "
-            f"{statistics.median(far) if far else float('nan'):.2f} m from the base; "
-            f"successes {statistics.median(near) if near else float('nan'):.2f} m"
-        )
-    return lines
-
-
-def draw(result: dict, path: Path) -> None:
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    figure, axes = plt.subplots(1, len(result["arms"]), figsize=(5 * len(result["arms"]), 3.6))
-    for ax, (arm, arm_result) in zip(
-        [axes] if len(result["arms"]) == 1 else axes, result["arms"].items(), strict=True
-    ):
-        runs = arm_result["domains"]["objects"]
-        sizes = [int(s.split("-")[1]) for s in runs if s.startswith("learned-") and REACH not in s]
-        for suffix, label in (("", "learned"), (REACH, "learned, reach checked")):
-            if f"learned-{sizes[0]}{suffix}" not in runs:
-                continue
-            rates = [rate(runs[f"learned-{n}{suffix}"]["success"]) for n in sizes]
-            ax.errorbar(
-                sizes, [r[0] for r in rates], [r[1] for r in rates], marker="o", label=label
-            )
-        for sampler, colour in (("antipodal", "grey"), (f"antipodal{REACH}", "tan")):
-            if sampler in runs:
-                base, se = rate(runs[sampler]["success"])
-                ax.axhspan(base - se, base + se, color=colour, alpha=0.3, label=f"{sampler} ± SE")
-        ax.set(title=f"{arm}, held-out objects", xlabel="training attempts", ylabel="success %")
-        ax.set_xscale("log")
-        ax.legend()
-    figure.tight_layout()
-    figure.savefig(path, dpi=80)
-    plt.close(figure)
 
 
 def main() -> int:

@@ -1,0 +1,144 @@
+"""What ``benchmarks/grasp_learning.py`` prints and draws from its results: success rates with
+their binomial standard errors, paired gains over the same attempts, what bounds the learned
+sampler (the attempts where the antipodal sampler found a candidate), where the arm could not
+go, each model's scores, and the learning curves in both domains."""
+
+from __future__ import annotations
+
+import math
+import statistics
+from pathlib import Path
+
+REACH = "-reach"  # a sampler's label with campaign.check_reach on
+
+
+def rate(success: list[bool]) -> tuple[float, float]:
+    """Success rate and its binomial standard error, in percent."""
+    n = len(success)
+    p = sum(success) / n
+    return 100 * p, 100 * math.sqrt(p * (1 - p) / n)
+
+
+def paired_gain(learned: list[bool], antipodal: list[bool]) -> tuple[float, float]:
+    """Mean of learned - antipodal over the same attempts, and its standard error, in points."""
+    diff = [int(a) - int(b) for a, b in zip(learned, antipodal, strict=True)]
+    se = statistics.stdev(diff) / math.sqrt(len(diff)) if len(diff) > 1 else float("nan")
+    return 100 * statistics.fmean(diff), 100 * se
+
+
+def table(result: dict) -> str:
+    lines = [
+        f"{result['cpu']}; {result['command']}; commit {result['commit']}",
+        "arm     domain   sampler             success %        - antipodal     "
+        "- antipodal-reach  attempts/s  failures",
+    ]
+    for arm, arm_result in result["arms"].items():
+        for domain, runs in arm_result["domains"].items():
+            for sampler, run in runs.items():
+                p, se = rate(run["success"])
+                gains = []
+                for base in ("antipodal", f"antipodal{REACH}"):
+                    paired = sampler != base and base in runs
+                    paired &= base == "antipodal" or (sampler.endswith(REACH))
+                    g, gse = (
+                        paired_gain(run["success"], runs[base]["success"]) if paired else (0, 0)
+                    )
+                    gains.append(f"{g:+6.1f} ± {gse:4.1f}" if paired else "")
+                speed = run["attempts_per_s"]
+                lines.append(
+                    f"{arm:7} {domain:8} {sampler:19} {p:5.1f} ± {se:4.1f} (n {len(run['success'])})"
+                    f"  {gains[0]:15} {gains[1]:16}  {speed if speed is not None else '-':>10}  "
+                    f"{run['failure_modes']}"
+                )
+        for domain, runs in arm_result["domains"].items():
+            lines += coverage_lines(arm, domain, runs) + reach_lines(arm, domain, runs)
+        lines.append(f"{arm} models (held-out training attempts):")
+        for n, m in arm_result["models"].items():
+            lines.append(
+                f"  {n:>5} attempts: {m['examples']} examples, accuracy {m['accuracy']}, "
+                f"ROC AUC {m['roc_auc']}, calibration error {m['ece']}, trained in {m['train_s']} s"
+            )
+            for domain, auc in m.get("transfer", {}).items():
+                every, reached = (
+                    f"{a['roc_auc']:.3f} (n {a['n']})" if a["roc_auc"] is not None else "-"
+                    for a in (auc["all"], auc["reached"])
+                )
+                lines.append(
+                    f"    ROC AUC on the antipodal sampler's {domain} grasps: {every}, "
+                    f"reached only {reached}"
+                )
+    return "\n".join(lines)
+
+
+def coverage_lines(arm: str, domain: str, runs: dict) -> list[str]:
+    """What bounds the learned sampler in one domain: it chooses among the antipodal sampler's
+    candidates, so it succeeds at most where that sampler found one; and how the two samplers
+    do on the attempts where it did."""
+    base = runs["antipodal"]
+    if "found" not in base:  # kept by a run before this was recorded
+        return []
+    found = [i for i, ok in enumerate(base["found"]) if ok]
+    n = len(base["found"])
+    ceiling = 100 * len(found) / n - rate(base["success"])[0]
+    lines = [
+        f"{arm} {domain}: a candidate in {len(found)} of {n} attempts, so learned - antipodal "
+        f"is at most {ceiling:+.1f}; on those {len(found)}:"
+    ]
+    for sampler, run in runs.items():
+        p, se = rate([run["success"][i] for i in found]) if found else (float("nan"), 0.0)
+        lines.append(f"  {sampler:19} {p:5.1f} ± {se:4.1f}")
+    return lines
+
+
+def reach_lines(arm: str, domain: str, runs: dict) -> list[str]:
+    """Where the arm could not go: per sampler, its ``unreachable`` attempts (those with no IK
+    solution for the pre-grasp pose among them) and the median distance from the base to their
+    targets, against that of its successes."""
+    lines = []
+    for sampler, run in runs.items():
+        if "reach_m" not in run:  # kept by a run before this was recorded
+            continue
+        modes = [
+            None if ok else mode for ok, mode in zip(run["success"], run["modes"], strict=True)
+        ]
+        far = [r for r, m in zip(run["reach_m"], modes, strict=True) if m == "unreachable"]
+        near = [r for r, ok in zip(run["reach_m"], run["success"], strict=True) if ok]
+        ik = sum(run["ik_failed"])
+        lines.append(
+            f"{arm} {domain} {sampler}: unreachable {len(far)} (IK failed {ik}), targets a median "
+            f"{statistics.median(far) if far else float('nan'):.2f} m from the base; "
+            f"successes {statistics.median(near) if near else float('nan'):.2f} m"
+        )
+    return lines
+
+
+def draw(result: dict, path: Path) -> None:
+    """The learning curves: per arm and domain, the learned sampler's success against its
+    training attempts, with and without the reach check, over the antipodal sampler's bands."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    panels = [(arm, d) for arm, r in result["arms"].items() for d in r["domains"]]
+    figure, axes = plt.subplots(1, len(panels), figsize=(4.5 * len(panels), 3.6), squeeze=False)
+    for ax, (arm, domain) in zip(axes[0], panels, strict=True):
+        runs = result["arms"][arm]["domains"][domain]
+        sizes = [int(s.split("-")[1]) for s in runs if s.startswith("learned-") and REACH not in s]
+        for suffix, label in (("", "learned"), (REACH, "learned, reach checked")):
+            if not sizes or f"learned-{sizes[0]}{suffix}" not in runs:
+                continue
+            rates = [rate(runs[f"learned-{n}{suffix}"]["success"]) for n in sizes]
+            ax.errorbar(
+                sizes, [r[0] for r in rates], [r[1] for r in rates], marker="o", label=label
+            )
+        for sampler, colour in (("antipodal", "grey"), (f"antipodal{REACH}", "tan")):
+            if sampler in runs:
+                base, se = rate(runs[sampler]["success"])
+                ax.axhspan(base - se, base + se, color=colour, alpha=0.3, label=f"{sampler} ± SE")
+        ax.set(title=f"{arm}, held-out {domain}", xlabel="training attempts", ylabel="success %")
+        ax.set_xscale("log")
+        ax.legend(fontsize="small")
+    figure.tight_layout()
+    figure.savefig(path, dpi=80)
+    plt.close(figure)
