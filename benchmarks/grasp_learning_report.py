@@ -51,6 +51,7 @@ def table(result: dict) -> str:
                     f"{run['failure_modes']}"
                 )
         for domain, runs in arm_result["domains"].items():
+            lines += curve_lines(arm, domain, runs)
             lines += coverage_lines(arm, domain, runs) + reach_lines(arm, domain, runs)
         lines.append(f"{arm} models (held-out training attempts):")
         for n, m in arm_result["models"].items():
@@ -68,6 +69,26 @@ def table(result: dict) -> str:
                     f"reached only {reached}"
                 )
     return "\n".join(lines)
+
+
+def curve_lines(arm: str, domain: str, runs: dict) -> list[str]:
+    """The learning curve in one domain, with and without the reach check: success of each
+    model size, and largest - smallest paired over the same attempts."""
+    sizes = sorted(
+        int(s.split("-")[1]) for s in runs if s.startswith("learned-") and REACH not in s
+    )
+    lines = []
+    for suffix in ("", REACH):
+        names = [f"learned-{n}{suffix}" for n in sizes]
+        if len(names) < 2 or any(name not in runs for name in names):
+            continue
+        rates = " -> ".join(f"{rate(runs[name]['success'])[0]:.1f}" for name in names)
+        gain, se = paired_gain(runs[names[-1]]["success"], runs[names[0]]["success"])
+        lines.append(
+            f"{arm} {domain} learning curve{suffix}, {', '.join(map(str, sizes))} attempts: "
+            f"{rates} %; {sizes[-1]} - {sizes[0]}: {gain:+.1f} ± {se:.1f} (paired)"
+        )
+    return lines
 
 
 def coverage_lines(arm: str, domain: str, runs: dict) -> list[str]:

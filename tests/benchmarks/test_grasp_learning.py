@@ -67,3 +67,17 @@ def test_the_learning_curves_are_drawn_for_every_arm_and_domain(report, tmp_path
 
     with PIL.Image.open(tmp_path / "curve.png") as picture:
         assert picture.size[0] > 2 * picture.size[1]  # two panels side by side
+
+
+def test_the_curve_line_gives_each_size_and_the_paired_gain_of_the_largest(report):
+    runs = {
+        "antipodal": {"success": [False] * 4},
+        "learned-1000": {"success": [True, True, True, False]},
+        "learned-250": {"success": [True, False, False, False]},
+        "learned-250-reach": {"success": [True, True, False, False]},
+    }
+    (line,) = report.curve_lines("panda", "scenes", runs)  # no curve with one reach-checked size
+    assert line == (
+        "panda scenes learning curve, 250, 1000 attempts: 25.0 -> 75.0 %; 1000 - 250: +50.0 ± 28.9 "
+        "(paired)"
+    )
