@@ -4,9 +4,11 @@ campaign chooses among antipodal candidates, on scenes and on objects it never s
     .venv/bin/python benchmarks/grasp_learning.py --quick   # minutes: panda, a few dozen attempts
     .venv/bin/python benchmarks/grasp_learning.py           # panda and iiwa14, hours, in parts
 
-Per arm: a training campaign (the antipodal sampler, ``configs/grasp_campaign.yaml`` with the
-arm, seed 0, the default procedural objects); models (``datagen.learning``, the code behind
-``datagen train grasp``) trained on its first 250, 1,000 and 2,000 attempts (``--curve``); then
+Per arm: training campaigns (the antipodal sampler, ``configs/grasp_campaign.yaml`` with the
+arm, the default procedural objects), of at most 2,000 attempts each (seed 0, then 1, ...: a
+longer curve adds campaigns and keeps those made); models (``datagen.learning``, the code behind
+``datagen train grasp``) trained on their first 250, 1,000, 2,000 and 4,000 attempts
+(``--curve``); then
 evaluation campaigns, seed 1000, in two domains: ``scenes`` (held-out scenes of the default
 objects) and ``objects`` (held-out objects: the picture library's real robosuite meshes through
 ``objects.source: folder``, shapes no training scene drew). In each domain the antipodal sampler
@@ -48,12 +50,13 @@ REPO = Path(__file__).resolve().parents[1]
 EVAL_SEED = 1000
 FULL = {
     "arms": ["panda", "iiwa14"],
-    "curve": [250, 1000, 2000],
+    "curve": [250, 1000, 2000, 4000],
     "eval_attempts": 150,
     "epochs": 40,
     "size": "640x480",
 }
 QUICK = {"arms": ["panda"], "curve": [16, 32], "eval_attempts": 12, "epochs": 20, "size": "160x120"}
+TRAINING_CHUNK = 2000  # attempts of one training campaign
 DOMAINS = {"scenes": "held-out scenes", "objects": "held-out objects (real meshes)"}
 
 
@@ -79,6 +82,9 @@ def arguments() -> argparse.Namespace:
         if getattr(args, name) is None:
             setattr(args, name, value)
     args.curve = sorted(set(args.curve))
+    args.chunk = min(TRAINING_CHUNK, args.curve[-1])
+    if uneven := [n for n in args.curve if n > args.chunk and n % args.chunk]:
+        parser.error(f"--curve {uneven}: sizes above {args.chunk} must be multiples of it")
     return args
 
 
@@ -157,9 +163,9 @@ def reach(meta: dict) -> float:
     return math.hypot(target[0] - base[0], target[1] - base[1])
 
 
-def train_model(arm: str, attempts: int, campaign, args) -> dict:
-    """The model trained on the first ``attempts`` of the training campaign (``campaign()``
-    builds or reads it; the model is kept under --out/models)."""
+def train_model(arm: str, attempts: int, campaigns, args) -> dict:
+    """The model trained on the first ``attempts`` of the training campaigns (``campaigns(n)``
+    builds or reads the first n; the model is kept under --out/models)."""
     from datagen.learning.examples import campaign_examples
     from datagen.learning.fit import fit
     from datagen.learning.report import save_model
@@ -169,14 +175,20 @@ def train_model(arm: str, attempts: int, campaign, args) -> dict:
     report = path.with_suffix(".json")
     if path.is_file() and report.is_file() and keeps_contract(path):
         return json.loads(report.read_text()) | {"path": str(path)}
-    root = campaign()
+    roots = campaigns(-(-attempts // args.chunk))
     start = time.perf_counter()
-    examples = campaign_examples([root], "wrist", limit=attempts)
+    examples = campaign_examples(roots, "wrist", limit=min(attempts, args.chunk))
     fitted = fit(examples, args.epochs, seed=0)
     facts = {"attempts": attempts, "examples": len(examples), "epochs": args.epochs}
     save_model(fitted, path, facts | {"train_s": round(time.perf_counter() - start, 1)})
     print(f"  model {path.name}: held-out ROC AUC {fitted.scores['roc_auc']}", flush=True)
     return json.loads(report.read_text()) | {"path": str(path)}
+
+
+def training_name(arm: str, attempts: int, seed: int) -> str:
+    """The folder of one training campaign (the first keeps the name it had before there were
+    several)."""
+    return f"{arm}-train-{attempts}" + (f"-seed{seed}" if seed else "")
 
 
 def keeps_contract(path: Path) -> bool:
@@ -196,15 +208,14 @@ def run_arm(arm: str, args) -> dict:
     from datagen.learning.transfer import campaign_auc
 
     print(f"{arm}:", flush=True)
-    largest = args.curve[-1]
-    train_name = f"{arm}-train-{largest}"
-    campaign = args.out / "campaigns" / train_name
 
-    def training_campaign() -> Path:  # built only when a model is to be trained
-        run_campaign(train_name, campaign_data(args, arm, 0, largest, None), args)
-        return campaign
+    def training_campaigns(count: int) -> list[Path]:  # built only when a model is to be trained
+        names = [training_name(arm, args.chunk, seed) for seed in range(count)]
+        for seed, name in enumerate(names):
+            run_campaign(name, campaign_data(args, arm, seed, args.chunk, None), args)
+        return [args.out / "campaigns" / name for name in names]
 
-    models = {n: train_model(arm, n, training_campaign, args) for n in args.curve}
+    models = {n: train_model(arm, n, training_campaigns, args) for n in args.curve}
     result: dict = {"models": {n: _model_summary(m) for n, m in models.items()}, "domains": {}}
     for domain in DOMAINS:
         samplers = {"antipodal": None} | {f"learned-{n}": models[n] for n in args.curve}

@@ -81,3 +81,21 @@ def test_the_curve_line_gives_each_size_and_the_paired_gain_of_the_largest(repor
         "panda scenes learning curve, 250, 1000 attempts: 25.0 -> 75.0 %; 1000 - 250: +50.0 ± 28.9 "
         "(paired)"
     )
+
+
+def test_a_longer_curve_adds_training_campaigns_and_keeps_the_first_name(benchmark_module):
+    grasp_learning = benchmark_module("grasp_learning")
+    names = [grasp_learning.training_name("panda", 2000, seed) for seed in range(3)]
+    assert names == ["panda-train-2000", "panda-train-2000-seed1", "panda-train-2000-seed2"]
+
+
+def test_a_curve_size_past_one_campaign_must_fill_whole_campaigns(
+    benchmark_module, monkeypatch, capsys
+):
+    grasp_learning = benchmark_module("grasp_learning")
+    monkeypatch.setattr("sys.argv", ["grasp_learning.py", "--curve", "250", "2000", "4000"])
+    assert grasp_learning.arguments().chunk == 2000
+    monkeypatch.setattr("sys.argv", ["grasp_learning.py", "--curve", "250", "2000", "3000"])
+    with pytest.raises(SystemExit):
+        grasp_learning.arguments()
+    assert "--curve [3000]: sizes above 2000 must be multiples of it" in capsys.readouterr().err
