@@ -141,9 +141,17 @@ def draw(result: dict, path: Path) -> None:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    panels = [(arm, d) for arm, r in result["arms"].items() for d in r["domains"]]
-    figure, axes = plt.subplots(1, len(panels), figsize=(4.5 * len(panels), 3.6), squeeze=False)
-    for ax, (arm, domain) in zip(axes[0], panels, strict=True):
+    arms = list(result["arms"])
+    domains = list(dict.fromkeys(d for r in result["arms"].values() for d in r["domains"]))
+    figure, axes = plt.subplots(
+        len(arms), len(domains), figsize=(5 * len(domains), 3.6 * len(arms)), squeeze=False
+    )
+    for ax, (arm, domain) in zip(
+        axes.flat, [(arm, d) for arm in arms for d in domains], strict=True
+    ):
+        if domain not in result["arms"][arm]["domains"]:
+            ax.set_axis_off()
+            continue
         runs = result["arms"][arm]["domains"][domain]
         sizes = [int(s.split("-")[1]) for s in runs if s.startswith("learned-") and REACH not in s]
         for suffix, label in (("", "learned"), (REACH, "learned, reach checked")):
@@ -159,6 +167,8 @@ def draw(result: dict, path: Path) -> None:
                 ax.axhspan(base - se, base + se, color=colour, alpha=0.3, label=f"{sampler} ± SE")
         ax.set(title=f"{arm}, held-out {domain}", xlabel="training attempts", ylabel="success %")
         ax.set_xscale("log")
+        ax.set_xticks(sizes, [str(n) for n in sizes])
+        ax.minorticks_off()
         ax.legend(fontsize="small")
     figure.tight_layout()
     figure.savefig(path, dpi=80)
