@@ -23,7 +23,7 @@ label (over the copies the arm still reached and that nothing disturbed: a copy'
 planned, not learned), how many grasps change their label under at least one, by outcome, and the ROC AUC with
 which the perturbed copies' share of successes ranks the attempts' own labels: what a model
 that knew each grasp's chance of holding within those tolerances, and nothing finer, would
-score (the models of ``benchmarks/grasp_learning.py`` score 0.55-0.63 on reached grasps of
+score (the models of ``benchmarks/grasp_learning.py`` score 0.52-0.64 on reached grasps of
 held-out objects).
 """
 

@@ -8,21 +8,21 @@ Per arm: training campaigns (the antipodal sampler, ``configs/grasp_campaign.yam
 arm, the default procedural objects), of at most 2,000 attempts each (seed 0, then 1, ...: a
 longer curve adds campaigns and keeps those made); models (``datagen.learning``, the code behind
 ``datagen train grasp``) trained on their first 250, 1,000, 2,000 and 4,000 attempts
-(``--curve``); then
-evaluation campaigns, seed 1000, in two domains: ``scenes`` (held-out scenes of the default
-objects) and ``objects`` (held-out objects: the picture library's real robosuite meshes through
-``objects.source: folder``, shapes no training scene drew). In each domain the antipodal sampler
-and the learned one run on the same seed and indices, so the same scenes and the same targets;
-the learned sampler's first candidate is the antipodal sampler's own. Each sampler runs twice:
-as it is, and with ``campaign.check_reach`` (``-reach``: the candidates planned before one is
-executed; the antipodal sampler then executes the first of K it draws that the arm reaches, the
-learned one the best-scored the arm reaches), so the model's share and the planning's are told
-apart. Every model runs in both domains: the learning curve on scenes of the objects it
-learned from, and on shapes it never saw.
+(``--curve``); then evaluation campaigns, seed 1000, in two domains: ``scenes`` (held-out scenes
+of the default objects) and ``objects`` (held-out objects: the picture library's real robosuite
+meshes through ``objects.source: folder``, shapes no training scene drew). In each domain the
+antipodal sampler and the learned one run on the same seed and indices, so the same scenes and
+the same targets; the learned sampler's first candidate is the antipodal sampler's own. Each
+sampler runs twice: as it is, and with ``campaign.check_reach`` (``-reach``: the candidates
+planned before one is executed; the antipodal sampler then executes the first of K it draws
+that the arm reaches, the learned one the best-scored the arm reaches), so the model's share
+and the planning's are told apart. Every model runs in both domains: the learning curve on
+scenes of the objects it learned from, and on shapes it never saw.
 
 Printed per arm and domain: success ± binomial standard error per sampler, the paired
-difference learned − antipodal ± its standard error over the same attempts, failure modes, and
-attempts/s with their ratio; each model's held-out accuracy, ROC AUC and calibration error on
+difference learned − antipodal ± its standard error over the same attempts, failure modes,
+attempts/s, and the learning curve with the largest model's gain over the smallest, paired
+over the same attempts; each model's held-out accuracy, ROC AUC and calibration error on
 training attempts it never saw, and its ROC AUC on the grasps the antipodal sampler executed in
 each domain, all of them and those the arm reached (the choice left to a model with the check).
 Everything is kept under ``--out`` (campaigns, models, ``results.json``,
