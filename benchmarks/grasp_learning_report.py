@@ -173,3 +173,9 @@ def draw(result: dict, path: Path) -> None:
     figure.tight_layout()
     figure.savefig(path, dpi=80)
     plt.close(figure)
+
+
+if __name__ == "__main__":  # a helper of grasp_learning.py: only --help here
+    import argparse
+
+    argparse.ArgumentParser(description=__doc__.splitlines()[0]).parse_args()
