@@ -13,18 +13,19 @@ it; then its grasp is executed again, unchanged and under each perturbation, in 
 from the same (seed, index) (``benchmarks/grasp_labels.py`` shows a rebuild is the settled
 scene again):
 
-- ``none``: unchanged (its label must equal the attempt's);
+- ``none``: unchanged, from the pose as the attempt's record keeps it (to 10⁻⁷ m);
 - ``closing±``, ``approach±``, ``side±``: the hand moved ``--offset`` metres along its closing
   axis, its approach axis, and the third axis;
 - ``turn±``: the hand turned ``--angle`` degrees about its approach axis.
 
-Printed, over the attempts whose grasp the arm reached: how often each perturbation keeps the
-label (over the copies the arm still reached and that nothing disturbed: a copy's reach is
-planned, not learned), how many grasps change their label under at least one, by outcome, and the ROC AUC with
-which the perturbed copies' share of successes ranks the attempts' own labels: what a model
-that knew each grasp's chance of holding within those tolerances, and nothing finer, would
-score (the models of ``benchmarks/grasp_learning.py`` score 0.52-0.64 on reached grasps of
-held-out objects).
+Printed, over the attempts whose grasp the arm reached: whether every rebuild of a scene left
+its objects exactly where its first rebuild did; how often each perturbation keeps the label
+(over the copies the arm still reached and that nothing disturbed: a copy's reach is planned,
+not learned); how many grasps change their label under at least one, by outcome; and the ROC
+AUC with which the perturbed copies' share of successes ranks the attempts' own labels: what a
+model that knew each grasp's chance of holding within those tolerances, and nothing finer,
+would score (the models of ``benchmarks/grasp_learning.py`` score 0.52-0.64 on reached grasps
+of held-out objects).
 """
 
 from __future__ import annotations
