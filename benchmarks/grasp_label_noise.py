@@ -96,16 +96,16 @@ def repeated(config, index: int, moves: dict[str, np.ndarray]) -> dict | None:
     pose = np.asarray(record["grasp"]["pose_world"], float)
     params = attempt.execution_params(config.campaign)
     modes: dict = {"attempt": mode, "settled": True}
+    first = None  # where the first rebuild left the objects
     for name, move in moves.items():
         scene = attempt.attempt_scene(config, SEED, index)
-        if modes.get("poses") is None:
-            modes["poses"] = poses(scene)
-        modes["settled"] &= poses(scene) == modes["poses"]
+        now = poses(scene)
+        first = now if first is None else first
+        modes["settled"] &= now == first
         target = next(o for o in scene.objects if o.instance_id == record["target"]["instance_id"])
         candidate = GraspCandidate(pose @ move, record["grasp"]["width"], "perturbed")
         outcome = execute_grasp(scene, target.instance_id, candidate, params, None)
         modes[name] = None if outcome.success else outcome.failure_mode
-    modes.pop("poses")
     return modes
 
 
@@ -140,9 +140,10 @@ def report(args, moves: dict, rows: list[dict]) -> None:
     for name in moves:
         copies = [r for r in rows if r[name] not in NOT_EXECUTED]
         same = sum((r[name] is None) == (r["attempt"] is None) for r in copies)
+        not_executed = Counter(r[name] for r in rows if r[name] in NOT_EXECUTED)
         print(
             f"  {name:9}: label equal to the attempt's {same} of {len(copies)} executed "
-            f"({n - len(copies)} not: {dict(Counter(r[name] for r in rows if r not in copies))})"
+            f"({n - len(copies)} not: {dict(not_executed)})"
         )
     moved = [name for name in moves if name != "none"]
     executed = [[r[m] for m in moved if r[m] not in NOT_EXECUTED] for r in rows]

@@ -33,6 +33,7 @@ so a run of hours can be done in parts.
 from __future__ import annotations
 
 import argparse
+import functools
 import json
 import math
 import os
@@ -209,11 +210,14 @@ def run_arm(arm: str, args) -> dict:
 
     print(f"{arm}:", flush=True)
 
-    def training_campaigns(count: int) -> list[Path]:  # built only when a model is to be trained
-        names = [training_name(arm, args.chunk, seed) for seed in range(count)]
-        for seed, name in enumerate(names):
-            run_campaign(name, campaign_data(args, arm, seed, args.chunk, None), args)
-        return [args.out / "campaigns" / name for name in names]
+    @functools.cache  # each campaign built or read once, whichever models need it
+    def training_campaign(seed: int) -> Path:  # built only when a model is to be trained
+        name = training_name(arm, args.chunk, seed)
+        run_campaign(name, campaign_data(args, arm, seed, args.chunk, None), args)
+        return args.out / "campaigns" / name
+
+    def training_campaigns(count: int) -> list[Path]:
+        return [training_campaign(seed) for seed in range(count)]
 
     models = {n: train_model(arm, n, training_campaigns, args) for n in args.curve}
     result: dict = {"models": {n: _model_summary(m) for n, m in models.items()}, "domains": {}}

@@ -71,12 +71,15 @@ def table(result: dict) -> str:
     return "\n".join(lines)
 
 
+def model_sizes(runs: dict) -> list[int]:
+    """The training attempts of the models whose learned sampler ran (``learned-N``), in order."""
+    return sorted(int(s.split("-")[1]) for s in runs if s.startswith("learned-") and REACH not in s)
+
+
 def curve_lines(arm: str, domain: str, runs: dict) -> list[str]:
     """The learning curve in one domain, with and without the reach check: success of each
     model size, and largest - smallest paired over the same attempts."""
-    sizes = sorted(
-        int(s.split("-")[1]) for s in runs if s.startswith("learned-") and REACH not in s
-    )
+    sizes = model_sizes(runs)
     lines = []
     for suffix in ("", REACH):
         names = [f"learned-{n}{suffix}" for n in sizes]
@@ -153,7 +156,7 @@ def draw(result: dict, path: Path) -> None:
             ax.set_axis_off()
             continue
         runs = result["arms"][arm]["domains"][domain]
-        sizes = [int(s.split("-")[1]) for s in runs if s.startswith("learned-") and REACH not in s]
+        sizes = model_sizes(runs)
         for suffix, label in (("", "learned"), (REACH, "learned, reach checked")):
             if not sizes or f"learned-{sizes[0]}{suffix}" not in runs:
                 continue
