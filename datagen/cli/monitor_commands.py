@@ -7,7 +7,7 @@ import argparse
 import contextlib
 import os
 import socket
-import threading
+import time
 from collections.abc import Sequence
 
 from datagen.cli.common import build_id, whole_number
@@ -15,6 +15,7 @@ from datagen.errors import UserInputError
 from datagen.monitor.server import MonitorServer, PageConfig, page_config
 
 MONITOR_URL_ENV = "DATAGEN_MONITOR_BROKER_URL"
+INTERRUPT_POLL_S = 1.0
 
 
 def add_parsers(commands) -> None:
@@ -52,11 +53,14 @@ def run_monitor(args: argparse.Namespace) -> int:
         config = page_config(args.broker, args.build_id)
     except ValueError as exc:
         raise UserInputError(str(exc)) from None
-    with serving(config, args.host, args.port, args.public_name) as server:
+    with (
+        serving(config, args.host, args.port, args.public_name) as server,
+        contextlib.suppress(KeyboardInterrupt),
+    ):
         where = f" for {config.broker}" if config.broker else ""
         print(f"datagen: monitor{where}: open {server.url}  (Ctrl-C stops it)", flush=True)
-        with contextlib.suppress(KeyboardInterrupt):
-            threading.Event().wait()
+        while True:  # a timed wait: Ctrl-C is seen within a second even when the kernel
+            time.sleep(INTERRUPT_POLL_S)  # delivers SIGINT to one of the server's threads
     return 0
 
 

@@ -7,6 +7,7 @@ paths and foreign Host headers (DNS rebinding) with a 4xx, never a traceback, ne
 from __future__ import annotations
 
 import base64
+import ctypes
 import hashlib
 import json
 import os
@@ -141,6 +142,18 @@ def test_config_json_goes_only_to_a_request_naming_this_server(monitor_command):
         assert b"Cache-Control: no-store" in head
     err = monitor_command.stop()
     assert err == "", f"the server wrote to stderr:\n{err}"
+
+
+def test_ctrl_c_stops_the_monitor_whichever_thread_the_kernel_gives_it_to(monitor_command):
+    """SIGINT sent to the process may land on any of its threads; CPython runs the handler in
+    the main thread, which must not sleep through it (an untimed wait did: the command never
+    stopped when the signal landed on a server thread)."""
+    proc = monitor_command.proc
+    others = [int(t) for t in os.listdir(f"/proc/{proc.pid}/task") if int(t) != proc.pid]
+    assert others, "the monitor serves from a thread of its own"
+    assert ctypes.CDLL(None, use_errno=True).tgkill(proc.pid, others[0], signal.SIGINT) == 0
+    _, err = proc.communicate(timeout=10)
+    assert proc.returncode == 0 and err == "", err
 
 
 def test_a_monitor_shared_with_the_network_answers_its_names_only():
