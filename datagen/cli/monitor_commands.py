@@ -15,7 +15,7 @@ from datagen.errors import UserInputError
 from datagen.monitor.server import MonitorServer, PageConfig, page_config
 
 MONITOR_URL_ENV = "DATAGEN_MONITOR_BROKER_URL"
-INTERRUPT_POLL_S = 1.0
+INTERRUPT_POLL_S = 1.0  # seconds: the longest Ctrl-C may wait to be seen
 
 
 def add_parsers(commands) -> None:
@@ -59,8 +59,10 @@ def run_monitor(args: argparse.Namespace) -> int:
     ):
         where = f" for {config.broker}" if config.broker else ""
         print(f"datagen: monitor{where}: open {server.url}  (Ctrl-C stops it)", flush=True)
-        while True:  # a timed wait: Ctrl-C is seen within a second even when the kernel
-            time.sleep(INTERRUPT_POLL_S)  # delivers SIGINT to one of the server's threads
+        # Timed sleeps, not one untimed wait: the kernel may deliver SIGINT to a server
+        # thread, and the main thread, which runs Python's handler, sees it only when it wakes.
+        while True:
+            time.sleep(INTERRUPT_POLL_S)
     return 0
 
 
