@@ -147,6 +147,7 @@ def run_campaign(name: str, data: dict, args) -> dict:
             sorted(Counter(o["failure_mode"] for o in outcomes if not o["success"]).items())
         ),
         "modes": [o["failure_mode"] for o in outcomes],
+        "classes": [str((meta["attempt"]["target"] or {}).get("class")) for meta in metadata],
         "attempts_per_s": round(1 / steady, 4) if steady else None,
         "reach_m": [round(reach(meta), 4) for meta in metadata],
         "ik_failed": [

@@ -53,6 +53,7 @@ def table(result: dict) -> str:
         for domain, runs in arm_result["domains"].items():
             lines += curve_lines(arm, domain, runs)
             lines += coverage_lines(arm, domain, runs) + reach_lines(arm, domain, runs)
+            lines += class_lines(arm, domain, runs)
         lines.append(f"{arm} models (held-out training attempts):")
         for n, m in arm_result["models"].items():
             lines.append(
@@ -133,6 +134,24 @@ def reach_lines(arm: str, domain: str, runs: dict) -> list[str]:
             f"{statistics.median(far) if far else float('nan'):.2f} m from the base; "
             f"successes {statistics.median(near) if near else float('nan'):.2f} m"
         )
+    return lines
+
+
+def class_lines(arm: str, domain: str, runs: dict) -> list[str]:
+    """Success per target class (the classes differ in size, and a mean over the easy ones can
+    hide the one that matters): the antipodal sampler and the largest model, each with and
+    without the check, on the attempts whose target is of that class."""
+    if "classes" not in runs["antipodal"]:  # kept by a run before this was recorded
+        return []
+    classes = runs["antipodal"]["classes"]
+    largest = [f"learned-{n}" for n in model_sizes(runs)][-1:]
+    samplers = [s for b in ("antipodal", *largest) for s in (b, b + REACH) if s in runs]
+    lines = [f"{arm} {domain} per target class, success %: " + ", ".join(samplers)]
+    for name in sorted(set(classes)):
+        rows = [i for i, c in enumerate(classes) if c == name]
+        rates = (rate([runs[s]["success"][i] for i in rows]) for s in samplers)
+        cells = ", ".join(f"{p:5.1f} ± {se:4.1f}" for p, se in rates)
+        lines.append(f"  {name:12} (n {len(rows):3}): {cells}")
     return lines
 
 

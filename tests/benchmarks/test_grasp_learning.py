@@ -49,6 +49,23 @@ def test_the_reach_line_counts_unreachable_attempts_and_how_far_their_targets_we
     assert report.reach_lines("panda", "scenes", {"antipodal": {"success": []}}) == []
 
 
+def test_each_target_class_gets_its_own_line_with_the_largest_model(report):
+    classes = ["lemon", "can", "lemon", "can", "can"]
+    runs = {
+        "antipodal": {"success": [False, True, False, True, False], "classes": classes},
+        "antipodal-reach": {"success": [True, True, False, True, True]},
+        "learned-250": {"success": [True] * 5},  # not the largest: left out
+        "learned-1000": {"success": [True, True, True, False, False]},
+    }
+    assert report.class_lines("panda", "objects", runs) == [
+        "panda objects per target class, success %: antipodal, antipodal-reach, learned-1000",
+        "  can          (n   3):  66.7 ± 27.2, 100.0 ±  0.0,  33.3 ± 27.2",
+        "  lemon        (n   2):   0.0 ±  0.0,  50.0 ± 35.4, 100.0 ±  0.0",
+    ]
+    del runs["antipodal"]["classes"]  # kept by a run before classes were recorded
+    assert report.class_lines("panda", "objects", runs) == []
+
+
 def test_the_learning_curves_are_drawn_for_every_arm_and_domain(report, tmp_path):
     def run(success):
         return {"success": success}
