@@ -18,6 +18,7 @@ from datagen.cli import (
     build_commands,
     campaign_commands,
     dataset_commands,
+    evaluate_commands,
     library_commands,
     monitor_commands,
     service_commands,
@@ -34,6 +35,7 @@ COMMAND_MODULES = (
     monitor_commands,
     library_commands,
     train_commands,
+    evaluate_commands,
 )
 
 
