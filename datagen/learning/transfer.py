@@ -21,10 +21,8 @@ UNREACHED = "unreachable"
 def campaign_auc(model_path: str | Path, campaign: str | Path, camera: str = "wrist") -> dict:
     """:func:`auc_by_reach` of the model's scores of the campaign's executed grasps, as
     ``camera`` saw them."""
-    model = load_model(model_path)
-    examples = campaign_examples([campaign], camera, size=model.crop_size)
-    scores = model.score(examples.crops, examples.features)
-    return auc_by_reach(scores, examples.success, examples.modes)
+    report = evaluate(model_path, [campaign], camera).report
+    return {"all": report["all"], "reached": report["reached"]}
 
 
 def auc_by_reach(scores: np.ndarray, success: np.ndarray, modes: Sequence[str | None]) -> dict:
