@@ -106,6 +106,11 @@ def run_train_grasp(args: argparse.Namespace) -> int:
         f"accuracy {s['accuracy']:.1%}, ROC AUC {auc}, calibration error "
         f"{s['calibration']['ece']:.3f}, Brier {s['calibration']['brier']:.3f}"
     )
+    for name, counted in s["classes"].items():
+        auc = "n/a" if counted["roc_auc"] is None else f"{counted['roc_auc']:.3f}"
+        print(
+            f"datagen:   {name}: {counted['n']} attempts, {counted['successes']} held, ROC AUC {auc}"
+        )
     print(f"datagen: wrote {out} (sha256 {sha256[:12]}), {report}, {picture}")
     print(
         f"datagen: use it: datagen campaign grasp CONFIG --sampler learned --model {out}"

@@ -17,7 +17,7 @@ from datagen.grasp_model.inputs import GRASP_FEATURES
 from datagen.grasp_model.model_file import CROP_INPUT, GRASP_INPUT
 from datagen.learning.examples import GraspExamples
 from datagen.learning.grasp_net import GraspQualityNet, SuccessProbability
-from datagen.learning.metrics import scores_of
+from datagen.learning.metrics import auc_by_class, scores_of
 from datagen.seeding import sample_rng
 
 BATCH = 64
@@ -85,7 +85,9 @@ def fit(
             on_epoch(epoch + 1, losses[-1])
     test = examples.subset(test_rows)
     probabilities = predict(net, test.crops, test.features)
-    return Fitted(net, test, probabilities, scores_of(probabilities, test.success), losses)
+    scores = scores_of(probabilities, test.success)
+    scores["classes"] = auc_by_class(probabilities, test.success, test.families)
+    return Fitted(net, test, probabilities, scores, losses)
 
 
 def predict(net: GraspQualityNet, crops: np.ndarray, features: np.ndarray) -> np.ndarray:

@@ -3,6 +3,7 @@ Pure numpy and scipy."""
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from typing import Any
 
 import numpy as np
@@ -20,6 +21,20 @@ def roc_auc(scores: np.ndarray, labels: np.ndarray) -> float | None:
         return None
     ranks = rankdata(np.asarray(scores, float))
     return float((ranks[labels].sum() - positives * (positives + 1) / 2) / (positives * negatives))
+
+
+def counted_auc(scores: np.ndarray, success: np.ndarray) -> dict:
+    """{"n", "successes", "roc_auc"} (None with one class only) of ``scores`` on ``success``."""
+    labels = np.asarray(success, bool)
+    return {"n": len(labels), "successes": int(labels.sum()), "roc_auc": roc_auc(scores, labels)}
+
+
+def auc_by_class(scores: np.ndarray, success: np.ndarray, classes: Sequence[str]) -> dict:
+    """:func:`counted_auc` of each class's examples, by class name in order: classes differ in
+    size, and one AUC over all of them can hide the class that matters."""
+    names = np.asarray(classes, dtype=object)
+    scores, success = np.asarray(scores), np.asarray(success, bool)
+    return {c: counted_auc(scores[names == c], success[names == c]) for c in sorted(set(classes))}
 
 
 def roc_curve(scores: np.ndarray, labels: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

@@ -13,7 +13,7 @@ import numpy as np
 
 from datagen.grasp_model.model_file import load_model
 from datagen.learning.examples import GraspExamples, campaign_examples
-from datagen.learning.metrics import calibration, roc_auc
+from datagen.learning.metrics import auc_by_class, calibration, counted_auc
 
 UNREACHED = "unreachable"
 
@@ -37,12 +37,6 @@ def auc_by_reach(scores: np.ndarray, success: np.ndarray, modes: Sequence[str | 
     }
 
 
-def counted_auc(scores: np.ndarray, success: np.ndarray) -> dict:
-    """{"n", "successes", "roc_auc"} (None with one class only) of ``scores`` on ``success``."""
-    labels = np.asarray(success, bool)
-    return {"n": len(labels), "successes": int(labels.sum()), "roc_auc": roc_auc(scores, labels)}
-
-
 @dataclass
 class Evaluation:
     report: dict  # what is printed and written as JSON
@@ -63,17 +57,13 @@ def evaluate(
     model = load_model(model_path)
     examples = campaign_examples(campaigns, camera, model.crop_size, on_progress=on_progress)
     scores = model.score(examples.crops, examples.features) if len(examples) else np.zeros(0)
-    classes = np.array(examples.families)
     report = {
         "model_sha256": model.sha256,
         "campaigns": [Path(c).name for c in campaigns],
         "camera": camera,
         "left_out": dict(sorted(examples.left_out.items())),
         **auc_by_reach(scores, examples.success, examples.modes),
-        "classes": {
-            name: counted_auc(scores[classes == name], examples.success[classes == name])
-            for name in sorted(set(examples.families))
-        },
+        "classes": auc_by_class(scores, examples.success, examples.families),
     }
     if len(scores) and np.all((scores >= 0) & (scores <= 1)):  # probabilities
         report["calibration"] = calibration(scores, examples.success)

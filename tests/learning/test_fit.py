@@ -12,7 +12,7 @@ from datagen.grasp_model.inputs import GRASP_FEATURES
 from datagen.grasp_model.model_file import load_model
 from datagen.learning.examples import GraspExamples
 from datagen.learning.fit import fit, onnx_bytes, split, write_model
-from datagen.learning.metrics import calibration, roc_auc, roc_curve
+from datagen.learning.metrics import auc_by_class, calibration, roc_auc, roc_curve
 
 
 def test_roc_auc_is_the_share_of_success_failure_pairs_in_order():
@@ -39,6 +39,19 @@ def test_calibration_of_honest_and_of_overconfident_predictions():
     assert sum(b["count"] for b in honest["bins"]) == 20000
 
 
+def test_the_auc_of_each_class_shows_what_the_auc_over_all_hides():
+    # cans (8 examples) ranked right, the 2 lemons ranked the wrong way round
+    scores = np.array([0.9, 0.8, 0.7, 0.6, 0.4, 0.3, 0.2, 0.1, 0.2, 0.9])
+    held = np.array([True] * 4 + [False] * 4 + [True, False])
+    classes = ["can"] * 8 + ["lemon"] * 2
+    assert roc_auc(scores, held) == 0.72  # 18 of the 25 held-failed pairs in order
+    assert auc_by_class(scores, held, classes) == {
+        "can": {"n": 8, "successes": 4, "roc_auc": 1.0},
+        "lemon": {"n": 2, "successes": 1, "roc_auc": 0.0},
+    }
+    assert auc_by_class(scores[:4], held[:4], classes[:4])["can"]["roc_auc"] is None
+
+
 def planted(count: int, seed: int = 0) -> GraspExamples:
     """Examples whose success is whether the crop's left half is higher than the grasp and the
     approach points away from the camera's x: a rule of both inputs."""
@@ -56,6 +69,7 @@ def planted(count: int, seed: int = 0) -> GraspExamples:
 def test_a_net_learns_a_planted_rule_and_scores_attempts_it_never_saw():
     fitted = fit(planted(400), epochs=20, seed=0)
     assert fitted.scores["examples"] == 80  # the held-out fifth
+    assert fitted.scores["classes"]["box"]["n"] == 80  # every planted example is a box
     assert fitted.scores["roc_auc"] > 0.85 and fitted.scores["accuracy"] > 0.75
     assert len(fitted.losses) == 20 and fitted.losses[-1] < fitted.losses[0]
 
