@@ -241,7 +241,9 @@ def execution_params(campaign: CampaignConfig) -> ExecutionParams:
         pregrasp_distance=campaign.pre_grasp_distance,
         lift_height=campaign.lift_height,
         hold_time=campaign.hold_time,
-        open_fully=False,  # open to the width the sampler checked for collisions
+        # open to the candidate's width plus ExecutionParams.open_margin (0.01 m): 1 cm wider
+        # than the opening the sampler checked for collisions (its width, contacts + clearance)
+        open_fully=False,
     )
 
 
