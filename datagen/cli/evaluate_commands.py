@@ -9,8 +9,8 @@ import json
 from pathlib import Path
 
 from datagen.cli.common import one_line
-from datagen.cli.progress import progress
-from datagen.cli.train_commands import CAMERAS
+from datagen.cli.progress import LazyProgress
+from datagen.cli.train_commands import CAMERAS, auc_text, class_lines
 
 
 def add_parsers(commands) -> None:
@@ -44,11 +44,6 @@ def add_parsers(commands) -> None:
     grasp.set_defaults(run=run_evaluate_grasp, command_parser=grasp)
 
 
-def _auc(counted: dict) -> str:
-    auc = counted["roc_auc"]
-    return f"ROC AUC {'n/a' if auc is None else f'{auc:.3f}'}"
-
-
 def run_evaluate_grasp(args: argparse.Namespace) -> int:
     from datagen.errors import UserInputError
     from datagen.grasp_model.model_file import ModelFileError
@@ -58,19 +53,13 @@ def run_evaluate_grasp(args: argparse.Namespace) -> int:
     out = Path(args.out) if args.out else None
     if out is not None and out.suffix != ".json":
         raise UserInputError(f"--out {one_line(args.out)}: expected a file name ending in .json")
-    bar = None
-
-    def read(done: int, total: int) -> None:
-        nonlocal bar
-        bar = bar or progress(total, "attempts read", unit="attempts")
-        bar.update_to(done)
-
+    read = LazyProgress("attempts read", unit="attempts")
     try:
         evaluation = evaluate(args.model, args.campaigns, args.camera, on_progress=read)
     except ModelFileError as exc:
         raise UserInputError(f"--model: {exc}") from None
-    if bar:
-        bar.close()
+    finally:
+        read.close()
     report = evaluation.report
     every, reached = report["all"], report["reached"]
     skipped = ", ".join(f"{n} {mode}" for mode, n in report["left_out"].items()) or "none"
@@ -80,13 +69,11 @@ def run_evaluate_grasp(args: argparse.Namespace) -> int:
         f"(sha256 {report['model_sha256'][:12]}); left out: {skipped}"
     )
     print(
-        f"datagen: over all of them {_auc(every)}; over the {reached['n']} the arm reached "
-        f"({reached['successes']} held) {_auc(reached)}"
+        f"datagen: over all of them {auc_text(every)}; over the {reached['n']} the arm reached "
+        f"({reached['successes']} held) {auc_text(reached)}"
     )
-    for name, counted in report["classes"].items():
-        print(
-            f"datagen:   {name}: {counted['n']} grasps, {counted['successes']} held, {_auc(counted)}"
-        )
+    for line in class_lines(report["classes"], "grasps"):
+        print(line)
     if calibration := report.get("calibration"):
         print(
             f"datagen: the scores are probabilities: calibration error {calibration['ece']:.3f}, "

@@ -111,3 +111,20 @@ def progress(total: int, desc: str, unit: str = "samples", leave: bool = True):
     if sys.stderr.isatty():
         return _Bar(total, desc, unit, leave)
     return PlainProgress(total, desc, unit)
+
+
+class LazyProgress:
+    """A progress callback ``(done, total)`` that opens its bar at the first call, when the
+    total is known; ``close()`` closes it if it was opened."""
+
+    def __init__(self, desc: str, unit: str = "samples"):
+        self.desc, self.unit = desc, unit
+        self.bar: PlainProgress | _Bar | None = None
+
+    def __call__(self, done: int, total: int) -> None:
+        self.bar = self.bar or progress(total, self.desc, unit=self.unit)
+        self.bar.update_to(done)
+
+    def close(self) -> None:
+        if self.bar:
+            self.bar.close()

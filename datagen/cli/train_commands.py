@@ -9,7 +9,7 @@ import time
 from pathlib import Path
 
 from datagen.cli.common import one_line, whole_number
-from datagen.cli.progress import progress
+from datagen.cli.progress import LazyProgress
 
 CAMERAS = ("wrist", "workspace")
 
@@ -55,6 +55,21 @@ def add_parsers(commands) -> None:
     grasp.set_defaults(run=run_train_grasp, command_parser=grasp)
 
 
+def auc_text(counted: dict) -> str:
+    """``ROC AUC 0.723`` of a ``datagen.learning.metrics.counted_auc`` (n/a with one class)."""
+    auc = counted["roc_auc"]
+    return f"ROC AUC {'n/a' if auc is None else f'{auc:.3f}'}"
+
+
+def class_lines(classes: dict, noun: str) -> list[str]:
+    """One line per target class of ``auc_by_class``: its ``noun`` (attempts, grasps), how many
+    held and the ROC AUC."""
+    return [
+        f"datagen:   {name}: {c['n']} {noun}, {c['successes']} held, {auc_text(c)}"
+        for name, c in classes.items()
+    ]
+
+
 def run_train_grasp(args: argparse.Namespace) -> int:
     from datagen.errors import UserInputError
     from datagen.learning.examples import campaign_examples
@@ -66,16 +81,9 @@ def run_train_grasp(args: argparse.Namespace) -> int:
         raise UserInputError(f"--out {one_line(args.out)}: expected a file name ending in .onnx")
     if not 0.05 <= args.held_out <= 0.5:
         raise UserInputError(f"--held-out {args.held_out}: expected a share from 0.05 to 0.5")
-    bar = None
-
-    def read(done: int, total: int) -> None:
-        nonlocal bar
-        bar = bar or progress(total, "attempts read", unit="attempts")
-        bar.update_to(done)
-
+    read = LazyProgress("attempts read", unit="attempts")
     examples = campaign_examples(args.campaigns, args.camera, limit=args.attempts, on_progress=read)
-    if bar:
-        bar.close()
+    read.close()
     skipped = ", ".join(f"{n} {mode}" for mode, n in examples.left_out.items()) or "none"
     print(
         f"datagen: {len(examples)} examples ({int(examples.success.sum())} successes) from "
@@ -106,11 +114,8 @@ def run_train_grasp(args: argparse.Namespace) -> int:
         f"accuracy {s['accuracy']:.1%}, ROC AUC {auc}, calibration error "
         f"{s['calibration']['ece']:.3f}, Brier {s['calibration']['brier']:.3f}"
     )
-    for name, counted in s["classes"].items():
-        auc = "n/a" if counted["roc_auc"] is None else f"{counted['roc_auc']:.3f}"
-        print(
-            f"datagen:   {name}: {counted['n']} attempts, {counted['successes']} held, ROC AUC {auc}"
-        )
+    for line in class_lines(s["classes"], "attempts"):
+        print(line)
     print(f"datagen: wrote {out} (sha256 {sha256[:12]}), {report}, {picture}")
     print(
         f"datagen: use it: datagen campaign grasp CONFIG --sampler learned --model {out}"

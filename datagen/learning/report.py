@@ -11,7 +11,7 @@ import numpy as np
 from datagen.grasp_model.model_file import load_model
 from datagen.learning.fit import Fitted, write_model
 from datagen.learning.metrics import roc_curve
-from datagen.learning.transfer import UNREACHED, Evaluation
+from datagen.learning.transfer import Evaluation, reached_rows
 
 
 def save_model(fitted: Fitted, model: Path, facts: dict) -> tuple[str, Path, Path]:
@@ -91,7 +91,7 @@ def draw_evaluation(evaluation: Evaluation, path: Path) -> None:
     figure, panels = plt.subplots(
         1, 3 if calibration else 2, figsize=(12 if calibration else 8, 3.8)
     )
-    reached = np.array([mode != UNREACHED for mode in examples.modes], bool)
+    reached = reached_rows(examples.modes)
     for rows, name, color in ((slice(None), "all", "tab:blue"), (reached, "reached", "tab:purple")):
         auc = report[name]["roc_auc"]
         label = f"{name} (n {report[name]['n']}, AUC {auc:.3f})" if auc is not None else name

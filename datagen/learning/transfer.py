@@ -25,11 +25,16 @@ def campaign_auc(model_path: str | Path, campaign: str | Path, camera: str = "wr
     return {"all": report["all"], "reached": report["reached"]}
 
 
+def reached_rows(modes: Sequence[str | None]) -> np.ndarray:
+    """(N,) bool: the examples whose failure mode is not ``unreachable``."""
+    return np.array([mode != UNREACHED for mode in modes], bool)
+
+
 def auc_by_reach(scores: np.ndarray, success: np.ndarray, modes: Sequence[str | None]) -> dict:
     """{"all": {...}, "reached": {...}}: the examples (``n``), their successes and the ROC AUC
     of ``scores`` on them (None with one class only), over all examples and over those whose
     failure mode is not ``unreachable``."""
-    reached = np.array([mode != UNREACHED for mode in modes], bool)
+    reached = reached_rows(modes)
     scores, success = np.asarray(scores), np.asarray(success, bool)
     return {
         "all": counted_auc(scores, success),
