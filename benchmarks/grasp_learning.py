@@ -17,7 +17,11 @@ sampler runs twice: as it is, and with ``campaign.check_reach`` (``-reach``: the
 planned before one is executed; the antipodal sampler then executes the first of K it draws
 that the arm reaches, the learned one the best-scored the arm reaches), so the model's share
 and the planning's are told apart. Every model runs in both domains: the learning curve on
-scenes of the objects it learned from, and on shapes it never saw.
+scenes of the objects it learned from, and on shapes it never saw. With ``--per-scene 1 4``
+a second curve of models is trained on campaigns of 4 grasps a scene
+(``campaign.grasps_per_scene``: ``learned-NxK``) and runs on the same evaluation attempts, each
+paired against the model of as many attempts of one grasp a scene. ``--domains`` and
+``--learned-reach-only`` leave parts out, to fit a shorter run.
 
 Printed per arm and domain: success ± binomial standard error per sampler, the paired
 difference learned − antipodal ± its standard error over the same attempts, failure modes,
@@ -44,7 +48,7 @@ from pathlib import Path
 
 from dr_transfer.building import build
 from dr_transfer.hardware import commit
-from grasp_learning_report import REACH, draw, table
+from grasp_learning_report import REACH, draw, learned_label, table
 from machine import cpu_model
 
 REPO = Path(__file__).resolve().parents[1]
@@ -75,6 +79,22 @@ def arguments() -> argparse.Namespace:
     )
     parser.add_argument("--epochs", type=int, help=f"training epochs ({FULL['epochs']})")
     parser.add_argument("--size", help=f"camera width x height ({FULL['size']})")
+    parser.add_argument(
+        "--per-scene",
+        type=int,
+        nargs="+",
+        default=[1],
+        help="grasps a scene of the training campaigns (campaign.grasps_per_scene), one model "
+        "curve each, side by side on the same evaluation attempts (1)",
+    )
+    parser.add_argument(
+        "--domains", nargs="+", choices=list(DOMAINS), default=list(DOMAINS), help="(both)"
+    )
+    parser.add_argument(
+        "--learned-reach-only",
+        action="store_true",
+        help="run the learned sampler with the check only (the antipodal sampler both ways)",
+    )
     parser.add_argument("--candidates", type=int, default=16, help="K, candidates scored (16)")
     parser.add_argument("--workers", type=int, default=2, help="campaign workers (2)")
     parser.add_argument("--out", type=Path, default=REPO / "benchmarks/results/grasp_learning")
@@ -83,6 +103,7 @@ def arguments() -> argparse.Namespace:
         if getattr(args, name) is None:
             setattr(args, name, value)
     args.curve = sorted(set(args.curve))
+    args.per_scene = sorted(set(args.per_scene))
     args.chunk = min(TRAINING_CHUNK, args.curve[-1])
     if uneven := [n for n in args.curve if n > args.chunk and n % args.chunk]:
         parser.error(f"--curve {uneven}: sizes above {args.chunk} must be multiples of it")
@@ -90,11 +111,19 @@ def arguments() -> argparse.Namespace:
 
 
 def campaign_data(
-    args, arm: str, seed: int, attempts: int, domain: str | None, model=None, reach=False
+    args,
+    arm: str,
+    seed: int,
+    attempts: int,
+    domain: str | None,
+    model=None,
+    reach=False,
+    per_scene: int = 1,
 ):
     """The config dict of one campaign: ``configs/grasp_campaign.yaml`` with the arm, the
     camera size, no post-grasp frame and no step-by-step recording (not needed here); with
-    ``reach``, the sampler executes a candidate the arm reaches (``campaign.check_reach``)."""
+    ``reach``, the sampler executes a candidate the arm reaches (``campaign.check_reach``);
+    ``per_scene`` grasps a scene (``campaign.grasps_per_scene``)."""
     from datagen.config.yaml_file import read_yaml
 
     data = read_yaml(REPO / "configs/grasp_campaign.yaml")
@@ -104,6 +133,8 @@ def campaign_data(
         campaign |= {"sampler": "learned", "model": str(model), "candidates": args.candidates}
     if reach:
         campaign |= {"check_reach": True, "candidates": args.candidates}
+    if per_scene > 1:
+        campaign |= {"grasps_per_scene": per_scene}
     data |= {
         "num_samples": attempts,
         "seed": seed,
@@ -165,7 +196,7 @@ def reach(meta: dict) -> float:
     return math.hypot(target[0] - base[0], target[1] - base[1])
 
 
-def train_model(arm: str, attempts: int, campaigns, args) -> dict:
+def train_model(arm: str, attempts: int, campaigns, args, per_scene: int = 1) -> dict:
     """The model trained on the first ``attempts`` of the training campaigns (``campaigns(n)``
     builds or reads the first n; the model is kept under --out/models)."""
     from datagen.learning.examples import campaign_examples
@@ -173,7 +204,8 @@ def train_model(arm: str, attempts: int, campaigns, args) -> dict:
     from datagen.learning.report import save_model
 
     # kept by what makes it: a rerun with other epochs trains anew
-    path = args.out / "models" / f"{arm}-{attempts}-{args.epochs}epochs.onnx"
+    label = learned_label(attempts, per_scene).removeprefix("learned-")
+    path = args.out / "models" / f"{arm}-{label}-{args.epochs}epochs.onnx"
     report = path.with_suffix(".json")
     if path.is_file() and report.is_file() and keeps_contract(path):
         return json.loads(report.read_text()) | {"path": str(path)}
@@ -187,10 +219,11 @@ def train_model(arm: str, attempts: int, campaigns, args) -> dict:
     return json.loads(report.read_text()) | {"path": str(path)}
 
 
-def training_name(arm: str, attempts: int, seed: int) -> str:
+def training_name(arm: str, attempts: int, seed: int, per_scene: int = 1) -> str:
     """The folder of one training campaign (the first keeps the name it had before there were
     several)."""
-    return f"{arm}-train-{attempts}" + (f"-seed{seed}" if seed else "")
+    shared = f"-x{per_scene}" if per_scene > 1 else ""
+    return f"{arm}-train-{attempts}{shared}" + (f"-seed{seed}" if seed else "")
 
 
 def keeps_contract(path: Path) -> bool:
@@ -212,19 +245,25 @@ def run_arm(arm: str, args) -> dict:
     print(f"{arm}:", flush=True)
 
     @functools.cache  # each campaign built or read once, whichever models need it
-    def training_campaign(seed: int) -> Path:  # built only when a model is to be trained
-        name = training_name(arm, args.chunk, seed)
-        run_campaign(name, campaign_data(args, arm, seed, args.chunk, None), args)
+    def training_campaign(seed: int, k: int) -> Path:  # built only when a model is to be trained
+        name = training_name(arm, args.chunk, seed, k)
+        run_campaign(name, campaign_data(args, arm, seed, args.chunk, None, per_scene=k), args)
         return args.out / "campaigns" / name
 
-    def training_campaigns(count: int) -> list[Path]:
-        return [training_campaign(seed) for seed in range(count)]
-
-    models = {n: train_model(arm, n, training_campaigns, args) for n in args.curve}
-    result: dict = {"models": {n: _model_summary(m) for n, m in models.items()}, "domains": {}}
-    for domain in DOMAINS:
-        samplers = {"antipodal": None} | {f"learned-{n}": models[n] for n in args.curve}
-        samplers |= {f"{sampler}{REACH}": model for sampler, model in samplers.items()}
+    models = {
+        learned_label(n, k): train_model(
+            arm, n, lambda count, k=k: [training_campaign(s, k) for s in range(count)], args, k
+        )
+        for k in args.per_scene
+        for n in args.curve
+    }
+    summaries = {label.removeprefix("learned-"): _model_summary(m) for label, m in models.items()}
+    result: dict = {"models": summaries, "domains": {}}
+    for domain in args.domains:
+        samplers = {"antipodal": None, f"antipodal{REACH}": None}
+        for label, model in models.items():
+            reach_only = [REACH] if args.learned_reach_only else ["", REACH]
+            samplers |= {f"{label}{suffix}": model for suffix in reach_only}
         runs, folders = {}, {}
         for sampler, model in samplers.items():
             path = model and model["path"]
@@ -235,8 +274,8 @@ def run_arm(arm: str, args) -> dict:
             runs[sampler], folders[sampler] = run_campaign(name, data, args), name
         result["domains"][domain] = runs
         antipodal = args.out / "campaigns" / folders["antipodal"]
-        for n, model in models.items():  # each model on the grasps the antipodal sampler tried
-            transfer = result["models"][n].setdefault("transfer", {})
+        for label, model in models.items():  # on the grasps the antipodal sampler tried
+            transfer = summaries[label.removeprefix("learned-")].setdefault("transfer", {})
             transfer[domain] = campaign_auc(model["path"], antipodal)
     return result
 
@@ -249,6 +288,7 @@ def _model_summary(report: dict) -> dict:
         "accuracy": held["accuracy"],
         "roc_auc": held["roc_auc"],
         "ece": held["calibration"]["ece"],
+        "within_scene": held.get("within_scene"),
         "train_s": report.get("train_s"),
     }
 
@@ -261,7 +301,10 @@ def main() -> int:
         "command": " ".join([python, *sys.argv]),
         "commit": commit(REPO),
         "cpu": f"{cpu_model()}, {len(os.sched_getaffinity(0))} cores",
-        "settings": {k: getattr(args, k) for k in ("curve", "eval_attempts", "epochs", "size")}
+        "settings": {
+            k: getattr(args, k)
+            for k in ("curve", "per_scene", "domains", "eval_attempts", "epochs", "size")
+        }
         | {"candidates": args.candidates, "workers": args.workers},
         "arms": {},
     }

@@ -6,10 +6,19 @@ go, each model's scores, and the learning curves in both domains."""
 from __future__ import annotations
 
 import math
+import re
 import statistics
 from pathlib import Path
 
 REACH = "-reach"  # a sampler's label with campaign.check_reach on
+# the learned sampler with a model of N training attempts, "xK" where its training campaigns
+# executed K grasps a scene (campaign.grasps_per_scene)
+LEARNED = re.compile(r"learned-(\d+)(?:x(\d+))?")
+
+
+def learned_label(attempts: int, per_scene: int = 1) -> str:
+    """The sampler label of a model trained on ``attempts`` of ``per_scene`` grasps a scene."""
+    return f"learned-{attempts}" + (f"x{per_scene}" if per_scene > 1 else "")
 
 
 def rate(success: list[bool]) -> tuple[float, float]:
@@ -51,14 +60,16 @@ def table(result: dict) -> str:
                     f"{run['failure_modes']}"
                 )
         for domain, runs in arm_result["domains"].items():
-            lines += curve_lines(arm, domain, runs)
+            lines += curve_lines(arm, domain, runs) + per_scene_lines(arm, domain, runs)
             lines += coverage_lines(arm, domain, runs) + reach_lines(arm, domain, runs)
             lines += class_lines(arm, domain, runs)
         lines.append(f"{arm} models (held-out training attempts):")
         for n, m in arm_result["models"].items():
+            within = (m.get("within_scene") or {}).get("roc_auc")
             lines.append(
-                f"  {n:>5} attempts: {m['examples']} examples, accuracy {m['accuracy']}, "
+                f"  {n:>7} attempts: {m['examples']} examples, accuracy {m['accuracy']}, "
                 f"ROC AUC {m['roc_auc']}, calibration error {m['ece']}, trained in {m['train_s']} s"
+                + (f"; within one scene {within}" if within is not None else "")
             )
             for domain, auc in m.get("transfer", {}).items():
                 every, reached = (
@@ -72,26 +83,61 @@ def table(result: dict) -> str:
     return "\n".join(lines)
 
 
-def model_sizes(runs: dict) -> list[int]:
-    """The training attempts of the models whose learned sampler ran (``learned-N``), in order."""
-    return sorted(int(s.split("-")[1]) for s in runs if s.startswith("learned-") and REACH not in s)
+def model_sizes(runs: dict, per_scene: int = 1) -> list[int]:
+    """The training attempts of the models of ``per_scene`` grasps a scene whose learned
+    sampler ran (``learned-N``, ``learned-NxK``), in order."""
+    sizes = []
+    for sampler in runs:
+        if (found := LEARNED.fullmatch(sampler.removesuffix(REACH))) and int(
+            found[2] or 1
+        ) == per_scene:
+            sizes.append(int(found[1]))
+    return sorted(set(sizes))
+
+
+def per_scene_groups(runs: dict) -> list[int]:
+    """The grasps a scene of the training campaigns behind the learned samplers that ran."""
+    groups = {int(m[2] or 1) for s in runs if (m := LEARNED.fullmatch(s.removesuffix(REACH)))}
+    return sorted(groups)
 
 
 def curve_lines(arm: str, domain: str, runs: dict) -> list[str]:
     """The learning curve in one domain, with and without the reach check: success of each
     model size, and largest - smallest paired over the same attempts."""
-    sizes = model_sizes(runs)
     lines = []
-    for suffix in ("", REACH):
-        names = [f"learned-{n}{suffix}" for n in sizes]
-        if len(names) < 2 or any(name not in runs for name in names):
-            continue
-        rates = " -> ".join(f"{rate(runs[name]['success'])[0]:.1f}" for name in names)
-        gain, se = paired_gain(runs[names[-1]]["success"], runs[names[0]]["success"])
-        lines.append(
-            f"{arm} {domain} learning curve{suffix}, {', '.join(map(str, sizes))} attempts: "
-            f"{rates} %; {sizes[-1]} - {sizes[0]}: {gain:+.1f} ± {se:.1f} (paired)"
-        )
+    for k in per_scene_groups(runs):
+        sizes = model_sizes(runs, k)
+        trained = f" ({k} grasps a scene)" if k > 1 else ""
+        for suffix in ("", REACH):
+            names = [learned_label(n, k) + suffix for n in sizes]
+            if len(names) < 2 or any(name not in runs for name in names):
+                continue
+            rates = " -> ".join(f"{rate(runs[name]['success'])[0]:.1f}" for name in names)
+            gain, se = paired_gain(runs[names[-1]]["success"], runs[names[0]]["success"])
+            lines.append(
+                f"{arm} {domain} learning curve{suffix}{trained}, "
+                f"{', '.join(map(str, sizes))} attempts: {rates} %; "
+                f"{sizes[-1]} - {sizes[0]}: {gain:+.1f} ± {se:.1f} (paired)"
+            )
+    return lines
+
+
+def per_scene_lines(arm: str, domain: str, runs: dict) -> list[str]:
+    """Models trained on as many attempts of K grasps a scene against one a scene: success
+    of each and the paired difference over the same attempts, with and without the check."""
+    lines = []
+    for k in per_scene_groups(runs)[1:] if 1 in per_scene_groups(runs) else []:
+        for n in sorted(set(model_sizes(runs, k)) & set(model_sizes(runs))):
+            for suffix in ("", REACH):
+                many, one = learned_label(n, k) + suffix, learned_label(n) + suffix
+                if many not in runs or one not in runs:
+                    continue
+                gain, se = paired_gain(runs[many]["success"], runs[one]["success"])
+                lines.append(
+                    f"{arm} {domain} {n} training attempts, {k} grasps a scene against one"
+                    f"{suffix}: {rate(runs[many]['success'])[0]:.1f} against "
+                    f"{rate(runs[one]['success'])[0]:.1f} %, {gain:+.1f} ± {se:.1f} (paired)"
+                )
     return lines
 
 
@@ -144,7 +190,7 @@ def class_lines(arm: str, domain: str, runs: dict) -> list[str]:
     if "classes" not in runs["antipodal"]:  # kept by a run before this was recorded
         return []
     classes = runs["antipodal"]["classes"]
-    largest = [f"learned-{n}" for n in model_sizes(runs)][-1:]
+    largest = [learned_label(model_sizes(runs, k)[-1], k) for k in per_scene_groups(runs)]
     samplers = [s for b in ("antipodal", *largest) for s in (b, b + REACH) if s in runs]
     lines = [f"{arm} {domain} per target class, success %: " + ", ".join(samplers)]
     for name in sorted(set(classes)):
@@ -175,21 +221,24 @@ def draw(result: dict, path: Path) -> None:
             ax.set_axis_off()
             continue
         runs = result["arms"][arm]["domains"][domain]
-        sizes = model_sizes(runs)
-        for suffix, label in (("", "learned"), (REACH, "learned, reach checked")):
-            if not sizes or f"learned-{sizes[0]}{suffix}" not in runs:
-                continue
-            rates = [rate(runs[f"learned-{n}{suffix}"]["success"]) for n in sizes]
-            ax.errorbar(
-                sizes, [r[0] for r in rates], [r[1] for r in rates], marker="o", label=label
-            )
+        ticks = sorted({n for k in per_scene_groups(runs) for n in model_sizes(runs, k)})
+        for k in per_scene_groups(runs):
+            sizes = model_sizes(runs, k)
+            for suffix, label in (("", "learned"), (REACH, "learned, reach checked")):
+                if f"{learned_label(sizes[0], k)}{suffix}" not in runs:
+                    continue
+                rates = [rate(runs[learned_label(n, k) + suffix]["success"]) for n in sizes]
+                label += f", {k} grasps a scene" if k > 1 else ""
+                ax.errorbar(
+                    sizes, [r[0] for r in rates], [r[1] for r in rates], marker="o", label=label
+                )
         for sampler, colour in (("antipodal", "grey"), (f"antipodal{REACH}", "tan")):
             if sampler in runs:
                 base, se = rate(runs[sampler]["success"])
                 ax.axhspan(base - se, base + se, color=colour, alpha=0.3, label=f"{sampler} ± SE")
         ax.set(title=f"{arm}, held-out {domain}", xlabel="training attempts", ylabel="success %")
         ax.set_xscale("log")
-        ax.set_xticks(sizes, [str(n) for n in sizes])
+        ax.set_xticks(ticks, [str(n) for n in ticks])
         ax.minorticks_off()
         ax.legend(fontsize="small")
     figure.tight_layout()

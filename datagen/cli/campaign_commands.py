@@ -51,6 +51,13 @@ def add_parsers(commands) -> None:
         "(docs/campaigns.md, 'Learning to grasp')",
     )
     grasp.add_argument(
+        "--grasps-per-scene",
+        metavar="K",
+        type=int,
+        help="override campaign.grasps_per_scene: K attempts a scene, each its own candidate "
+        "(training data with pairs to rank; docs/campaigns.md, 'Learning to grasp')",
+    )
+    grasp.add_argument(
         "--workers",
         type=WORKERS,
         default=DEFAULT_WORKERS,
@@ -86,6 +93,8 @@ def run_campaign(args: argparse.Namespace) -> int:
         overrides = {"sampler": args.sampler} if args.sampler else {}
         if args.model:  # relative to the working directory, as every path on the command line
             overrides |= {"model": os.path.abspath(args.model), "model_sha256": None}
+        if args.grasps_per_scene is not None:
+            overrides |= {"grasps_per_scene": args.grasps_per_scene}
         campaign = data.get("campaign")
         if overrides and (campaign is None or isinstance(campaign, dict)):
             data = data | {"campaign": (campaign or {}) | overrides}

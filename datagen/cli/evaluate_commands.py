@@ -10,7 +10,7 @@ from pathlib import Path
 
 from datagen.cli.common import one_line
 from datagen.cli.progress import LazyProgress
-from datagen.cli.train_commands import CAMERAS, auc_text, class_lines
+from datagen.cli.train_commands import CAMERAS, auc_text, class_lines, within_scene_lines
 
 
 def add_parsers(commands) -> None:
@@ -72,7 +72,9 @@ def run_evaluate_grasp(args: argparse.Namespace) -> int:
         f"datagen: over all of them {auc_text(every)}; over the {reached['n']} the arm reached "
         f"({reached['successes']} held) {auc_text(reached)}"
     )
-    for line in class_lines(report["classes"], "grasps"):
+    for line in class_lines(report["classes"], "grasps") + within_scene_lines(
+        report["within_scene"]
+    ):
         print(line)
     if calibration := report.get("calibration"):
         print(

@@ -70,6 +70,17 @@ def class_lines(classes: dict, noun: str) -> list[str]:
     ]
 
 
+def within_scene_lines(within: dict, which: str = "") -> list[str]:
+    """The line of ``within_scene_auc``, where there is a pair to rank (campaigns with
+    ``campaign.grasps_per_scene`` above 1); none otherwise."""
+    if not within["pairs"]:
+        return []
+    return [
+        f"datagen: within one scene ({within['scenes']} {which}scenes with held and failed "
+        f"grasps, {within['pairs']} pairs): {auc_text(within)}"
+    ]
+
+
 def run_train_grasp(args: argparse.Namespace) -> int:
     from datagen.errors import UserInputError
     from datagen.learning.examples import campaign_examples
@@ -115,6 +126,8 @@ def run_train_grasp(args: argparse.Namespace) -> int:
         f"{s['calibration']['ece']:.3f}, Brier {s['calibration']['brier']:.3f}"
     )
     for line in class_lines(s["classes"], "attempts"):
+        print(line)
+    for line in within_scene_lines(s["within_scene"], "held-out "):
         print(line)
     print(f"datagen: wrote {out} (sha256 {sha256[:12]}), {report}, {picture}")
     print(

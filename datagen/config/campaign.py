@@ -16,12 +16,20 @@ REACH_CHECKED = ("antipodal", "learned")  # samplers with candidates to choose a
 
 def check_campaign_model(config: Any, source: str) -> Any:
     """``config`` (a BuildConfig) with ``campaign.model_sha256`` filled in when the sampler is
-    ``learned``; ConfigError naming the key otherwise. Other samplers leave it as it is."""
+    ``learned``; ConfigError naming the key otherwise, and for ``check_reach`` or
+    ``grasps_per_scene`` with a sampler they do not apply to. Other samplers leave it as it is."""
     campaign = config.campaign
     if campaign.check_reach and campaign.sampler not in REACH_CHECKED:
         raise ConfigError(
             f"{source}: campaign.check_reach: the {campaign.sampler!r} sampler draws one pose "
             f"and has none to choose among: use it with {' or '.join(REACH_CHECKED)}"
+        )
+    if campaign.grasps_per_scene > 1 and (campaign.sampler != "antipodal" or campaign.check_reach):
+        raise ConfigError(
+            f"{source}: campaign.grasps_per_scene: {campaign.grasps_per_scene} attempts a scene "
+            "execute the antipodal sampler's first candidates in turn; it needs sampler "
+            f"'antipodal' without check_reach (got sampler {campaign.sampler!r}, check_reach "
+            f"{str(campaign.check_reach).lower()})"
         )
     if campaign.sampler != "learned":
         return config

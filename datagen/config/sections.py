@@ -245,6 +245,11 @@ class CampaignConfig:
     # plan candidates before executing one: the antipodal sampler executes the first of its
     # ``candidates`` the arm reaches, the learned one the best-scored the arm reaches
     check_reach: bool = False
+    # training data with pairs to rank: attempt i grasps in scene i // k (drawn, built and
+    # settled from that index) and executes the antipodal sampler's (i mod k)-th candidate there
+    grasps_per_scene: int = field(
+        default=1, metadata=ranged(1, 64, "attempts sharing one scene, each its own candidate")
+    )
 
 
 @dataclass(frozen=True)

@@ -9,9 +9,10 @@ push it: the label says more about the physics than about the grasp)."""
 from __future__ import annotations
 
 from collections import Counter
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -30,6 +31,9 @@ class GraspExamples:
     attempts: list[str] = field(default_factory=list)  # "<campaign folder>/<key>" per example
     families: list[str] = field(default_factory=list)  # the target's class (shape family)
     modes: list[str | None] = field(default_factory=list)  # failure mode; None: it held
+    # the settled scene each was tried in ("<campaign folder>/<seed>/<scene index>/<build
+    # attempt>"): several per scene with campaign.grasps_per_scene, else one each
+    scenes: list[str] = field(default_factory=list)
     left_out: Counter[str] = field(default_factory=Counter)  # failure mode -> attempts skipped
 
     def __len__(self) -> int:
@@ -43,7 +47,12 @@ class GraspExamples:
             [self.attempts[i] for i in rows],
             [self.families[i] for i in rows],
             modes=[self.modes[i] for i in rows] if self.modes else [],
+            scenes=[self.scenes[i] for i in rows] if self.scenes else [],
         )
+
+    def scene_names(self) -> list[str]:
+        """Each example's scene; an example of its own where none was recorded."""
+        return self.scenes or list(self.attempts) or [str(i) for i in range(len(self))]
 
 
 def depth_part(camera: str) -> str:
@@ -62,7 +71,7 @@ def campaign_examples(
     order), seen by ``camera`` in crops of ``size`` pixels; DatasetError naming the folder for
     one that is not a campaign or lacks the camera's depth. ``on_progress(read, total)`` after
     each attempt read."""
-    crops, features, success, attempts, families, modes = [], [], [], [], [], []
+    crops, features, success, attempts, families, modes, scenes = [], [], [], [], [], [], []
     left_out: Counter[str] = Counter()
     datasets = [(root, load(root)) for root in roots]
     total = sum(len(d) if limit is None else min(limit, len(d)) for _, d in datasets)
@@ -107,6 +116,7 @@ def campaign_examples(
             attempts.append(f"{Path(root).name}/{dataset.keys[i]}")
             families.append(str(attempt["target"]["class"]))
             modes.append(None if attempt["outcome"]["success"] else mode)
+            scenes.append(f"{Path(root).name}/{scene_of(meta)}")
         dataset.close()
     return GraspExamples(
         np.stack(crops) if crops else np.zeros((0, 1, size, size), np.float32),
@@ -116,4 +126,14 @@ def campaign_examples(
         families,
         left_out=left_out,
         modes=modes,
+        scenes=scenes,
     )
+
+
+def scene_of(meta: Mapping[str, Any]) -> str:
+    """``<seed>/<scene index>/<build attempt>`` of a campaign sample: the attempts of one
+    settled scene share it (``campaign.grasps_per_scene``; a retried build draws anew)."""
+    attempt = meta["attempt"]
+    index = (attempt.get("shared_scene") or {}).get("scene_index", attempt["index"])
+    build = (meta.get("production") or {}).get("attempt", 0)
+    return f"{attempt['scene_seed']}/{index}/{build}"

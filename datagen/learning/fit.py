@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import io
 import warnings
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -17,7 +17,7 @@ from datagen.grasp_model.inputs import GRASP_FEATURES
 from datagen.grasp_model.model_file import CROP_INPUT, GRASP_INPUT
 from datagen.learning.examples import GraspExamples
 from datagen.learning.grasp_net import GraspQualityNet, SuccessProbability
-from datagen.learning.metrics import auc_by_class, scores_of
+from datagen.learning.metrics import auc_by_class, scores_of, within_scene_auc
 from datagen.seeding import sample_rng
 
 BATCH = 64
@@ -34,12 +34,17 @@ class Fitted:
     losses: list[float]  # mean training loss per epoch
 
 
-def split(count: int, held_out: float, seed: int) -> tuple[np.ndarray, np.ndarray]:
-    """(training rows, held-out rows): a ``held_out`` share of ``count`` examples, drawn from
-    the ``grasp_model.split`` stream of ``seed``."""
-    order = sample_rng(seed, 0, "grasp_model.split").permutation(count)
-    cut = round(held_out * count)
-    return np.sort(order[cut:]), np.sort(order[:cut])
+def split(scenes: Sequence[str], held_out: float, seed: int) -> tuple[np.ndarray, np.ndarray]:
+    """(training rows, held-out rows) of examples tried in ``scenes``: a ``held_out`` share of
+    the scenes, drawn from the ``grasp_model.split`` stream of ``seed``, with every example of
+    each (the candidates of one scene share its picture: split apart, the held-out score would
+    be of pictures the net trained on). One example a scene: a share of the examples."""
+    names = list(dict.fromkeys(scenes))
+    order = sample_rng(seed, 0, "grasp_model.split").permutation(len(names))
+    held = {names[i] for i in order[: round(held_out * len(names))]}
+    in_held = np.array([scene in held for scene in scenes], bool)
+    rows = np.arange(len(scenes))
+    return rows[~in_held], rows[in_held]
 
 
 def fit(
@@ -56,7 +61,7 @@ def fit(
             f"{len(examples)} examples, {int(examples.success.sum())} of them successes: "
             "a model needs both successes and failures to learn from"
         )
-    train_rows, test_rows = split(len(examples), held_out, seed)
+    train_rows, test_rows = split(examples.scene_names(), held_out, seed)
     torch.manual_seed(seed)
     net = GraspQualityNet(examples.crops.shape[-1])
     crops = torch.from_numpy(examples.crops[train_rows])
@@ -87,6 +92,7 @@ def fit(
     probabilities = predict(net, test.crops, test.features)
     scores = scores_of(probabilities, test.success)
     scores["classes"] = auc_by_class(probabilities, test.success, test.families)
+    scores["within_scene"] = within_scene_auc(probabilities, test.success, test.scene_names())
     return Fitted(net, test, probabilities, scores, losses)
 
 

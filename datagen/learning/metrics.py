@@ -37,6 +37,26 @@ def auc_by_class(scores: np.ndarray, success: np.ndarray, classes: Sequence[str]
     return {c: counted_auc(scores[names == c], success[names == c]) for c in sorted(set(classes))}
 
 
+def within_scene_auc(scores: np.ndarray, success: np.ndarray, scenes: Sequence[str]) -> dict:
+    """Over every (held, failed) pair of examples tried in the same scene, the share the held
+    one scores above (ties count half): how well the scores choose among one scene's
+    candidates, which is what the learned sampler does. {"scenes": scenes with both outcomes,
+    "pairs", "roc_auc"} (None without such a pair)."""
+    scores, success = np.asarray(scores, float), np.asarray(success, bool)
+    names = np.asarray(scenes, dtype=object)
+    right = pairs = mixed = 0.0
+    for name in dict.fromkeys(scenes):
+        rows = names == name
+        held, failed = scores[rows & success], scores[rows & ~success]
+        if len(held) and len(failed):
+            mixed += 1
+            pairs += len(held) * len(failed)
+            diff = held[:, None] - failed[None, :]
+            right += float((diff > 0).sum()) + 0.5 * float((diff == 0).sum())
+    auc = round(right / pairs, 4) if pairs else None
+    return {"scenes": int(mixed), "pairs": int(pairs), "roc_auc": auc}
+
+
 def roc_curve(scores: np.ndarray, labels: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """(false positive rate, true positive rate) at every threshold, from (0, 0) to (1, 1)."""
     labels = np.asarray(labels, bool)

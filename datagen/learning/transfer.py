@@ -13,7 +13,7 @@ import numpy as np
 
 from datagen.grasp_model.model_file import load_model
 from datagen.learning.examples import GraspExamples, campaign_examples
-from datagen.learning.metrics import auc_by_class, calibration, counted_auc
+from datagen.learning.metrics import auc_by_class, calibration, counted_auc, within_scene_auc
 
 UNREACHED = "unreachable"
 
@@ -69,6 +69,8 @@ def evaluate(
         "left_out": dict(sorted(examples.left_out.items())),
         **auc_by_reach(scores, examples.success, examples.modes),
         "classes": auc_by_class(scores, examples.success, examples.families),
+        # the choice among one scene's candidates (campaigns with campaign.grasps_per_scene)
+        "within_scene": within_scene_auc(scores, examples.success, examples.scene_names()),
     }
     if len(scores) and np.all((scores >= 0) & (scores <= 1)):  # probabilities
         report["calibration"] = calibration(scores, examples.success)

@@ -116,3 +116,36 @@ def test_a_curve_size_past_one_campaign_must_fill_whole_campaigns(
     with pytest.raises(SystemExit):
         grasp_learning.arguments()
     assert "--curve [3000]: sizes above 2000 must be multiples of it" in capsys.readouterr().err
+
+
+def test_models_of_several_grasps_a_scene_get_their_own_label_curve_and_paired_line(report):
+    assert report.learned_label(1000) == "learned-1000"
+    assert report.learned_label(1000, 4) == "learned-1000x4"
+    held = {"success": [True, True, False, False]}
+    runs = {
+        "antipodal": {"success": [False] * 4},
+        "learned-250": {"success": [True, False, False, False]},
+        "learned-1000": held,
+        "learned-250x4": {"success": [True, True, True, False]},
+        "learned-1000x4": {"success": [True] * 4},
+        "learned-1000x4-reach": {"success": [True] * 4},
+    }
+    assert report.model_sizes(runs) == [250, 1000] == report.model_sizes(runs, 4)
+    assert report.per_scene_groups(runs) == [1, 4]
+    curves = report.curve_lines("iiwa14", "objects", runs)
+    assert [line.split(",")[0] for line in curves] == [
+        "iiwa14 objects learning curve",
+        "iiwa14 objects learning curve (4 grasps a scene)",
+    ]
+    assert report.per_scene_lines("iiwa14", "objects", runs) == [
+        "iiwa14 objects 250 training attempts, 4 grasps a scene against one: 75.0 against "
+        "25.0 %, +50.0 ± 28.9 (paired)",
+        "iiwa14 objects 1000 training attempts, 4 grasps a scene against one: 100.0 against "
+        "50.0 %, +50.0 ± 28.9 (paired)",
+    ]
+
+
+def test_training_campaigns_of_several_grasps_a_scene_are_named_apart(benchmark_module):
+    grasp_learning = benchmark_module("grasp_learning")
+    assert grasp_learning.training_name("iiwa14", 1000, 0, 4) == "iiwa14-train-1000-x4"
+    assert grasp_learning.training_name("iiwa14", 1000, 1, 4) == "iiwa14-train-1000-x4-seed1"

@@ -10,9 +10,16 @@ import pytest
 
 from datagen.grasp_model.inputs import GRASP_FEATURES
 from datagen.grasp_model.model_file import load_model
-from datagen.learning.examples import GraspExamples
+from datagen.learning.examples import GraspExamples, scene_of
 from datagen.learning.fit import fit, onnx_bytes, split, write_model
-from datagen.learning.metrics import auc_by_class, calibration, roc_auc, roc_curve
+from datagen.learning.metrics import (
+    auc_by_class,
+    calibration,
+    roc_auc,
+    roc_curve,
+    within_scene_auc,
+)
+from datagen.seeding import sample_rng
 
 
 def test_roc_auc_is_the_share_of_success_failure_pairs_in_order():
@@ -82,8 +89,28 @@ def test_the_same_seed_gives_the_same_model_and_the_file_scores_as_the_net(tmp_p
     model = load_model(tmp_path / "m.onnx")
     held = one.held_out
     assert model.score(held.crops, held.features) == pytest.approx(one.probabilities, abs=1e-5)
-    train, test = split(200, 0.2, 4)
+    train, test = split([str(i) for i in range(200)], 0.2, 4)
     assert len(test) == 40 and not set(train) & set(test)
+
+
+def test_the_held_out_share_is_of_scenes_and_keeps_each_scene_whole():
+    scenes = [f"c/7/{i // 4}/0" for i in range(200)]  # 50 scenes of 4 grasps each
+    train, test = split(scenes, 0.2, 4)
+    assert len(test) == 40  # 10 scenes
+    assert {scenes[i] for i in train}.isdisjoint({scenes[i] for i in test})
+    # one example a scene: the rows a split of the examples themselves draws
+    order = sample_rng(4, 0, "grasp_model.split").permutation(200)
+    assert split([str(i) for i in range(200)], 0.2, 4)[1].tolist() == sorted(order[:40])
+
+
+def test_within_one_scene_only_pairs_of_the_same_scene_count():
+    scores = np.array([0.9, 0.1, 0.2, 0.8, 0.5, 0.6, 0.3])
+    success = np.array([True, False, True, False, True, True, False])
+    scenes = ["a", "a", "b", "b", "c", "c", "d"]
+    # a: the held grasp above the failed one; b: below it; c and d have one outcome only
+    assert within_scene_auc(scores, success, scenes) == {"scenes": 2, "pairs": 2, "roc_auc": 0.5}
+    assert roc_auc(scores, success) == pytest.approx(8 / 12)  # over all: other pairs too
+    assert within_scene_auc(scores[4:], success[4:], scenes[4:])["roc_auc"] is None
 
 
 def test_one_class_only_is_refused():
@@ -91,3 +118,12 @@ def test_one_class_only_is_refused():
     examples.success[:] = True
     with pytest.raises(ValueError, match="both successes and failures"):
         fit(examples, epochs=1)
+
+
+def test_an_attempts_scene_is_its_shared_scene_or_its_own_index_and_build():
+    one = {"attempt": {"scene_seed": 7, "index": 5}}
+    assert scene_of(one) == "7/5/0"
+    shared = {"scene_index": 1, "candidate": 2, "grasps_per_scene": 3}
+    assert scene_of({"attempt": {"scene_seed": 7, "index": 5, "shared_scene": shared}}) == "7/1/0"
+    retried = one | {"production": {"attempt": 1, "failures": ["..."]}}
+    assert scene_of(retried) == "7/5/1"  # a retried build drew its scene anew

@@ -97,3 +97,14 @@ def test_checking_reach_with_the_random_sampler_is_refused_not_ignored(tmp_path)
     done = check(tmp_path, "--sampler", "random", campaign={"check_reach": True})
     refused(done, "campaign.check_reach", "'random'", "antipodal or learned")
     assert check(tmp_path, campaign={"check_reach": True}).returncode == 0  # antipodal
+
+
+def test_several_grasps_a_scene_need_the_antipodal_sampler_without_the_check(tmp_path):
+    refused(
+        check(tmp_path, campaign={"grasps_per_scene": 4, "check_reach": True}),
+        "campaign.grasps_per_scene",
+        "check_reach true",
+    )
+    with pytest.raises(ConfigError, match=r"grasps_per_scene.*got sampler 'random'"):
+        config_from_dict({"campaign": {"sampler": "random", "grasps_per_scene": 4}})
+    assert config_from_dict({"campaign": {"grasps_per_scene": 4}}).campaign.grasps_per_scene == 4

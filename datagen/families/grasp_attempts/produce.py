@@ -5,7 +5,9 @@ Randomised tray scene (the grasp_tabletop scene and randomisers) -> annotated pr
 outcome label -> optional post-grasp frame. With ``campaign.record_hz`` > 0 the execution is
 recorded step by step (``trajectory.npz``) and, with ``campaign.frame_hz`` > 0, filmed
 (``frame<k>.rgb.png``, ``frame<k>.wrist.rgb.png``: colour only, the labels of a moving scene are
-not kept). Every random choice comes from (seed, index); recording draws none.
+not kept). Every random choice comes from (seed, index); recording draws none. With
+``campaign.grasps_per_scene`` k above 1, attempt i is tried in scene i // k, drawn from that
+index, and executes the (i mod k)-th of the antipodal sampler's first k candidates there.
 """
 
 from __future__ import annotations
@@ -38,7 +40,7 @@ from datagen.grasp_model.inputs import DepthView
 from datagen.outcomes import sample_outcome
 from datagen.randomisers.workspace import scaled_to_robot
 from datagen.registries import SAMPLERS
-from datagen.sample import Sample
+from datagen.sample import Sample, sample_key
 from datagen.seeding import sample_rng
 from datagen.sensing.encode import png_bytes
 from datagen.sensing.picture_conversion import rgb_from_colour
@@ -137,15 +139,29 @@ def produce(config: BuildConfig, seed: int, index: int, attempt: int = 0) -> Sam
     (:func:`choose_target`), propose a grasp (:func:`propose_grasp`: the campaign's sampler),
     execute it (:func:`execute_proposal`), record the sample (:func:`attempt_record`)."""
     keep_renderer_alive()
-    scene = attempt_scene(config, seed, index, attempt)
-    campaign, pre, target = observe_attempt(config, seed, index, attempt, scene)
-    result = propose_grasp(campaign, seed, index, attempt, scene, pre, target)
+    # with campaign.grasps_per_scene k, the scene (and every stream drawn for it) is i // k's
+    scene_index, slot = divmod(index, config.campaign.grasps_per_scene)
+    scene = attempt_scene(config, seed, scene_index, attempt)
+    campaign, pre, target = observe_attempt(config, seed, scene_index, attempt, scene)
+    if campaign.grasps_per_scene > 1:
+        pre = AnnotatedSample(
+            index, pre.views, pre.metadata | {"key": sample_key(index), "index": index}
+        )
+        result = propose_in_turn(campaign, seed, scene_index, slot, attempt, scene, target)
+    else:
+        result = propose_grasp(campaign, seed, index, attempt, scene, pre, target)
     recorded: dict[str, bytes] = {}  # the trajectory part and the frames
     outcome = execute_proposal(config, campaign, scene, target, result, recorded)
     record = attempt_record(campaign, seed, index, pre, target, result, outcome)
+    if campaign.grasps_per_scene > 1:
+        record["shared_scene"] = {
+            "scene_index": scene_index,
+            "candidate": slot,
+            "grasps_per_scene": campaign.grasps_per_scene,
+        }
     pre.metadata["attempt"] = record
     if campaign.post_grasp_frame:
-        post = annotate_scene(scene, config, seed, index, ("workspace",), attempt)
+        post = annotate_scene(scene, config, seed, scene_index, ("workspace",), attempt)
         pre.views["post"] = post.views["workspace"]  # encoded as post.rgb.png, post.depth.png, ...
         record["post_view_objects"] = post.metadata["views"]["workspace"]["objects"]
     sample = to_sample(pre, config.output.png_level)
@@ -192,6 +208,37 @@ def propose_grasp(
         max_tries=campaign.sampler_tries,
         view=_model_view(pre, campaign.model_camera) if campaign.sampler == "learned" else None,
         reachable=ArmReach(scene, execution_params(campaign)) if campaign.check_reach else None,
+    )
+
+
+def propose_in_turn(
+    campaign: CampaignConfig,
+    seed: int,
+    scene_index: int,
+    slot: int,
+    attempt: int,
+    scene: GraspScene,
+    target: SceneObject,
+) -> SampleResult:
+    """The ``slot``-th of the first ``campaign.grasps_per_scene`` candidates the antipodal
+    sampler draws for the scene's target (stream ``grasp`` of ``scene_index``: every attempt of
+    the scene draws the same ones, the first being a one-grasp campaign's); none when the
+    scene has fewer."""
+    sampler = (
+        SAMPLERS[campaign.sampler].load().from_campaign(campaign, gripper_geometry(scene.spec))
+    )
+    found, tries, reason = sampler.draw(
+        sample_rng(seed, scene_index, "grasp", attempt),
+        *grasp_problem(scene, target),
+        campaign.grasps_per_scene,
+        campaign.sampler_tries,
+    )
+    if slot < len(found):
+        return SampleResult(found[slot], tries, f"candidate {slot} of the {len(found)} drawn")
+    return SampleResult(
+        None,
+        tries,
+        f"{reason}: {len(found)} candidates for the scene's {campaign.grasps_per_scene} attempts",
     )
 
 
