@@ -9,11 +9,15 @@ Loading a dataset needs neither the simulator nor a broker::
     loader = DataLoader(dataset, batch_size=8, collate_fn=datagen.collate)  # batches of tensors
 """
 
-from datagen.config import BuildConfig, load_config
-from datagen.dataset.batching import collate
-from datagen.dataset.frame_dataset import load_frames
-from datagen.dataset.loader import DatasetError, load, verify
-from datagen.errors import ConfigError
+from datagen.blas_kernel import pin_kernel
+
+pin_kernel()  # before anything loads numpy: the same bytes on every AVX-512 CPU
+
+from datagen.config import BuildConfig, load_config  # noqa: E402
+from datagen.dataset.batching import collate  # noqa: E402
+from datagen.dataset.frame_dataset import load_frames  # noqa: E402
+from datagen.dataset.loader import DatasetError, load, verify  # noqa: E402
+from datagen.errors import ConfigError  # noqa: E402
 
 __version__ = "0.1.0"
 

@@ -127,3 +127,13 @@ def test_an_attempts_scene_is_its_shared_scene_or_its_own_index_and_build():
     assert scene_of({"attempt": {"scene_seed": 7, "index": 5, "shared_scene": shared}}) == "7/1/0"
     retried = one | {"production": {"attempt": 1, "failures": ["..."]}}
     assert scene_of(retried) == "7/5/1"  # a retried build drew its scene anew
+
+
+def test_the_within_scene_line_is_printed_only_where_a_scene_has_a_pair():
+    from datagen.cli.train_commands import within_scene_lines
+
+    assert within_scene_lines({"scenes": 0, "pairs": 0, "roc_auc": None}) == []
+    assert within_scene_lines({"scenes": 3, "pairs": 5, "roc_auc": 0.6}, "held-out ") == [
+        "datagen: within one scene (3 held-out scenes with held and failed grasps, 5 pairs): "
+        "ROC AUC 0.600"
+    ]

@@ -1,0 +1,37 @@
+"""One OpenBLAS kernel for every AVX-512 CPU, so a build draws the same bytes on all of them.
+
+numpy's OpenBLAS picks its kernels by CPU model at load. Sapphire Rapids (with AMX and
+AVX512-FP16) gets other kernels than Skylake-X, Cascade Lake or Ice Lake, and sums in another
+order: the same commit and seed drew other metadata, IMU streams and flights on a Sapphire
+Rapids machine than on the AVX-512 machine ``tests/data/golden_parts.avx512.json`` was recorded
+on, and the same bytes with ``OPENBLAS_CORETYPE=SKYLAKEX``. So where the CPU has AVX-512F and
+the user set no kernel, datagen sets that one before numpy loads OpenBLAS: at ``import
+datagen``, which the command line, its workers (they inherit the environment) and the test
+suite (``-p datagen.blas_kernel``) do first. AVX2 machines keep OpenBLAS's own choice; they
+draw other bytes anyway (docs/configuration.md, "Reproducibility").
+
+Imports nothing that loads OpenBLAS."""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+
+AVX512_KERNEL = "SKYLAKEX"  # the kernel of the CPUs the AVX-512 digests were recorded on
+
+
+def pinned_kernel(cpuinfo: str, environ: dict[str, str] | os._Environ[str]) -> dict[str, str]:
+    """{"OPENBLAS_CORETYPE": ...} to set, from ``/proc/cpuinfo``'s text; empty where the CPU
+    lacks AVX-512F or the user chose a kernel."""
+    if "OPENBLAS_CORETYPE" in environ or " avx512f" not in cpuinfo:
+        return {}
+    return {"OPENBLAS_CORETYPE": AVX512_KERNEL}
+
+
+def pin_kernel() -> None:
+    """Sets the kernel in this process's environment (only numpy imported after it sees it)."""
+    try:
+        cpuinfo = Path("/proc/cpuinfo").read_text()
+    except OSError:  # not Linux: OpenBLAS's own choice
+        return
+    os.environ.update(pinned_kernel(cpuinfo, os.environ))
