@@ -89,10 +89,13 @@ def main() -> None:
     for i in range(len(dataset)):
         record = dataset.metadata(i)["attempt"]
         if (record["outcome"]["failure_mode"] or "success") in args.modes:
-            chosen.append((int(record["scene_seed"]), int(record["index"])))
+            # the scene's index: the attempt's own, or the one it shares (grasps_per_scene)
+            index = int((record.get("shared_scene") or {}).get("scene_index", record["index"]))
+            chosen.append((int(record["scene_seed"]), index))
             # why a sampler found none: its rejections, most frequent first
-            reasons[int(record["index"])] = record["outcome"]["details"].get("reason", "")
+            reasons[index] = record["outcome"]["details"].get("reason", "")
     dataset.close()
+    chosen = list(dict.fromkeys(chosen))  # a shared scene once
     none = 0
     for seed, index in chosen:
         found = reach_of(config, seed, index, args.tries)

@@ -1,10 +1,10 @@
 """One OpenBLAS kernel for every AVX-512 CPU, so a build draws the same bytes on all of them.
 
-numpy's OpenBLAS picks its kernels by CPU model at load. Sapphire Rapids (with AMX and
-AVX512-FP16) gets other kernels than Skylake-X, Cascade Lake or Ice Lake, and sums in another
-order: the same commit and seed drew other metadata, IMU streams and flights on a Sapphire
-Rapids machine than on the AVX-512 machine ``tests/data/golden_parts.avx512.json`` was recorded
-on, and the same bytes with ``OPENBLAS_CORETYPE=SKYLAKEX``. So where the CPU has AVX-512F and
+numpy's OpenBLAS picks its kernels by CPU model at load. Sapphire and Emerald Rapids (with AMX
+and AVX512-FP16) get other kernels than Skylake-X, Cascade Lake or Ice Lake, and sum in another
+order: the same commit and seed drew other metadata, IMU streams and flights on an Emerald
+Rapids machine (model 207) than on the AVX-512 machine ``tests/data/golden_parts.avx512.json``
+was recorded on, and the same bytes with ``OPENBLAS_CORETYPE=SKYLAKEX``. So where the CPU has AVX-512F and
 the user set no kernel, datagen sets that one before numpy loads OpenBLAS: at ``import
 datagen``, which the command line, its workers (they inherit the environment) and the test
 suite (``-p datagen.blas_kernel``) do first. AVX2 machines keep OpenBLAS's own choice; they

@@ -1,5 +1,5 @@
 """OpenBLAS's kernel is pinned on AVX-512 CPUs before numpy loads it (datagen/blas_kernel.py):
-Sapphire Rapids drew other bytes than Skylake-X with its own kernels, and the same with this one."""
+an Emerald Rapids drew other bytes than Skylake-X with its own kernels, and the same with this one."""
 
 from __future__ import annotations
 
