@@ -1,12 +1,12 @@
 """One OpenBLAS kernel for every AVX-512 CPU, so a build draws the same bytes on all of them.
 
-numpy's OpenBLAS picks its kernels by CPU model at load. Sapphire and Emerald Rapids (with AMX
-and AVX512-FP16) get other kernels than Skylake-X, Cascade Lake or Ice Lake, and sum in another
-order: the same commit and seed drew other metadata, IMU streams and flights on an Emerald
-Rapids machine (model 207) than on the AVX-512 machine ``tests/data/golden_parts.avx512.json``
-was recorded on, and the same bytes with ``OPENBLAS_CORETYPE=SKYLAKEX``. So where the CPU has AVX-512F and
-the user set no kernel, datagen sets that one before numpy loads OpenBLAS: at ``import
-datagen``, which the command line, its workers (they inherit the environment) and the test
+numpy's OpenBLAS picks its kernels by CPU model at load. The release numpy 1.26.4 bundles does
+not know every AVX-512 model: on an Emerald Rapids (model 207) it fell back to other kernels and
+the same commit and seed drew other metadata, IMU streams and flights than the AVX-512 machine
+``tests/data/golden_parts.avx512.json`` was recorded on. With ``OPENBLAS_CORETYPE`` set to
+SKYLAKEX, COOPERLAKE or SAPPHIRERAPIDS (each tried there) it drew the recorded bytes. So where
+the CPU has AVX-512F and the user set no kernel, datagen sets SKYLAKEX, the oldest of them,
+before numpy loads OpenBLAS: at ``import datagen``, which the command line, its workers (they inherit the environment) and the test
 suite (``-p datagen.blas_kernel``) do first. AVX2 machines keep OpenBLAS's own choice; they
 draw other bytes anyway (docs/configuration.md, "Reproducibility").
 

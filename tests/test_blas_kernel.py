@@ -1,5 +1,6 @@
 """OpenBLAS's kernel is pinned on AVX-512 CPUs before numpy loads it (datagen/blas_kernel.py):
-an Emerald Rapids drew other bytes than Skylake-X with its own kernels, and the same with this one."""
+an Emerald Rapids, whose model numpy's OpenBLAS does not know, drew other bytes with the kernels
+it fell back to, and the recorded ones with this."""
 
 from __future__ import annotations
 

@@ -45,8 +45,9 @@ digests were recorded with Mesa's lavapipe (llvmpipe) on x86-64, as on CI; anoth
 other pixels, so the test runs only there. The same commit draws other bytes on a CPU with
 AVX-512 than on one with AVX2 only, so each class has its digests (:func:`cpu_class`):
 ``golden_parts.json`` (AVX2, recorded as above) and ``golden_parts.avx512.json`` (every part
-recorded from commit c0aa1f4's code on an AVX-512 machine; an Emerald Rapids draws them too
-since ``import datagen`` pins OpenBLAS's kernel to Skylake-X's: ``datagen/blas_kernel.py``).
+recorded from commit c0aa1f4's code on an AVX-512 machine; an Emerald Rapids, whose model
+numpy's OpenBLAS does not know, draws them too since ``import datagen`` pins its kernel to
+Skylake-X's: ``datagen/blas_kernel.py``).
 ``--record`` re-records the class of
 the machine it runs on; re-record both when a part's meaning changes.
 
