@@ -31,8 +31,9 @@ class GraspExamples:
     attempts: list[str] = field(default_factory=list)  # "<campaign folder>/<key>" per example
     families: list[str] = field(default_factory=list)  # the target's class (shape family)
     modes: list[str | None] = field(default_factory=list)  # failure mode; None: it held
-    # the settled scene each was tried in ("<campaign folder>/<seed>/<scene index>/<build
-    # attempt>"): several per scene with campaign.grasps_per_scene, else one each
+    # the scene each was tried in ("<seed>/<scene index>/<build attempt>"): several per scene
+    # with campaign.grasps_per_scene, and campaigns of one seed share their scenes' draws (the
+    # walk-through's antipodal and random campaigns try the same scenes), so not the folder
     scenes: list[str] = field(default_factory=list)
     left_out: Counter[str] = field(default_factory=Counter)  # failure mode -> attempts skipped
 
@@ -116,7 +117,7 @@ def campaign_examples(
             attempts.append(f"{Path(root).name}/{dataset.keys[i]}")
             families.append(str(attempt["target"]["class"]))
             modes.append(None if attempt["outcome"]["success"] else mode)
-            scenes.append(f"{Path(root).name}/{scene_of(meta)}")
+            scenes.append(scene_of(meta))
         dataset.close()
     return GraspExamples(
         np.stack(crops) if crops else np.zeros((0, 1, size, size), np.float32),
