@@ -48,7 +48,7 @@ from pathlib import Path
 
 from dr_transfer.building import build
 from dr_transfer.hardware import commit
-from grasp_learning_report import REACH, draw, learned_label, table
+from grasp_learning_report import REACH, draw, model_label, table
 from machine import cpu_model
 
 REPO = Path(__file__).resolve().parents[1]
@@ -204,8 +204,9 @@ def train_model(arm: str, attempts: int, campaigns, args, per_scene: int = 1) ->
     from datagen.learning.report import save_model
 
     # kept by what makes it: a rerun with other epochs trains anew
-    label = learned_label(attempts, per_scene).removeprefix("learned-")
-    path = args.out / "models" / f"{arm}-{label}-{args.epochs}epochs.onnx"
+    path = (
+        args.out / "models" / f"{arm}-{model_label(attempts, per_scene)}-{args.epochs}epochs.onnx"
+    )
     report = path.with_suffix(".json")
     if path.is_file() and report.is_file() and keeps_contract(path):
         return json.loads(report.read_text()) | {"path": str(path)}
@@ -250,20 +251,20 @@ def run_arm(arm: str, args) -> dict:
         run_campaign(name, campaign_data(args, arm, seed, args.chunk, None, per_scene=k), args)
         return args.out / "campaigns" / name
 
-    models = {
-        learned_label(n, k): train_model(
-            arm, n, lambda count, k=k: [training_campaign(s, k) for s in range(count)], args, k
-        )
+    def training_campaigns(k: int):  # the first ``count`` of k grasps a scene
+        return lambda count: [training_campaign(seed, k) for seed in range(count)]
+
+    models = {  # by model_label
+        model_label(n, k): train_model(arm, n, training_campaigns(k), args, k)
         for k in args.per_scene
         for n in args.curve
     }
-    summaries = {label.removeprefix("learned-"): _model_summary(m) for label, m in models.items()}
-    result: dict = {"models": summaries, "domains": {}}
+    result: dict = {"models": {n: _model_summary(m) for n, m in models.items()}, "domains": {}}
+    checks = [REACH] if args.learned_reach_only else ["", REACH]
     for domain in args.domains:
         samplers = {"antipodal": None, f"antipodal{REACH}": None}
         for label, model in models.items():
-            reach_only = [REACH] if args.learned_reach_only else ["", REACH]
-            samplers |= {f"{label}{suffix}": model for suffix in reach_only}
+            samplers |= {f"learned-{label}{suffix}": model for suffix in checks}
         runs, folders = {}, {}
         for sampler, model in samplers.items():
             path = model and model["path"]
@@ -275,7 +276,7 @@ def run_arm(arm: str, args) -> dict:
         result["domains"][domain] = runs
         antipodal = args.out / "campaigns" / folders["antipodal"]
         for label, model in models.items():  # on the grasps the antipodal sampler tried
-            transfer = summaries[label.removeprefix("learned-")].setdefault("transfer", {})
+            transfer = result["models"][label].setdefault("transfer", {})
             transfer[domain] = campaign_auc(model["path"], antipodal)
     return result
 

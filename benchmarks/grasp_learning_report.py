@@ -8,6 +8,7 @@ from __future__ import annotations
 import math
 import re
 import statistics
+from collections import defaultdict
 from pathlib import Path
 
 REACH = "-reach"  # a sampler's label with campaign.check_reach on
@@ -16,9 +17,14 @@ REACH = "-reach"  # a sampler's label with campaign.check_reach on
 LEARNED = re.compile(r"learned-(\d+)(?:x(\d+))?")
 
 
+def model_label(attempts: int, per_scene: int = 1) -> str:
+    """A model trained on ``attempts`` of ``per_scene`` grasps a scene: ``1000``, ``1000x4``."""
+    return f"{attempts}" + (f"x{per_scene}" if per_scene > 1 else "")
+
+
 def learned_label(attempts: int, per_scene: int = 1) -> str:
-    """The sampler label of a model trained on ``attempts`` of ``per_scene`` grasps a scene."""
-    return f"learned-{attempts}" + (f"x{per_scene}" if per_scene > 1 else "")
+    """The learned sampler's label with that model."""
+    return f"learned-{model_label(attempts, per_scene)}"
 
 
 def rate(success: list[bool]) -> tuple[float, float]:
@@ -83,30 +89,31 @@ def table(result: dict) -> str:
     return "\n".join(lines)
 
 
-def model_sizes(runs: dict, per_scene: int = 1) -> list[int]:
-    """The training attempts of the models of ``per_scene`` grasps a scene whose learned
-    sampler ran (``learned-N``, ``learned-NxK``), in order."""
-    sizes = []
+def learned_models(runs: dict) -> dict[int, list[int]]:
+    """Per grasps a scene of their training campaigns, in order, the training attempts of the
+    models whose learned sampler ran (``learned-N``, ``learned-NxK``), in order."""
+    sizes: dict[int, set[int]] = defaultdict(set)
     for sampler in runs:
-        if (found := LEARNED.fullmatch(sampler.removesuffix(REACH))) and int(
-            found[2] or 1
-        ) == per_scene:
-            sizes.append(int(found[1]))
-    return sorted(set(sizes))
+        if found := LEARNED.fullmatch(sampler.removesuffix(REACH)):
+            sizes[int(found[2] or 1)].add(int(found[1]))
+    return {k: sorted(sizes[k]) for k in sorted(sizes)}
+
+
+def model_sizes(runs: dict, per_scene: int = 1) -> list[int]:
+    """The training attempts of the models of ``per_scene`` grasps a scene that ran, in order."""
+    return learned_models(runs).get(per_scene, [])
 
 
 def per_scene_groups(runs: dict) -> list[int]:
     """The grasps a scene of the training campaigns behind the learned samplers that ran."""
-    groups = {int(m[2] or 1) for s in runs if (m := LEARNED.fullmatch(s.removesuffix(REACH)))}
-    return sorted(groups)
+    return list(learned_models(runs))
 
 
 def curve_lines(arm: str, domain: str, runs: dict) -> list[str]:
     """The learning curve in one domain, with and without the reach check: success of each
     model size, and largest - smallest paired over the same attempts."""
     lines = []
-    for k in per_scene_groups(runs):
-        sizes = model_sizes(runs, k)
+    for k, sizes in learned_models(runs).items():
         trained = f" ({k} grasps a scene)" if k > 1 else ""
         for suffix in ("", REACH):
             names = [learned_label(n, k) + suffix for n in sizes]
@@ -126,8 +133,10 @@ def per_scene_lines(arm: str, domain: str, runs: dict) -> list[str]:
     """Models trained on as many attempts of K grasps a scene against one a scene: success
     of each and the paired difference over the same attempts, with and without the check."""
     lines = []
-    for k in per_scene_groups(runs)[1:] if 1 in per_scene_groups(runs) else []:
-        for n in sorted(set(model_sizes(runs, k)) & set(model_sizes(runs))):
+    models = learned_models(runs)
+    one_a_scene = set(models.get(1, []))
+    for k, sizes in models.items():
+        for n in sorted(set(sizes) & one_a_scene) if k > 1 else []:
             for suffix in ("", REACH):
                 many, one = learned_label(n, k) + suffix, learned_label(n) + suffix
                 if many not in runs or one not in runs:
@@ -190,7 +199,7 @@ def class_lines(arm: str, domain: str, runs: dict) -> list[str]:
     if "classes" not in runs["antipodal"]:  # kept by a run before this was recorded
         return []
     classes = runs["antipodal"]["classes"]
-    largest = [learned_label(model_sizes(runs, k)[-1], k) for k in per_scene_groups(runs)]
+    largest = [learned_label(sizes[-1], k) for k, sizes in learned_models(runs).items()]
     samplers = [s for b in ("antipodal", *largest) for s in (b, b + REACH) if s in runs]
     lines = [f"{arm} {domain} per target class, success %: " + ", ".join(samplers)]
     for name in sorted(set(classes)):
@@ -221,9 +230,9 @@ def draw(result: dict, path: Path) -> None:
             ax.set_axis_off()
             continue
         runs = result["arms"][arm]["domains"][domain]
-        ticks = sorted({n for k in per_scene_groups(runs) for n in model_sizes(runs, k)})
-        for k in per_scene_groups(runs):
-            sizes = model_sizes(runs, k)
+        models = learned_models(runs)
+        ticks = sorted({n for sizes in models.values() for n in sizes})
+        for k, sizes in models.items():
             for suffix, label in (("", "learned"), (REACH, "learned, reach checked")):
                 if f"{learned_label(sizes[0], k)}{suffix}" not in runs:
                     continue

@@ -119,10 +119,9 @@ def run_train_grasp(args: argparse.Namespace) -> int:
     }
     sha256, report, picture = save_model(fitted, out, facts)
     s = fitted.scores
-    auc = "n/a" if s["roc_auc"] is None else f"{s['roc_auc']:.3f}"
     print(
         f"datagen: held out {s['examples']} attempts (success rate {s['success_rate']:.1%}): "
-        f"accuracy {s['accuracy']:.1%}, ROC AUC {auc}, calibration error "
+        f"accuracy {s['accuracy']:.1%}, {auc_text(s)}, calibration error "
         f"{s['calibration']['ece']:.3f}, Brier {s['calibration']['brier']:.3f}"
     )
     for line in class_lines(s["classes"], "attempts"):

@@ -3,6 +3,7 @@ Pure numpy and scipy."""
 
 from __future__ import annotations
 
+from collections import defaultdict
 from collections.abc import Sequence
 from typing import Any
 
@@ -43,11 +44,12 @@ def within_scene_auc(scores: np.ndarray, success: np.ndarray, scenes: Sequence[s
     candidates, which is what the learned sampler does. {"scenes": scenes with both outcomes,
     "pairs", "roc_auc"} (None without such a pair)."""
     scores, success = np.asarray(scores, float), np.asarray(success, bool)
-    names = np.asarray(scenes, dtype=object)
+    rows_of: dict[str, list[int]] = defaultdict(list)
+    for row, name in enumerate(scenes):
+        rows_of[name].append(row)
     right = pairs = mixed = 0.0
-    for name in dict.fromkeys(scenes):
-        rows = names == name
-        held, failed = scores[rows & success], scores[rows & ~success]
+    for rows in rows_of.values():
+        held, failed = scores[rows][success[rows]], scores[rows][~success[rows]]
         if len(held) and len(failed):
             mixed += 1
             pairs += len(held) * len(failed)

@@ -153,12 +153,6 @@ def produce(config: BuildConfig, seed: int, index: int, attempt: int = 0) -> Sam
     recorded: dict[str, bytes] = {}  # the trajectory part and the frames
     outcome = execute_proposal(config, campaign, scene, target, result, recorded)
     record = attempt_record(campaign, seed, index, pre, target, result, outcome)
-    if campaign.grasps_per_scene > 1:
-        record["shared_scene"] = {
-            "scene_index": scene_index,
-            "candidate": slot,
-            "grasps_per_scene": campaign.grasps_per_scene,
-        }
     pre.metadata["attempt"] = record
     if campaign.post_grasp_frame:
         post = annotate_scene(scene, config, seed, scene_index, ("workspace",), attempt)
@@ -304,7 +298,7 @@ def attempt_record(
     outcome: GraspOutcome,
 ) -> dict[str, Any]:
     """The sample's ``attempt``: the target, the grasp (with its pose in the workspace camera)
-    and the outcome."""
+    and the outcome; with several grasps a scene, the scene it shares and its candidate's turn."""
     workspace = pre.metadata["views"]["workspace"]
     candidate = result.candidate
     extrinsics = np.asarray(workspace["camera"]["extrinsics_world_to_camera"])
@@ -334,6 +328,13 @@ def attempt_record(
     }
     if campaign.sampler == "learned":
         record["model"] = {"sha256": campaign.model_sha256, "camera": campaign.model_camera}
+    if campaign.grasps_per_scene > 1:
+        scene_index, slot = divmod(index, campaign.grasps_per_scene)
+        record["shared_scene"] = {
+            "scene_index": scene_index,
+            "candidate": slot,
+            "grasps_per_scene": campaign.grasps_per_scene,
+        }
     return record
 
 
