@@ -34,3 +34,13 @@ def test_importing_datagen_sets_it_before_numpy_loads_openblas():
     )
     expected = pinned_kernel(Path("/proc/cpuinfo").read_text(), {}).get("OPENBLAS_CORETYPE")
     assert done.stdout.split() == [str(expected), "True"]
+
+
+def test_the_manifest_records_the_kernel(monkeypatch):
+    """Two machines' bytes differ where their kernels do: the manifest says which it was."""
+    from datagen.pipeline.manifest import _versions
+
+    monkeypatch.setenv("OPENBLAS_CORETYPE", "Haswell")
+    assert _versions()["OPENBLAS_CORETYPE"] == "Haswell"
+    monkeypatch.delenv("OPENBLAS_CORETYPE")
+    assert _versions()["OPENBLAS_CORETYPE"] == "unset"

@@ -47,7 +47,8 @@ AVX-512 than on one with AVX2 only, so each class has its digests (:func:`cpu_cl
 ``golden_parts.json`` (AVX2, recorded as above) and ``golden_parts.avx512.json`` (every part
 recorded from commit c0aa1f4's code on an AVX-512 machine; an Emerald Rapids, whose model
 numpy's OpenBLAS does not know, draws them too since ``import datagen`` pins its kernel to
-Skylake-X's: ``datagen/blas_kernel.py``).
+Skylake-X's: ``datagen/blas_kernel.py``). Each sample is drawn in a child process
+without ``OPENBLAS_CORETYPE``, so with that kernel even where the host sets another.
 ``--record`` re-records the class of
 the machine it runs on; re-record both when a part's meaning changes.
 
@@ -62,6 +63,8 @@ from __future__ import annotations
 import argparse
 import hashlib
 import json
+import os
+import subprocess
 import sys
 from pathlib import Path
 
@@ -99,11 +102,30 @@ SCENE = {"configs/grasp_campaign.yaml": "grasp_attempts"}
 pytestmark = [pytest.mark.sim, pytest.mark.slow]
 
 
-def part_digests(config: str, key: str) -> dict[str, str]:
+def sample_digests(config: str, key: str) -> dict[str, str]:
+    """sha256 of every part of the sample, drawn in this process."""
     cfg = load_config(REPO / config)
     cfg = cfg.replace(scene=SCENE.get(config, cfg.scene))
     sample = FAMILIES[cfg.scene].produce_sample(cfg, cfg.seed, int(key))
     return {name: hashlib.sha256(data).hexdigest() for name, data in sample.parts.items()}
+
+
+def part_digests(config: str, key: str) -> dict[str, str]:
+    """:func:`sample_digests` drawn in a child process without ``OPENBLAS_CORETYPE``, so with
+    datagen's own kernel (datagen/blas_kernel.py), which the digests were recorded with: a host
+    may set another kernel for every process (one had ``Haswell`` on an AVX-512 CPU), and that
+    draws other bytes by design, not because the code changed."""
+    environment = {k: v for k, v in os.environ.items() if k != "OPENBLAS_CORETYPE"}
+    done = subprocess.run(
+        [sys.executable, __file__, "--digests", config, key],
+        env=environment,
+        cwd=REPO,
+        capture_output=True,
+        text=True,
+        check=False,
+    )
+    assert done.returncode == 0, f"{config} {key}: {done.stderr[-3000:]}"
+    return json.loads(done.stdout.splitlines()[-1])
 
 
 @pytest.fixture(scope="module", autouse=True)
@@ -165,5 +187,11 @@ def record(parts: set[str]) -> int:
 
 if __name__ == "__main__":
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    parser.add_argument("--record", nargs="+", required=True, metavar="PART")
-    sys.exit(record(set(parser.parse_args().record)))
+    chosen = parser.add_mutually_exclusive_group(required=True)
+    chosen.add_argument("--record", nargs="+", metavar="PART")
+    chosen.add_argument("--digests", nargs=2, metavar=("CONFIG", "KEY"), help=argparse.SUPPRESS)
+    arguments = parser.parse_args()
+    if arguments.digests:
+        print(json.dumps(sample_digests(*arguments.digests)))
+        sys.exit(0)
+    sys.exit(record(set(arguments.record)))

@@ -4,6 +4,7 @@ versions (``DIR/manifest.json`` once every sample is durable)."""
 from __future__ import annotations
 
 import contextlib
+import os
 import platform
 from importlib import metadata
 from typing import Any
@@ -27,6 +28,9 @@ _VERSIONED_PACKAGES = (
 
 def _versions() -> dict[str, str]:
     versions = {"python": platform.python_version(), "platform": platform.platform()}
+    # OpenBLAS's kernel decides metadata's low digits (docs/configuration.md, "Reproducibility");
+    # the coordinator's, which its local workers inherit
+    versions["OPENBLAS_CORETYPE"] = os.environ.get("OPENBLAS_CORETYPE", "unset")
     for name in _VERSIONED_PACKAGES:
         with contextlib.suppress(metadata.PackageNotFoundError):
             versions[name] = metadata.version(name)
