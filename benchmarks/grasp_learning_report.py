@@ -99,16 +99,6 @@ def learned_models(runs: dict) -> dict[int, list[int]]:
     return {k: sorted(sizes[k]) for k in sorted(sizes)}
 
 
-def model_sizes(runs: dict, per_scene: int = 1) -> list[int]:
-    """The training attempts of the models of ``per_scene`` grasps a scene that ran, in order."""
-    return learned_models(runs).get(per_scene, [])
-
-
-def per_scene_groups(runs: dict) -> list[int]:
-    """The grasps a scene of the training campaigns behind the learned samplers that ran."""
-    return list(learned_models(runs))
-
-
 def curve_lines(arm: str, domain: str, runs: dict) -> list[str]:
     """The learning curve in one domain, with and without the reach check: success of each
     model size, and largest - smallest paired over the same attempts."""

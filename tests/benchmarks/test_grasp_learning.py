@@ -130,8 +130,8 @@ def test_models_of_several_grasps_a_scene_get_their_own_label_curve_and_paired_l
         "learned-1000x4": {"success": [True] * 4},
         "learned-1000x4-reach": {"success": [True] * 4},
     }
-    assert report.model_sizes(runs) == [250, 1000] == report.model_sizes(runs, 4)
-    assert report.per_scene_groups(runs) == [1, 4]
+    assert report.learned_models(runs) == {1: [250, 1000], 4: [250, 1000]}
+    assert list(report.learned_models(runs)) == [1, 4]
     curves = report.curve_lines("iiwa14", "objects", runs)
     assert [line.split(",")[0] for line in curves] == [
         "iiwa14 objects learning curve",
