@@ -43,5 +43,7 @@ fi
 echo "[test] pytest: the pure tests (the quick loop of docs/testing.md)"
 .venv/bin/pytest -q -n auto -m "not sim and not mqtt and not ray and not slow"
 readers_ready
-echo "[test] pytest: the tests that use the simulator, the broker, Ray or minutes"
-exec .venv/bin/pytest -m "sim or mqtt or ray or slow"
+echo "[test] pytest: the tests that use the simulator, the broker, Ray or minutes (two workers)"
+# two workers: in one process these tests, which mostly wait on builds, brokers and browsers of
+# their own, kept about half of two cores busy (docs/testing.md)
+exec .venv/bin/pytest -n 2 -m "sim or mqtt or ray or slow"

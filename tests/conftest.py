@@ -264,7 +264,8 @@ FRAMES = {  # grasp frames from two cameras
 }  # fmt: skip
 
 
-def _build_dataset(tmp: Path, name: str, config: dict, command: list[str]) -> Path:
+def build_dataset(tmp: Path, name: str, config: dict, command: list[str]) -> Path:
+    """``tmp/name``, made from ``config`` by the datagen command ``command`` with one worker."""
     path, out = tmp / f"{name}.yaml", tmp / name
     path.write_text(yaml.safe_dump(config))
     done = subprocess.run(
@@ -278,25 +279,25 @@ def _build_dataset(tmp: Path, name: str, config: dict, command: list[str]) -> Pa
 @pytest.fixture(scope="session")
 def campaign_dataset(tmp_path_factory) -> Path:
     tmp = tmp_path_factory.mktemp("campaign")
-    return _build_dataset(tmp, "campaign", CAMPAIGN, ["campaign", "grasp"])
+    return build_dataset(tmp, "campaign", CAMPAIGN, ["campaign", "grasp"])
 
 
 @pytest.fixture(scope="session")
 def navigation_dataset(tmp_path_factory) -> Path:
     tmp = tmp_path_factory.mktemp("navigation")
-    return _build_dataset(tmp, "navigation", NAVIGATION, ["build"])
+    return build_dataset(tmp, "navigation", NAVIGATION, ["build"])
 
 
 @pytest.fixture(scope="session")
 def aerial_dataset(tmp_path_factory) -> Path:
     tmp = tmp_path_factory.mktemp("aerial")
-    return _build_dataset(tmp, "aerial", AERIAL, ["build"])
+    return build_dataset(tmp, "aerial", AERIAL, ["build"])
 
 
 @pytest.fixture(scope="session")
 def frames_dataset(tmp_path_factory) -> Path:
     tmp = tmp_path_factory.mktemp("frames")
-    return _build_dataset(tmp, "frames", FRAMES, ["build"])
+    return build_dataset(tmp, "frames", FRAMES, ["build"])
 
 
 @pytest.fixture(scope="session")

@@ -54,27 +54,44 @@ def fit(
     held_out: float = 0.2,
     on_epoch: Callable[[int, float], None] | None = None,
 ) -> Fitted:
-    """A net trained on all but a ``held_out`` share of ``examples`` for ``epochs`` (AdamW,
-    cosine schedule, failures and successes weighed equally), scored on that share."""
+    """A net (:func:`train_net`) trained on all but a ``held_out`` share of ``examples`` for
+    ``epochs``, scored on that share."""
     if len(examples) < 2 or len(set(examples.success.tolist())) < 2:
         raise ValueError(
             f"{len(examples)} examples, {int(examples.success.sum())} of them successes: "
             "a model needs both successes and failures to learn from"
         )
     train_rows, test_rows = split(examples.scene_names(), held_out, seed)
+    net, losses = train_net(examples.subset(train_rows), epochs, seed, on_epoch)
+    test = examples.subset(test_rows)
+    probabilities = predict(net, test.crops, test.features)
+    scores = scores_of(probabilities, test.success)
+    scores["classes"] = auc_by_class(probabilities, test.success, test.families)
+    scores["within_scene"] = within_scene_auc(probabilities, test.success, test.scene_names())
+    return Fitted(net, test, probabilities, scores, losses)
+
+
+def train_net(
+    examples: GraspExamples,
+    epochs: int,
+    seed: int,
+    on_epoch: Callable[[int, float], None] | None = None,
+) -> tuple[GraspQualityNet, list[float]]:
+    """A net trained on every one of ``examples`` for ``epochs`` (AdamW, cosine schedule,
+    failures and successes weighed equally), and its mean training loss per epoch."""
     torch.manual_seed(seed)
     net = GraspQualityNet(examples.crops.shape[-1])
-    crops = torch.from_numpy(examples.crops[train_rows])
-    features = torch.from_numpy(examples.features[train_rows])
-    labels = torch.from_numpy(examples.success[train_rows].astype(np.float32))
+    crops = torch.from_numpy(examples.crops)
+    features = torch.from_numpy(examples.features)
+    labels = torch.from_numpy(examples.success.astype(np.float32))
     positive = float(labels.mean())
     weight = torch.tensor((1 - positive) / max(positive, 1e-6))  # balances the two classes
     loss_of = nn.BCEWithLogitsLoss(pos_weight=weight)
     optimiser = torch.optim.AdamW(net.parameters(), LEARNING_RATE, weight_decay=WEIGHT_DECAY)
-    steps = epochs * max(1, -(-len(train_rows) // BATCH))
+    steps = epochs * max(1, -(-len(labels) // BATCH))
     schedule = torch.optim.lr_scheduler.CosineAnnealingLR(optimiser, steps)
     shuffle = torch.Generator().manual_seed(seed)
-    losses = []
+    losses: list[float] = []
     for epoch in range(epochs):
         net.train()
         total = 0.0
@@ -88,12 +105,7 @@ def fit(
         losses.append(total / len(labels))
         if on_epoch:
             on_epoch(epoch + 1, losses[-1])
-    test = examples.subset(test_rows)
-    probabilities = predict(net, test.crops, test.features)
-    scores = scores_of(probabilities, test.success)
-    scores["classes"] = auc_by_class(probabilities, test.success, test.families)
-    scores["within_scene"] = within_scene_auc(probabilities, test.success, test.scene_names())
-    return Fitted(net, test, probabilities, scores, losses)
+    return net, losses
 
 
 def predict(net: GraspQualityNet, crops: np.ndarray, features: np.ndarray) -> np.ndarray:

@@ -41,7 +41,7 @@ def test_the_test_command_runs_the_printed_pure_selection_and_then_all_it_leaves
     lines = [line.strip() for line in (REPO / "scripts" / "test.sh").read_text().splitlines()]
     assert printed in lines, "scripts/test.sh does not run the printed pure selection as printed"
     rest = next((line for line in lines[lines.index(printed) + 1 :] if "-m " in line), None)
-    assert rest and rest.startswith("exec .venv/bin/pytest -m "), rest
+    assert rest and rest.startswith("exec .venv/bin/pytest -n 2 -m "), rest
     # marker expressions are Python's boolean syntax: every marker combination is selected by
     # exactly one of the two
     first, second = (compile(_selection(c), "-m", "eval") for c in (printed, rest))
