@@ -105,11 +105,13 @@ def test_two_sample_brokers_build_the_same_dataset_byte_for_byte(
 
 
 def _ray_workers() -> list[psutil.Process]:
+    """This test's Ray workers: descendants of this process (Ray's raylet starts them), not
+    those of a test running beside it (the suite's second run has two workers)."""
     found = []
-    for p in psutil.process_iter(["cmdline"]):
-        cmdline = " ".join(p.info["cmdline"] or [])
-        if "SceneWorker" in cmdline and p.pid != os.getpid():
-            found.append(p)
+    for process in psutil.Process().children(recursive=True):
+        with contextlib.suppress(psutil.NoSuchProcess):
+            if "SceneWorker" in " ".join(process.cmdline()):
+                found.append(process)
     return found
 
 
