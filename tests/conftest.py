@@ -3,6 +3,7 @@
 
 from __future__ import annotations
 
+import contextlib
 import importlib
 import json
 import os
@@ -17,6 +18,7 @@ from types import ModuleType
 
 import cv2
 import numpy as np
+import psutil
 import pytest
 import yaml
 
@@ -262,6 +264,18 @@ FRAMES = {  # grasp frames from two cameras
     "version": 1, "scene": "grasp_tabletop", "num_samples": 4, "seed": 2,
     "render": {"width": 160, "height": 120, "views": 2},
 }  # fmt: skip
+
+
+def descendants_running(text: str, pid: int | None = None) -> list[psutil.Process]:
+    """The descendants of process ``pid`` (this one by default) whose command line holds
+    ``text``: a test's own builds, brokers and workers, not those of a test running beside it
+    (the suite's second run has two workers)."""
+    found = []
+    for process in psutil.Process(pid).children(recursive=True):
+        with contextlib.suppress(psutil.NoSuchProcess):
+            if text in " ".join(process.cmdline()):
+                found.append(process)
+    return found
 
 
 def build_dataset(tmp: Path, name: str, config: dict, command: list[str]) -> Path:

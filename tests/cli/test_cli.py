@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import contextlib
 import os
 import signal
 import subprocess
@@ -12,6 +11,7 @@ from pathlib import Path
 
 import psutil
 import pytest
+from conftest import descendants_running  # tests/conftest.py: a test's own processes
 
 REPO = Path(__file__).resolve().parents[2]
 
@@ -138,17 +138,6 @@ def _children_named(name: str) -> list[str]:
     return out.split()
 
 
-def _brokers_of(pid: int) -> list[psutil.Process]:
-    """The Mosquitto brokers among ``pid``'s descendants: this build's, not those another
-    test runs beside it (the suite's second run has two workers)."""
-    found = []
-    for child in psutil.Process(pid).children(recursive=True):
-        with contextlib.suppress(psutil.NoSuchProcess):
-            if "mosquitto" in " ".join(child.cmdline()):
-                found.append(child)
-    return found
-
-
 def _alive(process: psutil.Process) -> bool:
     try:
         return process.is_running() and process.status() != psutil.STATUS_ZOMBIE
@@ -184,7 +173,7 @@ def test_ctrl_c_stops_the_build_cleanly(tmp_path):
     while time.monotonic() < deadline and not list((tmp_path / "out").glob("*.tar")):
         time.sleep(0.5)
     time.sleep(2)
-    brokers = _brokers_of(process.pid)
+    brokers = descendants_running("mosquitto", process.pid)
     assert brokers, "the build runs no Mosquitto of its own"
     os.killpg(process.pid, signal.SIGINT)  # as a terminal's Ctrl-C: the whole process group
     _, stderr = process.communicate(timeout=60)

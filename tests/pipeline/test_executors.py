@@ -12,6 +12,7 @@ import tarfile
 
 import psutil
 import pytest
+from conftest import descendants_running  # tests/conftest.py: a test's own processes
 
 from datagen.config import BuildConfig
 from datagen.config.sections import ExecutorConfig, ObjectsConfig, PhysicsConfig, RenderConfig
@@ -104,24 +105,13 @@ def test_two_sample_brokers_build_the_same_dataset_byte_for_byte(
         assert held == {sample_key(i) for i in range(k, SAMPLES, 2)}, (writer_id, sorted(held))
 
 
-def _ray_workers() -> list[psutil.Process]:
-    """This test's Ray workers: descendants of this process (Ray's raylet starts them), not
-    those of a test running beside it (the suite's second run has two workers)."""
-    found = []
-    for process in psutil.Process().children(recursive=True):
-        with contextlib.suppress(psutil.NoSuchProcess):
-            if "SceneWorker" in " ".join(process.cmdline()):
-                found.append(process)
-    return found
-
-
 @pytest.mark.ray
 def test_a_killed_ray_worker_is_replaced(tmp_path):
     killed = []
 
     def on_progress(done: int, total: int) -> None:
         if done >= 3 and not killed:
-            workers = _ray_workers()
+            workers = descendants_running("SceneWorker")
             if workers:
                 workers[0].send_signal(signal.SIGKILL)
                 killed.append(workers[0].pid)
@@ -142,7 +132,7 @@ def test_a_stopped_ray_worker_is_killed_and_replaced(tmp_path):
 
     def on_progress(done: int, total: int) -> None:
         if done >= 2 and not stopped:
-            workers = _ray_workers()
+            workers = descendants_running("SceneWorker")
             if workers:
                 workers[0].send_signal(signal.SIGSTOP)
                 stopped.append(workers[0])
